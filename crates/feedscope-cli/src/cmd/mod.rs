@@ -1,0 +1,17 @@
+//! One module per subcommand.
+use clap::{Parser, Subcommand};
+
+/// feedscope: how are the ball-screw feed drives of this machine doing?
+#[derive(Debug, Parser)]
+#[command(name = "feedscope", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {}
+
+pub fn run(cli: Cli) -> std::process::ExitCode {
+    match cli.command {}
+}

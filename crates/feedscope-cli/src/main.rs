@@ -1,0 +1,9 @@
+//! The `feedscope` command-line tool.
+use clap::Parser;
+mod cmd;
+mod plot;
+
+fn main() -> std::process::ExitCode {
+    let cli = cmd::Cli::parse();
+    cmd::run(cli)
+}

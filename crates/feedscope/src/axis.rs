@@ -1,0 +1,309 @@
+//! Mechanism parameters of one ball-screw feed axis, read from a documented TOML (or JSON) file.
+//!
+//! User units live in the keys (`lead_mm`, `inertia_kgm2`, ...); the accessors give SI values
+//! for the maths (`lead_m`, `equivalent_mass_kg`, ...).
+//!
+//! # Reference
+//! Paper 000 (sensorless friction estimation), Eq. 1-5 for the drive model and Eq. 7 for the
+//! ball-refeed order.
+
+use std::f64::consts::PI;
+
+use serde::{Deserialize, Serialize};
+
+/// Errors reading or validating an axis file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum AxisError {
+    /// The file is not valid TOML/JSON or a key has the wrong type.
+    #[error("{source_name}: {message}")]
+    Parse {
+        /// File name (or other label) of the input.
+        source_name: String,
+        /// What the parser reported.
+        message: String,
+    },
+    /// A key holds a value outside its physical range.
+    #[error("{source_name}: key `{key}` = {value}: {reason}")]
+    InvalidValue {
+        /// File name (or other label) of the input.
+        source_name: String,
+        /// The offending key.
+        key: &'static str,
+        /// The value found.
+        value: f64,
+        /// Why it is rejected.
+        reason: &'static str,
+    },
+}
+
+/// A kinematic order declared by the user (e.g. a rolling-tool mark at 0.56 cycles per lead).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeclaredOrder {
+    /// Cycles per screw revolution (= cycles per lead of table travel).
+    pub order: f64,
+    /// Human-readable cause, e.g. `"rolling-tool mark"`.
+    pub cause: String,
+}
+
+/// Parameters of one feed axis (user units in the key names).
+///
+/// Required: `lead_mm`, `table_mass_kg`, `inertia_kgm2`, `damping_nms_per_rad`,
+/// `torque_constant_nm_per_a`. Geometry keys are optional and only needed for the kinematic
+/// orders of the nut and the guides.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisParams {
+    /// Free-text name, e.g. `"lathe Z"`.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Screw lead p (mm of table travel per screw revolution).
+    pub lead_mm: f64,
+    /// Worktable (moving) mass m_t (kg).
+    pub table_mass_kg: f64,
+    /// Lumped inertia J of motor armature, coupling and screw on the motor shaft (kg·m²).
+    pub inertia_kgm2: f64,
+    /// Lumped viscous damping B of the bearings on the motor shaft (N·m·s/rad).
+    pub damping_nms_per_rad: f64,
+    /// Motor torque constant k_e (N·m/A). Ignored for traces that carry torque.
+    pub torque_constant_nm_per_a: f64,
+    /// Screw nominal (pitch-circle) diameter d (mm), for Eq. 7.
+    #[serde(default)]
+    pub screw_diameter_mm: Option<f64>,
+    /// Ball diameter d_b in the nut (mm), for Eq. 7.
+    #[serde(default)]
+    pub screw_ball_diameter_mm: Option<f64>,
+    /// Contact angle β between raceway and ball (degrees), for Eq. 7.
+    #[serde(default)]
+    pub contact_angle_deg: Option<f64>,
+    /// Number of balls forming one circle (turn) in the nut raceway, z in Eq. 7.
+    #[serde(default)]
+    pub screw_balls_per_turn: Option<f64>,
+    /// Ball diameter in the linear guides (mm); informative, Eq. 7 with d → ∞ does not use it.
+    #[serde(default)]
+    pub guide_ball_diameter_mm: Option<f64>,
+    /// Number of balls in one loaded raceway of a guide carriage, z in Eq. 7 with d → ∞.
+    #[serde(default)]
+    pub guide_balls_per_raceway: Option<f64>,
+    /// Lower end of the usable travel (mm), used by test planning.
+    #[serde(default)]
+    pub travel_min_mm: Option<f64>,
+    /// Upper end of the usable travel (mm), used by test planning.
+    #[serde(default)]
+    pub travel_max_mm: Option<f64>,
+    /// Extra orders with known causes (e.g. rolling-tool marks).
+    #[serde(default, rename = "declared_order")]
+    pub declared_orders: Vec<DeclaredOrder>,
+}
+
+/// Which file syntax an axis description is in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ConfigFormat {
+    /// TOML (the documented default).
+    Toml,
+    /// JSON with the same keys.
+    Json,
+}
+
+impl ConfigFormat {
+    /// Guess from a file name: `.json` is JSON, anything else TOML.
+    pub fn from_path(path: &std::path::Path) -> Self {
+        match path.extension().and_then(|e| e.to_str()) {
+            Some(e) if e.eq_ignore_ascii_case("json") => Self::Json,
+            _ => Self::Toml,
+        }
+    }
+}
+
+impl AxisParams {
+    /// Parse and validate an axis description.
+    ///
+    /// # Errors
+    /// [`AxisError::Parse`] on syntax errors, unknown keys or missing required keys;
+    /// [`AxisError::InvalidValue`] when a value is out of range (naming the key).
+    pub fn parse(text: &str, format: ConfigFormat, source_name: &str) -> Result<Self, AxisError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let parsed: Self = match format {
+            ConfigFormat::Toml => toml::from_str(text).map_err(|e| AxisError::Parse {
+                source_name: source_name.to_string(),
+                message: e.to_string().trim_end().to_string(),
+            })?,
+            ConfigFormat::Json => serde_json::from_str(text).map_err(|e| AxisError::Parse {
+                source_name: source_name.to_string(),
+                message: e.to_string(),
+            })?,
+        };
+        parsed.validate(source_name)?;
+        Ok(parsed)
+    }
+
+    /// Check every value against its physical range.
+    ///
+    /// # Errors
+    /// [`AxisError::InvalidValue`] naming the first offending key.
+    pub fn validate(&self, source_name: &str) -> Result<(), AxisError> {
+        let bad = |key: &'static str, value: f64, reason: &'static str| AxisError::InvalidValue {
+            source_name: source_name.to_string(),
+            key,
+            value,
+            reason,
+        };
+        let positive = |key: &'static str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(bad(key, v, "must be a finite number greater than zero"))
+            }
+        };
+        let non_negative = |key: &'static str, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(bad(key, v, "must be a finite number, zero or greater"))
+            }
+        };
+        positive("lead_mm", self.lead_mm)?;
+        non_negative("table_mass_kg", self.table_mass_kg)?;
+        non_negative("inertia_kgm2", self.inertia_kgm2)?;
+        non_negative("damping_nms_per_rad", self.damping_nms_per_rad)?;
+        positive("torque_constant_nm_per_a", self.torque_constant_nm_per_a)?;
+        if let Some(v) = self.screw_diameter_mm {
+            positive("screw_diameter_mm", v)?;
+        }
+        if let Some(v) = self.screw_ball_diameter_mm {
+            positive("screw_ball_diameter_mm", v)?;
+            if let Some(d) = self.screw_diameter_mm {
+                if v >= d {
+                    return Err(bad(
+                        "screw_ball_diameter_mm",
+                        v,
+                        "must be smaller than screw_diameter_mm",
+                    ));
+                }
+            }
+        }
+        if let Some(v) = self.contact_angle_deg {
+            if !(v.is_finite() && (0.0..90.0).contains(&v)) {
+                return Err(bad("contact_angle_deg", v, "must lie in [0, 90) degrees"));
+            }
+        }
+        if let Some(v) = self.screw_balls_per_turn {
+            positive("screw_balls_per_turn", v)?;
+        }
+        if let Some(v) = self.guide_ball_diameter_mm {
+            positive("guide_ball_diameter_mm", v)?;
+        }
+        if let Some(v) = self.guide_balls_per_raceway {
+            positive("guide_balls_per_raceway", v)?;
+        }
+        if let (Some(lo), Some(hi)) = (self.travel_min_mm, self.travel_max_mm) {
+            if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+                return Err(bad(
+                    "travel_max_mm",
+                    hi,
+                    "must be finite and greater than travel_min_mm",
+                ));
+            }
+        }
+        for d in &self.declared_orders {
+            positive("declared_order.order", d.order)?;
+        }
+        Ok(())
+    }
+
+    /// Screw lead p in metres.
+    pub fn lead_m(&self) -> f64 {
+        self.lead_mm * 1e-3
+    }
+
+    /// Equivalent translational mass m_t + 4π²J/p² (kg), the left factor of Eq. 5.
+    pub fn equivalent_mass_kg(&self) -> f64 {
+        let p = self.lead_m();
+        self.table_mass_kg + 4.0 * PI * PI * self.inertia_kgm2 / (p * p)
+    }
+
+    /// Equivalent translational damping 4π²B/p² (N·s/m), Eq. 5.
+    pub fn equivalent_damping_n_s_per_m(&self) -> f64 {
+        let p = self.lead_m();
+        4.0 * PI * PI * self.damping_nms_per_rad / (p * p)
+    }
+
+    /// Force on the table per newton-metre of motor torque, 2π/p (N per N·m), Eq. 3.
+    pub fn force_per_torque_n_per_nm(&self) -> f64 {
+        2.0 * PI / self.lead_m()
+    }
+
+    /// Ball-refeed order of the nut (cycles per screw revolution), Eq. 7:
+    /// f = ½·z·(d − d_b·cos β)/d. `None` when the geometry keys are missing.
+    pub fn nut_refeed_order(&self) -> Option<f64> {
+        let d = self.screw_diameter_mm?;
+        let db = self.screw_ball_diameter_mm?;
+        let beta = self.contact_angle_deg?.to_radians();
+        let z = self.screw_balls_per_turn?;
+        Some(0.5 * z * (d - db * beta.cos()) / d)
+    }
+
+    /// Ball-refeed order of the linear guides (cycles per lead), Eq. 7 with d → ∞: f = z/2.
+    pub fn guide_refeed_order(&self) -> Option<f64> {
+        self.guide_balls_per_raceway.map(|z| 0.5 * z)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = "lead_mm = 10\ntable_mass_kg = 425\ninertia_kgm2 = 0.004\n\
+        damping_nms_per_rad = 0.002\ntorque_constant_nm_per_a = 1.82\n";
+
+    #[test]
+    fn minimal_toml_parses_and_gives_si() {
+        let a = AxisParams::parse(MINIMAL, ConfigFormat::Toml, "a.toml").unwrap();
+        assert!((a.lead_m() - 0.01).abs() < 1e-15);
+        // 425 + 4π²·0.004/1e-4 = 425 + 1579.14
+        assert!((a.equivalent_mass_kg() - (425.0 + 1579.1367)).abs() < 1e-3);
+    }
+
+    #[test]
+    fn negative_lead_names_key() {
+        let text = MINIMAL.replace("lead_mm = 10", "lead_mm = -10");
+        let e = AxisParams::parse(&text, ConfigFormat::Toml, "a.toml").unwrap_err();
+        assert!(e.to_string().contains("lead_mm"), "{e}");
+    }
+
+    #[test]
+    fn zero_torque_constant_rejected() {
+        let text = MINIMAL.replace("= 1.82", "= 0");
+        let e = AxisParams::parse(&text, ConfigFormat::Toml, "a.toml").unwrap_err();
+        assert!(e.to_string().contains("torque_constant_nm_per_a"), "{e}");
+    }
+
+    #[test]
+    fn unknown_key_rejected() {
+        let text = format!("{MINIMAL}leadd_mm = 3\n");
+        let e = AxisParams::parse(&text, ConfigFormat::Toml, "a.toml").unwrap_err();
+        assert!(e.to_string().contains("leadd_mm"), "{e}");
+    }
+
+    #[test]
+    fn json_with_same_keys() {
+        let json = r#"{"lead_mm": 5, "table_mass_kg": 100, "inertia_kgm2": 0.001,
+            "damping_nms_per_rad": 0, "torque_constant_nm_per_a": 0.9}"#;
+        let a = AxisParams::parse(json, ConfigFormat::Json, "a.json").unwrap();
+        assert!((a.lead_mm - 5.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn refeed_orders_eq7() {
+        let mut a = AxisParams::parse(MINIMAL, ConfigFormat::Toml, "a").unwrap();
+        a.guide_balls_per_raceway = Some(19.0);
+        assert!((a.guide_refeed_order().unwrap() - 9.5).abs() < 1e-12);
+        a.screw_diameter_mm = Some(40.0);
+        a.screw_ball_diameter_mm = Some(5.556);
+        a.contact_angle_deg = Some(0.0);
+        a.screw_balls_per_turn = Some(20.0);
+        // ½·20·(40 − 5.556)/40
+        assert!((a.nut_refeed_order().unwrap() - 8.611).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,14 @@
+//! feedscope: sensorless friction and condition analysis of CNC ball-screw feed drives.
+//!
+//! From what the controller already records (axis position and servo current or torque, with
+//! timestamps) feedscope estimates the friction of the drive along its whole travel.
+#![warn(missing_docs)]
+#![deny(clippy::float_cmp)]
+
+pub mod axis;
+pub mod dynamics;
+pub mod order;
+pub mod profile;
+pub mod sim;
+pub mod stribeck;
+pub mod trace;

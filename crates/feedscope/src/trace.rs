@@ -1,0 +1,119 @@
+//! Controller traces: axis position and servo effort (motor current or torque), each channel
+//! with its own timestamps.
+//!
+//! Inside the library every value is SI: time in seconds, position in metres, current in
+//! amperes, torque in newton-metres. Files use the units named in their column headers.
+
+use std::io::Write;
+
+/// What the effort channel measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EffortKind {
+    /// Servo motor torque current (A); friction needs the torque constant k_e.
+    CurrentA,
+    /// Motor torque (N·m); k_e is not used.
+    TorqueNm,
+}
+
+impl EffortKind {
+    /// The column / channel name used in files.
+    pub fn column(self) -> &'static str {
+        match self {
+            Self::CurrentA => "current_a",
+            Self::TorqueNm => "torque_nm",
+        }
+    }
+}
+
+/// One sampled channel: strictly increasing times and the values taken at them.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Channel {
+    /// Sample times (s), strictly increasing.
+    pub time_s: Vec<f64>,
+    /// Sample values in the channel's SI unit.
+    pub value: Vec<f64>,
+}
+
+impl Channel {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    /// True when the channel holds no sample.
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+}
+
+/// A trace of one axis: position and effort, each with its own timestamps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trace {
+    /// Table position (m).
+    pub position_m: Channel,
+    /// Motor current (A) or torque (N·m), see [`Trace::effort_kind`].
+    pub effort: Channel,
+    /// What [`Trace::effort`] measures.
+    pub effort_kind: EffortKind,
+}
+
+/// CSV layout of a trace file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Layout {
+    /// `time_s,channel,value`, one sample per row (asynchronous channels).
+    Long,
+    /// `time_s,position_mm,current_a` (or `torque_nm`), channels sampled together.
+    Wide,
+}
+
+impl Trace {
+    /// Write the trace as CSV in user units (time in s, position in mm).
+    ///
+    /// The long layout merges both channels in time order. The wide layout needs both channels
+    /// on the same timestamps.
+    ///
+    /// # Errors
+    /// I/O errors; `InvalidInput` when the wide layout is asked for channels with different
+    /// timestamps.
+    pub fn write_csv<W: Write>(&self, w: W, layout: Layout) -> std::io::Result<()> {
+        let mut w = std::io::BufWriter::new(w);
+        let effort = self.effort_kind.column();
+        match layout {
+            Layout::Long => {
+                writeln!(w, "time_s,channel,value")?;
+                let (p, e) = (&self.position_m, &self.effort);
+                let (mut i, mut j) = (0, 0);
+                while i < p.len() || j < e.len() {
+                    let take_p = j >= e.len() || (i < p.len() && p.time_s[i] <= e.time_s[j]);
+                    if take_p {
+                        writeln!(w, "{},position_mm,{}", p.time_s[i], p.value[i] * 1e3)?;
+                        i += 1;
+                    } else {
+                        writeln!(w, "{},{effort},{}", e.time_s[j], e.value[j])?;
+                        j += 1;
+                    }
+                }
+            }
+            Layout::Wide => {
+                if self.position_m.time_s != self.effort.time_s {
+                    return Err(std::io::Error::new(
+                        std::io::ErrorKind::InvalidInput,
+                        "the wide layout needs position and effort on the same timestamps",
+                    ));
+                }
+                writeln!(w, "time_s,position_mm,{effort}")?;
+                for k in 0..self.position_m.len() {
+                    writeln!(
+                        w,
+                        "{},{},{}",
+                        self.position_m.time_s[k],
+                        self.position_m.value[k] * 1e3,
+                        self.effort.value[k]
+                    )?;
+                }
+            }
+        }
+        w.flush()
+    }
+}
