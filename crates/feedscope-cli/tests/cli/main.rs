@@ -1,0 +1,2 @@
+//! End-to-end tests of the `feedscope` binary, each in a temporary directory.
+mod util;
