@@ -1,1 +1,348 @@
-//! SVG plots.
+//! SVG plots for people: line charts and heat maps with unit-labelled axes.
+//!
+//! plotters is built without system fonts (the `ab_glyph` feature), so the bundled DejaVu Sans
+//! is registered once before the first chart.
+#![allow(dead_code)] // a shared toolbox: not every subcommand uses every chart kind
+
+use std::path::Path;
+use std::sync::Once;
+
+use anyhow::{anyhow, Context, Result};
+use plotters::prelude::*;
+
+static FONT: Once = Once::new();
+static FONT_BYTES: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+
+fn register_font() {
+    FONT.call_once(|| {
+        // The font is compiled in, so failure here is a build mistake, not bad input.
+        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT_BYTES)
+            .map_err(|_| ())
+            .expect("bundled DejaVuSans.ttf is a valid font");
+    });
+}
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Style {
+    /// Solid line.
+    Line,
+    /// Dashed line (fits, limits).
+    Dashed,
+    /// Small dots (raw samples).
+    Points,
+}
+
+/// One named series of (x, y) points.
+#[derive(Debug, Clone)]
+pub struct Series {
+    /// Legend entry.
+    pub name: String,
+    /// Points in plot units.
+    pub points: Vec<(f64, f64)>,
+    /// Drawing style.
+    pub style: Style,
+}
+
+/// A line chart; axis labels must carry units, e.g. `"position (mm)"`.
+#[derive(Debug, Clone)]
+pub struct LineChart<'a> {
+    /// Title above the plot.
+    pub title: &'a str,
+    /// X-axis label with unit.
+    pub x_label: &'a str,
+    /// Y-axis label with unit.
+    pub y_label: &'a str,
+    /// Series drawn in order, colours from a fixed palette.
+    pub series: Vec<Series>,
+}
+
+/// A heat map of `z[iy][ix]` over cell centres `x[ix]`, `y[iy]` (both increasing).
+#[derive(Debug, Clone)]
+pub struct Heatmap<'a> {
+    /// Title above the plot.
+    pub title: &'a str,
+    /// X-axis label with unit.
+    pub x_label: &'a str,
+    /// Y-axis label with unit.
+    pub y_label: &'a str,
+    /// Colour-scale label with unit, e.g. `"amplitude (N)"`.
+    pub z_label: &'a str,
+    /// Cell centres along x.
+    pub x: Vec<f64>,
+    /// Cell centres along y.
+    pub y: Vec<f64>,
+    /// Values, one row per y.
+    pub z: Vec<Vec<f64>>,
+}
+
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(23, 190, 207),
+];
+
+const WIDTH: u32 = 960;
+const HEIGHT: u32 = 540;
+
+/// Finite extent of the data with a small margin; errors when nothing finite is there.
+fn extent(values: impl Iterator<Item = f64>) -> Result<(f64, f64)> {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if !lo.is_finite() {
+        return Err(anyhow!("no finite value to plot"));
+    }
+    let span = hi - lo;
+    let pad = if span > 0.0 {
+        0.03 * span
+    } else {
+        0.5 * lo.abs().max(1.0)
+    };
+    Ok((lo - pad, hi + pad))
+}
+
+fn plot_err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow!("drawing the plot failed: {e:?}")
+}
+
+/// Render a line chart to SVG text.
+///
+/// # Errors
+/// When no series holds a finite point, or plotters fails.
+pub fn line_chart_svg(chart: &LineChart) -> Result<String> {
+    register_font();
+    let (x0, x1) = extent(chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)))?;
+    let (y0, y1) = extent(chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)))?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let mut ctx = ChartBuilder::on(&root)
+            .caption(chart.title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(48)
+            .y_label_area_size(72)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(plot_err)?;
+        ctx.configure_mesh()
+            .x_desc(chart.x_label)
+            .y_desc(chart.y_label)
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(plot_err)?;
+        for (k, s) in chart.series.iter().enumerate() {
+            let colour = PALETTE[k % PALETTE.len()];
+            let pts = s
+                .points
+                .iter()
+                .copied()
+                .filter(|(x, y)| x.is_finite() && y.is_finite());
+            let legend_colour = colour;
+            let anno = match s.style {
+                Style::Line => ctx
+                    .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                    .map_err(plot_err)?,
+                Style::Dashed => ctx
+                    .draw_series(DashedLineSeries::new(
+                        pts,
+                        8,
+                        5,
+                        colour.stroke_width(2).into(),
+                    ))
+                    .map_err(plot_err)?,
+                Style::Points => ctx
+                    .draw_series(pts.map(|p| Circle::new(p, 1, colour.mix(0.5).filled())))
+                    .map_err(plot_err)?,
+            };
+            anno.label(s.name.as_str()).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], legend_colour.stroke_width(3))
+            });
+        }
+        if chart.series.len() > 1 || chart.series.iter().any(|s| !s.name.is_empty()) {
+            ctx.configure_series_labels()
+                .label_font(("sans-serif", 14))
+                .background_style(WHITE.mix(0.85))
+                .border_style(RGBColor(180, 180, 180))
+                .position(SeriesLabelPosition::UpperRight)
+                .draw()
+                .map_err(plot_err)?;
+        }
+        root.present().map_err(plot_err)?;
+    }
+    Ok(svg)
+}
+
+/// Render a heat map to SVG text, with a colour bar labelled `z_label`.
+///
+/// # Errors
+/// When the grid is empty or ragged, or holds no finite value.
+pub fn heatmap_svg(map: &Heatmap) -> Result<String> {
+    register_font();
+    let (nx, ny) = (map.x.len(), map.y.len());
+    if nx == 0 || ny == 0 || map.z.len() != ny || map.z.iter().any(|r| r.len() != nx) {
+        return Err(anyhow!("heat map grid is empty or its rows do not match the axes"));
+    }
+    let edges = |c: &[f64]| -> Vec<f64> {
+        // Cell edges halfway between centres; the outer cells mirror their inner neighbour.
+        let n = c.len();
+        if n == 1 {
+            return vec![c[0] - 0.5, c[0] + 0.5];
+        }
+        let mut e = Vec::with_capacity(n + 1);
+        e.push(c[0] - 0.5 * (c[1] - c[0]));
+        for k in 1..n {
+            e.push(0.5 * (c[k - 1] + c[k]));
+        }
+        e.push(c[n - 1] + 0.5 * (c[n - 1] - c[n - 2]));
+        e
+    };
+    let (xe, ye) = (edges(&map.x), edges(&map.y));
+    let (z0, z1) = extent(map.z.iter().flatten().copied())?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let (main, bar) = root.split_horizontally(WIDTH - 110);
+        let mut ctx = ChartBuilder::on(&main)
+            .caption(map.title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(48)
+            .y_label_area_size(72)
+            .build_cartesian_2d(xe[0]..xe[nx], ye[0]..ye[ny])
+            .map_err(plot_err)?;
+        ctx.configure_mesh()
+            .disable_mesh()
+            .x_desc(map.x_label)
+            .y_desc(map.y_label)
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .draw()
+            .map_err(plot_err)?;
+        let colour = |v: f64| ViridisRGB::get_color_normalized(v, z0, z1);
+        ctx.draw_series((0..ny).flat_map(|iy| {
+            let (xe, ye) = (&xe, &ye);
+            (0..nx).filter_map(move |ix| {
+                let v = map.z[iy][ix];
+                v.is_finite().then(|| {
+                    Rectangle::new(
+                        [(xe[ix], ye[iy]), (xe[ix + 1], ye[iy + 1])],
+                        colour(v).filled(),
+                    )
+                })
+            })
+        }))
+        .map_err(plot_err)?;
+        // Colour bar.
+        let mut cb = ChartBuilder::on(&bar)
+            .margin_top(46)
+            .margin_bottom(60)
+            .margin_right(8)
+            .y_label_area_size(62)
+            .build_cartesian_2d(0.0..1.0, z0..z1)
+            .map_err(plot_err)?;
+        cb.configure_mesh()
+            .disable_mesh()
+            .disable_x_axis()
+            .y_desc(map.z_label)
+            .label_style(("sans-serif", 12))
+            .axis_desc_style(("sans-serif", 14))
+            .draw()
+            .map_err(plot_err)?;
+        let steps = 64;
+        cb.draw_series((0..steps).map(|k| {
+            let a = z0 + (z1 - z0) * k as f64 / steps as f64;
+            let b = z0 + (z1 - z0) * (k + 1) as f64 / steps as f64;
+            Rectangle::new([(0.0, a), (1.0, b)], colour(0.5 * (a + b)).filled())
+        }))
+        .map_err(plot_err)?;
+        root.present().map_err(plot_err)?;
+    }
+    Ok(svg)
+}
+
+/// Write SVG text to `path`.
+///
+/// # Errors
+/// I/O errors, with the path in the message.
+pub fn write_svg(path: &Path, svg: &str) -> Result<()> {
+    std::fs::write(path, svg).with_context(|| format!("writing {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_chart_renders_labels() {
+        let svg = line_chart_svg(&LineChart {
+            title: "t",
+            x_label: "position (mm)",
+            y_label: "friction (N)",
+            series: vec![
+                Series {
+                    name: "forward".into(),
+                    points: vec![(0.0, 1.0), (1.0, 2.0), (2.0, f64::NAN)],
+                    style: Style::Line,
+                },
+                Series {
+                    name: "fit".into(),
+                    points: vec![(0.0, 1.5), (2.0, 1.5)],
+                    style: Style::Dashed,
+                },
+            ],
+        })
+        .unwrap();
+        assert!(svg.contains("position (mm)") && svg.contains("friction (N)"));
+        assert!(svg.contains("forward"));
+    }
+
+    #[test]
+    fn heatmap_renders_and_rejects_ragged() {
+        let ok = heatmap_svg(&Heatmap {
+            title: "h",
+            x_label: "order (cycles/rev)",
+            y_label: "position (mm)",
+            z_label: "amplitude (N)",
+            x: vec![0.0, 1.0, 2.0],
+            y: vec![10.0, 20.0],
+            z: vec![vec![0.0, 1.0, 2.0], vec![3.0, 4.0, 5.0]],
+        })
+        .unwrap();
+        assert!(ok.contains("amplitude (N)"));
+        let bad = heatmap_svg(&Heatmap {
+            title: "h",
+            x_label: "x",
+            y_label: "y",
+            z_label: "z",
+            x: vec![0.0, 1.0],
+            y: vec![0.0],
+            z: vec![vec![0.0]],
+        });
+        assert!(bad.is_err());
+    }
+
+    #[test]
+    fn nothing_finite_is_an_error() {
+        let r = line_chart_svg(&LineChart {
+            title: "t",
+            x_label: "x",
+            y_label: "y",
+            series: vec![Series {
+                name: String::new(),
+                points: vec![(f64::NAN, 1.0)],
+                style: Style::Points,
+            }],
+        });
+        assert!(r.is_err());
+    }
+}
