@@ -10,5 +10,6 @@ pub mod dynamics;
 pub mod order;
 pub mod profile;
 pub mod sim;
+pub mod spline;
 pub mod stribeck;
 pub mod trace;
