@@ -7,6 +7,7 @@
 
 pub mod axis;
 pub mod dynamics;
+pub mod estimate;
 pub mod order;
 pub mod profile;
 pub mod sim;

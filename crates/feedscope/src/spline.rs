@@ -422,7 +422,10 @@ mod tests {
         for &t in &[0.5, 0.6, 300.0, 301.0, 50.0, 900.0, 2.0] {
             let (a, b, cc) = c.eval_all(t);
             let (d, e, f) = s.eval_all(t);
-            assert!((a - d).abs() + (b - e).abs() + (cc - f).abs() < 1e-13, "t={t}");
+            assert!(
+                (a - d).abs() + (b - e).abs() + (cc - f).abs() < 1e-13,
+                "t={t}"
+            );
         }
     }
 

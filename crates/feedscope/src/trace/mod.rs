@@ -18,7 +18,7 @@
 use std::io::Write;
 
 mod read;
-pub use read::{parse_trace, read_trace_file, ReadOptions, ReadReport, TraceError};
+pub use read::{parse_trace, read_trace_file, ReadOptions, ReadReport, TraceError, MIN_SAMPLES};
 
 /// What the effort channel measures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

@@ -114,7 +114,9 @@ pub enum TraceError {
         source_name: String,
     },
     /// Too few samples to interpolate a channel.
-    #[error("{source_name}: channel `{channel}` has {found} samples, at least {needed} are needed")]
+    #[error(
+        "{source_name}: channel `{channel}` has {found} samples, at least {needed} are needed"
+    )]
     TooFewSamples {
         /// The file.
         source_name: String,
@@ -571,10 +573,7 @@ impl BlockParser {
             }
         };
         let position_m = self.pos;
-        for (ch, label) in [
-            (&position_m, "position"),
-            (&effort, effort_kind.column()),
-        ] {
+        for (ch, label) in [(&position_m, "position"), (&effort, effort_kind.column())] {
             if ch.len() < MIN_SAMPLES {
                 return Err(TraceError::TooFewSamples {
                     source_name: name,
@@ -696,8 +695,8 @@ fn trim_field(mut f: &[u8]) -> &[u8] {
 #[inline]
 pub(crate) fn parse_f64(f: &[u8]) -> Option<f64> {
     const POW10: [f64; 23] = [
-        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
-        1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
     ];
     let (neg, digits) = match f.first() {
         Some(b'-') => (true, &f[1..]),
@@ -945,8 +944,23 @@ mod tests {
     #[test]
     fn fast_float_matches_std() {
         for s in [
-            "0", "1", "-1", "3.14159", "0.000001", "123456.789012", "-0.5", "+2.5", "1e-3",
-            "1.5E3", "123456789012345678", "0.1", "0.2", "0.3", "9007199254740993", ".5", "5.",
+            "0",
+            "1",
+            "-1",
+            "3.14159",
+            "0.000001",
+            "123456.789012",
+            "-0.5",
+            "+2.5",
+            "1e-3",
+            "1.5E3",
+            "123456789012345678",
+            "0.1",
+            "0.2",
+            "0.3",
+            "9007199254740993",
+            ".5",
+            "5.",
         ] {
             let a = parse_f64(s.as_bytes()).unwrap();
             let b: f64 = s.parse().unwrap();
@@ -975,10 +989,8 @@ mod tests {
 
     #[test]
     fn wide_layout_crlf_and_ms() {
-        let (t, _) = parse(
-            "time_ms,position_mm,torque_nm\r\n0,0,1\r\n1,1,2\r\n2,2,3\r\n3,3,4\r\n",
-        )
-        .unwrap();
+        let (t, _) =
+            parse("time_ms,position_mm,torque_nm\r\n0,0,1\r\n1,1,2\r\n2,2,3\r\n3,3,4\r\n").unwrap();
         assert_eq!(t.effort_kind, EffortKind::TorqueNm);
         assert!((t.position_m.time_s[3] - 0.003).abs() < 1e-15);
     }
@@ -1016,19 +1028,46 @@ mod tests {
     fn large_input_parallel_matches_serial() {
         let mut s = String::from("time_s,channel,value\n");
         for k in 0..200_000 {
-            s.push_str(&format!("{}.5,position_mm,{}\n{}.7,current_a,{}\n", k, k % 97, k, k % 13));
+            s.push_str(&format!(
+                "{}.5,position_mm,{}\n{}.7,current_a,{}\n",
+                k,
+                k % 97,
+                k,
+                k % 13
+            ));
         }
-        let one = parse_trace(s.as_bytes(), "a", &ReadOptions { effort: None, threads: 1 })
-            .unwrap();
-        let four = parse_trace(s.as_bytes(), "a", &ReadOptions { effort: None, threads: 4 })
-            .unwrap();
+        let one = parse_trace(
+            s.as_bytes(),
+            "a",
+            &ReadOptions {
+                effort: None,
+                threads: 1,
+            },
+        )
+        .unwrap();
+        let four = parse_trace(
+            s.as_bytes(),
+            "a",
+            &ReadOptions {
+                effort: None,
+                threads: 4,
+            },
+        )
+        .unwrap();
         assert_eq!(one.0, four.0);
         assert_eq!(one.1.lines, four.1.lines);
         assert_eq!(one.1.lines, 400_001);
         // a repeated time deep in the file is caught at its line, across piece boundaries
         let bad = s.replace("150000.5,position_mm", "149999.5,position_mm");
-        match parse_trace(bad.as_bytes(), "a", &ReadOptions { effort: None, threads: 4 })
-            .unwrap_err()
+        match parse_trace(
+            bad.as_bytes(),
+            "a",
+            &ReadOptions {
+                effort: None,
+                threads: 4,
+            },
+        )
+        .unwrap_err()
         {
             TraceError::TimeNotIncreasing { line, .. } => assert_eq!(line, 2 + 2 * 150_000),
             e => panic!("{e}"),
