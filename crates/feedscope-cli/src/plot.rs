@@ -167,7 +167,7 @@ pub fn line_chart_svg(chart: &LineChart) -> Result<String> {
                         pts,
                         8,
                         5,
-                        colour.stroke_width(2).into(),
+                        colour.stroke_width(2),
                     ))
                     .map_err(plot_err)?,
                 Style::Points => ctx

@@ -219,7 +219,7 @@ pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpa
         let mut sorted = speeds.clone();
         sorted.sort_unstable_by(|a, b| a.total_cmp(b));
         let p95 = sorted[((sorted.len() - 1) as f64 * 0.95).round() as usize];
-        if !(p95 > 0.0) {
+        if p95.is_nan() || p95 <= 0.0 {
             continue;
         }
         let mut fast: Vec<f64> = speeds
