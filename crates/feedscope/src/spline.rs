@@ -448,13 +448,13 @@ mod tests {
             for (a, b) in s.moments().iter().zip(&reference) {
                 prop_assert!((a - b).abs() <= 1e-9 * scale, "{a} vs {b}");
             }
-            for k in 0..x.len() {
-                prop_assert!((s.eval(x[k]) - y[k]).abs() <= 1e-9 * (1.0 + y[k].abs()));
+            for (xk, yk) in x.iter().zip(y) {
+                prop_assert!((s.eval(*xk) - yk).abs() <= 1e-9 * (1.0 + yk.abs()));
             }
             // First derivative continuous across interior knots.
-            for k in 1..x.len() - 1 {
-                let left = s.eval_in(k - 1, x[k]).1;
-                let right = s.eval_in(k, x[k]).1;
+            for (k, xk) in x.iter().enumerate().take(x.len() - 1).skip(1) {
+                let left = s.eval_in(k - 1, *xk).1;
+                let right = s.eval_in(k, *xk).1;
                 prop_assert!((left - right).abs() <= 1e-7 * (1.0 + scale));
             }
         }

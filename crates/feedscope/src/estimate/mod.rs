@@ -389,20 +389,22 @@ pub fn estimate_stroke(
     let mut sum = 0.0;
     for j in 0..count {
         let zg = (k_first as f64 + s * j as f64) * step;
-        let t = match &knot_spline {
-            Some(ks) => ks.time_at(zg).clamp(w_lo, w_hi),
+        let (t, k) = match &knot_spline {
+            Some(ks) => {
+                let t = ks.time_at(zg).clamp(w_lo, w_hi);
+                (t, zs.interval(t))
+            }
             None => {
                 // Advance to the knot interval whose end lies beyond the target.
                 while k_int + 2 < zz.len() && s * (zz[k_int + 1] - zg) < 0.0 {
                     k_int += 1;
                 }
-                let (t, ok) = invert_in(&zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
+                let (t, k, ok) = invert_in(&zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
                 non_monotone |= !ok;
-                t
+                (t, k)
             }
         };
         t_prev = t;
-        let k = zs.interval(t);
         let (_, v, a) = zs.eval_in(k, t);
         let e = ecur.eval(t);
         let f = gain * e - m_eq * a - b_eq * v;
@@ -464,7 +466,8 @@ pub fn estimate_stroke(
 }
 
 /// Solve z(t) = target on knot interval k (then its neighbours) by Newton steps safeguarded
-/// with bisection. Returns the time and whether a bracketing interval was found.
+/// with bisection. Returns the time, the interval holding it, and whether a bracketing
+/// interval was found.
 fn invert_in(
     zs: &CubicSpline<'_>,
     k: usize,
@@ -472,7 +475,7 @@ fn invert_in(
     guess: f64,
     w_lo: f64,
     w_hi: f64,
-) -> (f64, bool) {
+) -> (f64, usize, bool) {
     let x = zs.x();
     let n_int = x.len() - 1;
     // Search this interval and a few after it for a sign change (the spline can overshoot
@@ -483,47 +486,51 @@ fn invert_in(
             continue;
         }
         let fa = zs.eval_in(kk, a).0 - target;
-        let fb = zs.eval_in(kk, b).0 - target;
         if fa == 0.0 {
-            return (a, true);
+            return (a, kk, true);
         }
+        let fb = zs.eval_in(kk, b).0 - target;
         if fa * fb > 0.0 {
             continue;
         }
-        let (mut lo, mut hi, mut flo) = (a, b, fa);
+        // Converged when a step is below a few ulps of t.
+        let tol = 4.0 * f64::EPSILON * b.abs().max(1.0);
+        let (mut lo, mut hi) = (a, b);
         let mut t = if guess > a && guess < b {
             guess
         } else {
-            // linear guess
             a + (b - a) * fa / (fa - fb)
         };
-        for _ in 0..60 {
+        for _ in 0..100 {
             let (v, d1, _) = zs.eval_in(kk, t);
             let f = v - target;
             if f == 0.0 {
-                return (t, true);
+                return (t, kk, true);
             }
-            if (f < 0.0) == (flo < 0.0) {
+            if (f < 0.0) == (fa < 0.0) {
                 lo = t;
-                flo = f;
             } else {
                 hi = t;
             }
             let newton = t - f / d1;
-            let next = if d1 != 0.0 && newton > lo && newton < hi {
-                newton
+            if d1 != 0.0 && newton >= lo && newton <= hi {
+                // Newton from one side lands on the bracket's edge when it has converged,
+                // so test convergence before anything else.
+                if (newton - t).abs() <= tol {
+                    return (newton, kk, true);
+                }
+                t = newton;
             } else {
-                0.5 * (lo + hi)
-            };
-            // Converged when the step is below a few ulps of t.
-            if (next - t).abs() <= 4.0 * f64::EPSILON * t.abs().max(1.0) {
-                return (next, true);
+                t = 0.5 * (lo + hi);
+                if hi - lo <= tol {
+                    return (t, kk, true);
+                }
             }
-            t = next;
         }
-        return (t, true);
+        return (t, kk, true);
     }
-    (guess.clamp(w_lo, w_hi), false)
+    let t = guess.clamp(w_lo, w_hi);
+    (t, zs.interval(t), false)
 }
 
 /// The paper's t(z): a spline through (s·z_k, t_k).
