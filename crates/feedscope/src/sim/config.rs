@@ -452,7 +452,10 @@ impl SimConfig {
         non_negative("friction.velocity.viscous_n_s_per_m", v.viscous_n_s_per_m)?;
         for (k, c) in fp.components.iter().enumerate() {
             positive(&format!("friction.component[{k}].order"), c.order)?;
-            non_negative(&format!("friction.component[{k}].amplitude_n"), c.amplitude_n)?;
+            non_negative(
+                &format!("friction.component[{k}].amplitude_n"),
+                c.amplitude_n,
+            )?;
             finite(&format!("friction.component[{k}].phase_deg"), c.phase_deg)?;
         }
 
@@ -483,7 +486,10 @@ impl SimConfig {
             non_negative(&format!("motion.stroke[{k}].dwell_s"), s.dwell_s)?;
         }
         if let Some(md) = &m.modulation {
-            probability("motion.modulation.relative_amplitude", md.relative_amplitude)?;
+            probability(
+                "motion.modulation.relative_amplitude",
+                md.relative_amplitude,
+            )?;
             positive("motion.modulation.period_s", md.period_s)?;
         }
 
@@ -496,7 +502,10 @@ impl SimConfig {
             "dynamics.velocity_integral_corner_hz",
             d.velocity_integral_corner_hz,
         )?;
-        positive("dynamics.current_time_constant_ms", d.current_time_constant_ms)?;
+        positive(
+            "dynamics.current_time_constant_ms",
+            d.current_time_constant_ms,
+        )?;
         if d.mode == DynamicsMode::Servo {
             if self.axis.equivalent_mass_kg() <= 0.0 {
                 return Err(bad(
@@ -553,12 +562,18 @@ impl SimConfig {
         }
         non_negative("sampling.position.quantum_mm", s.position.quantum_mm)?;
         non_negative("sampling.position.noise_std_mm", s.position.noise_std_mm)?;
-        non_negative("sampling.effort.current_quantum_a", s.effort.current_quantum_a)?;
+        non_negative(
+            "sampling.effort.current_quantum_a",
+            s.effort.current_quantum_a,
+        )?;
         non_negative(
             "sampling.effort.current_noise_std_a",
             s.effort.current_noise_std_a,
         )?;
-        non_negative("sampling.effort.torque_quantum_nm", s.effort.torque_quantum_nm)?;
+        non_negative(
+            "sampling.effort.torque_quantum_nm",
+            s.effort.torque_quantum_nm,
+        )?;
         non_negative(
             "sampling.effort.torque_noise_std_nm",
             s.effort.torque_noise_std_nm,

@@ -231,7 +231,13 @@ impl FrictionParams {
         }
         if let Some(n) = axis.guide_refeed_order() {
             components.push(c(n, 4.0, 135.0, Both, "guide ball refeed (Eq. 7, d → ∞)"));
-            components.push(c(2.0 * n, 2.0, 10.0, Both, "guide ball refeed, 2nd harmonic"));
+            components.push(c(
+                2.0 * n,
+                2.0,
+                10.0,
+                Both,
+                "guide ball refeed, 2nd harmonic",
+            ));
         }
         Self {
             sign_smoothing_mm_s: default_sign_smoothing_mm_s(),
@@ -412,7 +418,10 @@ mod tests {
                 let parts = m.mean_friction_n(d, z, v) + m.fluctuation_n(d, z);
                 let f = m.friction_n(z, v);
                 // away from reversal 1 − tanh(x) ≈ 2e^(−2x) = 1.0e-7 at x = |v|/v_ε = 8.4 (5 mm/min)
-                assert!((f - d.sign() * parts).abs() <= 1.1e-7 * parts.abs(), "{z} {v}");
+                assert!(
+                    (f - d.sign() * parts).abs() <= 1.1e-7 * parts.abs(),
+                    "{z} {v}"
+                );
             }
         }
         // continuous through zero
@@ -502,9 +511,15 @@ mod tests {
             ((a * a + b * b).sqrt(), b.atan2(a).to_degrees())
         };
         let (a1, p1) = dft(Direction::Forward, 1.0);
-        assert!((a1 - 10.0).abs() < 1e-9 && (p1 - 30.0).abs() < 1e-7, "{a1} {p1}");
+        assert!(
+            (a1 - 10.0).abs() < 1e-9 && (p1 - 30.0).abs() < 1e-7,
+            "{a1} {p1}"
+        );
         let (a2, p2) = dft(Direction::Backward, 2.5);
-        assert!((a2 - 4.0).abs() < 1e-9 && (p2 + 70.0).abs() < 1e-7, "{a2} {p2}");
+        assert!(
+            (a2 - 4.0).abs() < 1e-9 && (p2 + 70.0).abs() < 1e-7,
+            "{a2} {p2}"
+        );
         assert!((dft(Direction::Forward, 8.0).0 - 3.0).abs() < 1e-9);
         // forward-only component absent backward, absent order absent everywhere
         assert!(dft(Direction::Backward, 8.0).0 < 1e-9);

@@ -33,8 +33,8 @@ mod sampling;
 mod servo;
 
 pub use config::{
-    DynamicsConfig, DynamicsMode, EffortSampling, MotionConfig, PositionSampling,
-    SamplingConfig, SamplingMode, SimConfig, TruthConfig,
+    DynamicsConfig, DynamicsMode, EffortSampling, MotionConfig, PositionSampling, SamplingConfig,
+    SamplingMode, SimConfig, TruthConfig,
 };
 pub use friction::{
     Bump, Component, ComponentDirection, Direction, FrictionModel, FrictionParams, MeanLevel,
@@ -246,7 +246,12 @@ fn run(
     );
     let (q, sigma) = s.effort.quantum_and_noise(kind);
     let mut eff_values = effort_clean.value.clone();
-    sampling::measure(&mut eff_values, sigma, q, &mut sampling::stream(cfg.seed, 3));
+    sampling::measure(
+        &mut eff_values,
+        sigma,
+        q,
+        &mut sampling::stream(cfg.seed, 3),
+    );
 
     Ok(SimOutput {
         trace: Trace {

@@ -292,7 +292,11 @@ mod tests {
         for modulation in [None, Some(&m)] {
             let p = NcPath::plan(
                 5.0,
-                &[stroke(25.0, 600.0, 0.5), stroke(24.9, 600.0, 0.2), stroke(0.0, 1200.0, 0.0)],
+                &[
+                    stroke(25.0, 600.0, 0.5),
+                    stroke(24.9, 600.0, 0.2),
+                    stroke(0.0, 1200.0, 0.0),
+                ],
                 100.0,
                 modulation,
                 0.3,
@@ -301,7 +305,10 @@ mod tests {
             assert!((p.kinematics(0.0).position_m - 0.005).abs() < 1e-15);
             for s in p.strokes() {
                 let k = p.kinematics(s.end_time_s + 1e-9);
-                assert!((k.position_m - s.end_mm * 1e-3).abs() < 1e-12, "{s:?} {k:?}");
+                assert!(
+                    (k.position_m - s.end_mm * 1e-3).abs() < 1e-12,
+                    "{s:?} {k:?}"
+                );
             }
             // z' and z'' are the derivatives of z (central differences, O(h²) with h = 1 µs;
             // skip instants where z'' jumps)

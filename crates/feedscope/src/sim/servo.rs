@@ -192,14 +192,14 @@ pub(crate) fn run_servo(
     };
 
     let emit = |out: &mut Vec<Vec<StateSample>>,
-                    cursor: &mut Vec<usize>,
-                    t0: f64,
-                    t1: f64,
-                    x0: &X,
-                    d0: &X,
-                    x1: &X,
-                    d1: &X,
-                    last: bool| {
+                cursor: &mut Vec<usize>,
+                t0: f64,
+                t1: f64,
+                x0: &X,
+                d0: &X,
+                x1: &X,
+                d1: &X,
+                last: bool| {
         for (r, times) in requests.iter().enumerate() {
             while cursor[r] < times.len() && (times[cursor[r]] <= t1 || last) {
                 let te = times[cursor[r]];
@@ -239,7 +239,8 @@ pub(crate) fn run_servo(
         // Controller update (zero-order hold over the step).
         let c = profile.kinematics(t);
         let e_v = c.velocity_m_s + kp * (c.position_m - x.z) - x.v;
-        let i_cmd = kv * e_v + integ + (plant.m * c.accel_m_s2 + plant.b * c.velocity_m_s) / plant.k;
+        let i_cmd =
+            kv * e_v + integ + (plant.m * c.accel_m_s2 + plant.b * c.velocity_m_s) / plant.k;
         integ += ki * e_v * h;
 
         // Sub-steps where the smooth sign makes the friction stiff (|v| within a few v_ε of 0
