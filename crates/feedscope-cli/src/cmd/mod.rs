@@ -1,6 +1,8 @@
 //! One module per subcommand.
 use clap::{Parser, Subcommand};
 
+mod simulate;
+
 /// feedscope: how are the ball-screw feed drives of this machine doing?
 #[derive(Debug, Parser)]
 #[command(name = "feedscope", version, about, long_about = None)]
@@ -10,8 +12,13 @@ pub struct Cli {
 }
 
 #[derive(Debug, Subcommand)]
-pub enum Command {}
+pub enum Command {
+    /// Simulate a feed drive with known friction (trace + truth files).
+    Simulate(simulate::Args),
+}
 
 pub fn run(cli: Cli) -> std::process::ExitCode {
-    match cli.command {}
+    match cli.command {
+        Command::Simulate(args) => simulate::run(args),
+    }
 }

@@ -79,7 +79,8 @@ pub(crate) fn measure(values: &mut [f64], noise_std: f64, quantum: f64, rng: &mu
             *x += n.sample(rng);
         }
         if quantum > 0.0 {
-            *x = (*x / quantum).round() * quantum;
+            // `+ 0.0` turns −0 into 0 so files never show "-0"
+            *x = (*x / quantum).round() * quantum + 0.0;
         }
     }
 }
