@@ -13,7 +13,7 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Simulate a feed drive with known friction (trace + truth files).
+    // Help text from the doc comment of `simulate::Args`.
     Simulate(simulate::Args),
 }
 
