@@ -504,3 +504,56 @@ fn progress_is_monotone_and_ends_at_one() {
     assert!(seen.windows(2).all(|w| w[1] >= w[0]));
     assert!((seen.last().copied().unwrap() - 1.0).abs() < 1e-12);
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+    /// Any valid program and sampling gives strictly increasing stamps, one clean value per
+    /// sample, positions inside the travel and an end at the last target (ideal mode).
+    #[test]
+    fn random_programs_give_consistent_traces(
+        targets in proptest::collection::vec((0.0f64..410.0, 5.0f64..6000.0, 0.0f64..0.5), 0..4),
+        start in 0.0f64..410.0,
+        interval in 1.0f64..100.0,
+        jitter_frac in 0.0f64..0.99,
+        offset in 0.0f64..50.0,
+        dropout in 0.0f64..0.5,
+        seed in 0u64..1000,
+    ) {
+        let mut c = SimConfig { seed, ..SimConfig::default() };
+        c.dynamics.mode = DynamicsMode::Ideal;
+        c.motion.start_mm = start;
+        c.motion.lead_in_s = 0.1;
+        c.motion.lead_out_s = 0.1;
+        c.motion.strokes = targets
+            .iter()
+            .map(|&(to_mm, feed_mm_min, dwell_s)| StrokeConfig { to_mm, feed_mm_min, dwell_s })
+            .collect();
+        // keep each case short: at most ~5 s of motion
+        let mut z = start;
+        for s in &mut c.motion.strokes {
+            let travel_s = (s.to_mm - z).abs() / (s.feed_mm_min / 60.0);
+            if travel_s > 5.0 {
+                s.feed_mm_min = (s.to_mm - z).abs() / 5.0 * 60.0 + 1.0;
+            }
+            z = s.to_mm;
+        }
+        for t in [&mut c.sampling.position.interval_ms, &mut c.sampling.effort.interval_ms] {
+            *t = interval;
+        }
+        c.sampling.position.jitter_ms = jitter_frac * interval;
+        c.sampling.effort.jitter_ms = jitter_frac * interval;
+        c.sampling.effort.start_offset_ms = offset;
+        c.sampling.effort.dropout_probability = dropout;
+        let out = simulate(&c, &mut |_| {}).unwrap();
+        for ch in [&out.trace.position_m, &out.trace.effort] {
+            proptest::prop_assert!(ch.time_s.windows(2).all(|w| w[1] > w[0]));
+            proptest::prop_assert_eq!(ch.time_s.len(), ch.value.len());
+        }
+        proptest::prop_assert_eq!(out.truth.effort_clean.len(), out.trace.effort.len());
+        for &zp in &out.truth.position_clean.value {
+            proptest::prop_assert!((-1e-12..=0.410 + 1e-12).contains(&zp));
+        }
+        let last = out.truth.states.last().unwrap();
+        proptest::prop_assert!((last.position_m - z * 1e-3).abs() < 1e-12);
+    }
+}
