@@ -557,3 +557,29 @@ proptest::proptest! {
         proptest::prop_assert!((last.position_m - z * 1e-3).abs() < 1e-12);
     }
 }
+
+/// Reversals without dwell (z = 50 mm + 5 mm·sin(2π·0.5 t)): the servo passes through
+/// v = 0 with stiffness sub-steps, the friction changes sign smoothly and the following error
+/// stays bounded.
+#[test]
+fn servo_handles_reversals() {
+    let w = 2.0 * PI * 0.5;
+    let profile = FnProfile::new(4.0, move |t| Kinematics {
+        position_m: 0.05 + 0.005 * (w * t).sin(),
+        velocity_m_s: 0.005 * w * (w * t).cos(),
+        accel_m_s2: -0.005 * w * w * (w * t).sin(),
+    });
+    let mut c = short_cfg();
+    c.truth.interval_ms = 0.1;
+    let out = simulate_profile(&c, &profile, &mut |_| {}).unwrap();
+    assert!(out.stats.integration_steps > out.stats.control_steps);
+    assert!(out.stats.max_following_error_m < 20e-6, "{:?}", out.stats);
+    // seen: 9.3 µm, 20 % extra sub-steps. The friction changes sign exactly once per commanded
+    // reversal (4 in 4 s): no chatter of the stiff tanh through v = 0.
+    let st = &out.truth.states;
+    let sign_changes = st
+        .windows(2)
+        .filter(|w| (w[0].friction_n > 0.0) != (w[1].friction_n > 0.0))
+        .count();
+    assert_eq!(sign_changes, 4);
+}
