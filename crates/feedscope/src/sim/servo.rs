@@ -122,6 +122,85 @@ struct X {
     i: f64,
 }
 
+/// One integration step [t0, t1] with the state and its derivative at both ends (the end
+/// derivative with the current command of this step, i.e. the left limit).
+struct Span {
+    t0: f64,
+    t1: f64,
+    x0: X,
+    d0: X,
+    x1: X,
+    d1: X,
+}
+
+impl Span {
+    /// Cubic Hermite interpolation of the state at `t` in [t0, t1].
+    fn at(&self, t: f64) -> X {
+        let hs = self.t1 - self.t0;
+        let th = if hs > 0.0 {
+            ((t - self.t0) / hs).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let (t2, t3) = (th * th, th * th * th);
+        let (h00, h10, h01, h11) = (
+            2.0 * t3 - 3.0 * t2 + 1.0,
+            (t3 - 2.0 * t2 + th) * hs,
+            -2.0 * t3 + 3.0 * t2,
+            (t3 - t2) * hs,
+        );
+        let herm = |p0: f64, m0: f64, p1: f64, m1: f64| h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1;
+        X {
+            z: herm(self.x0.z, self.d0.z, self.x1.z, self.d1.z),
+            v: herm(self.x0.v, self.d0.v, self.x1.v, self.d1.v),
+            i: herm(self.x0.i, self.d0.i, self.x1.i, self.d1.i),
+        }
+    }
+}
+
+/// The requested instants (sorted lists) and the states found for them so far.
+struct Collector<'r> {
+    requests: &'r [&'r [f64]],
+    cursor: Vec<usize>,
+    out: Vec<Vec<StateSample>>,
+}
+
+impl<'r> Collector<'r> {
+    fn new(requests: &'r [&'r [f64]]) -> Self {
+        Self {
+            requests,
+            cursor: vec![0; requests.len()],
+            out: requests
+                .iter()
+                .map(|r| Vec::with_capacity(r.len()))
+                .collect(),
+        }
+    }
+
+    /// Record every requested instant up to `span.t1` (all remaining ones if `all`).
+    fn take(&mut self, span: &Span, plant: &Plant, profile: &dyn MotionProfile, all: bool) {
+        for (r, times) in self.requests.iter().enumerate() {
+            let c = &mut self.cursor[r];
+            while *c < times.len() && (all || times[*c] <= span.t1) {
+                let te = times[*c];
+                let x = span.at(te);
+                let cmd = profile.kinematics(te);
+                self.out[r].push(StateSample {
+                    time_s: te,
+                    position_m: x.z,
+                    velocity_m_s: x.v,
+                    accel_m_s2: plant.accel(x.z, x.v, x.i),
+                    friction_n: plant.friction.friction_n(x.z, x.v),
+                    current_a: x.i,
+                    commanded_position_m: cmd.position_m,
+                    commanded_velocity_m_s: cmd.velocity_m_s,
+                });
+                *c += 1;
+            }
+        }
+    }
+}
+
 /// Servo mode: the cascaded loop described on [`DynamicsConfig`] drives the plant from
 /// t = 0 to `duration_s`; the state at each requested instant (each list sorted) is the cubic
 /// Hermite interpolation of (z, z'), (z', z'') and (i, i') between integration steps, so the
@@ -161,11 +240,7 @@ pub(crate) fn run_servo(
     // adds F_bound·sech²(v/v_ε)/(m·v_ε) near v = 0.
     let lam_base = 1.0 / tau + 2.0 * w_v + (plant.b + 1.0) / plant.m;
 
-    let mut out: Vec<Vec<StateSample>> = requests
-        .iter()
-        .map(|r| Vec::with_capacity(r.len()))
-        .collect();
-    let mut cursor = vec![0usize; requests.len()];
+    let mut collector = Collector::new(requests);
 
     // Start in equilibrium with the command at t = 0: current from the inverse dynamics, the
     // integrator holding the friction share.
@@ -188,50 +263,6 @@ pub(crate) fn run_servo(
             z: x.v,
             v: plant.accel(x.z, x.v, x.i),
             i: (i_cmd - x.i) / tau,
-        }
-    };
-
-    let emit = |out: &mut Vec<Vec<StateSample>>,
-                cursor: &mut Vec<usize>,
-                t0: f64,
-                t1: f64,
-                x0: &X,
-                d0: &X,
-                x1: &X,
-                d1: &X,
-                last: bool| {
-        for (r, times) in requests.iter().enumerate() {
-            while cursor[r] < times.len() && (times[cursor[r]] <= t1 || last) {
-                let te = times[cursor[r]];
-                let hs = t1 - t0;
-                let th = if hs > 0.0 {
-                    ((te - t0) / hs).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let herm = |p0: f64, m0: f64, p1: f64, m1: f64| {
-                    let (t2, t3) = (th * th, th * th * th);
-                    (2.0 * t3 - 3.0 * t2 + 1.0) * p0
-                        + (t3 - 2.0 * t2 + th) * hs * m0
-                        + (-2.0 * t3 + 3.0 * t2) * p1
-                        + (t3 - t2) * hs * m1
-                };
-                let z = herm(x0.z, d0.z, x1.z, d1.z);
-                let v = herm(x0.v, d0.v, x1.v, d1.v);
-                let i = herm(x0.i, d0.i, x1.i, d1.i);
-                let c = profile.kinematics(te);
-                out[r].push(StateSample {
-                    time_s: te,
-                    position_m: z,
-                    velocity_m_s: v,
-                    accel_m_s2: plant.accel(z, v, i),
-                    friction_n: plant.friction.friction_n(z, v),
-                    current_a: i,
-                    commanded_position_m: c.position_m,
-                    commanded_velocity_m_s: c.velocity_m_s,
-                });
-                cursor[r] += 1;
-            }
         }
     };
 
@@ -288,7 +319,15 @@ pub(crate) fn run_servo(
             };
             // Derivative at the end with the i_cmd of this step (left limit).
             let d1 = deriv(&x1, i_cmd);
-            emit(&mut out, &mut cursor, t0, t1, &x, &d0, &x1, &d1, false);
+            let span = Span {
+                t0,
+                t1,
+                x0: x,
+                d0,
+                x1,
+                d1,
+            };
+            collector.take(&span, plant, profile, false);
             x = x1;
             a_prev = d1.v;
             stats.integration_steps += 1;
@@ -309,7 +348,15 @@ pub(crate) fn run_servo(
     }
     // Whatever is left (only for a zero duration) gets the final state.
     let d = deriv(&x, x.i);
-    emit(&mut out, &mut cursor, t, t, &x, &d, &x, &d, true);
+    let span = Span {
+        t0: t,
+        t1: t,
+        x0: x,
+        d0: d,
+        x1: x,
+        d1: d,
+    };
+    collector.take(&span, plant, profile, true);
     progress(1.0);
-    Ok((out, stats))
+    Ok((collector.out, stats))
 }
