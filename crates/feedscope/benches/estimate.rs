@@ -43,13 +43,21 @@ fn motion(t: f64) -> (f64, f64, f64) {
     let w = std::f64::consts::PI / ramp;
     let (z, vel, acc) = if tt < ramp {
         let s = 0.5 * v * (tt - (w * tt).sin() / w);
-        (s, 0.5 * v * (1.0 - (w * tt).cos()), 0.5 * v * w * (w * tt).sin())
+        (
+            s,
+            0.5 * v * (1.0 - (w * tt).cos()),
+            0.5 * v * w * (w * tt).sin(),
+        )
     } else if tt < move_t - ramp {
         (0.5 * v * ramp + v * (tt - ramp), v, 0.0)
     } else {
         let u = tt - (move_t - ramp);
         let s = 0.5 * v * ramp + v * (move_t - 2.0 * ramp) + 0.5 * v * (u + (w * u).sin() / w);
-        (s, 0.5 * v * (1.0 + (w * u).cos()), -0.5 * v * w * (w * u).sin())
+        (
+            s,
+            0.5 * v * (1.0 + (w * u).cos()),
+            -0.5 * v * w * (w * u).sin(),
+        )
     };
     (base + sign * z, sign * vel, sign * acc)
 }
@@ -77,8 +85,9 @@ fn make_trace(n: usize) -> Trace {
         let te = t + 4e-4;
         let (z, v, a) = motion(te);
         let th = 2.0 * std::f64::consts::PI * z / lead;
-        let f = (250.0 + 100.0 * z + 8.0 * th.sin() + 4.0 * (2.0 * th).sin() + 3.0 * (8.6 * th).sin())
-            * (v / 1e-4).tanh();
+        let f =
+            (250.0 + 100.0 * z + 8.0 * th.sin() + 4.0 * (2.0 * th).sin() + 3.0 * (8.6 * th).sin())
+                * (v / 1e-4).tanh();
         cur.time_s.push(te);
         cur.value.push((m_eq * a + b_eq * v + f) / gain);
     }
@@ -97,9 +106,11 @@ fn bench_estimate(c: &mut Criterion) {
     for n in [1_000_000usize, 10_000_000] {
         let trace = make_trace(n);
         g.throughput(Throughput::Elements(n as u64));
-        g.bench_with_input(BenchmarkId::new("samples_per_channel", n), &trace, |b, tr| {
-            b.iter(|| black_box(estimate(tr, &ax, &params).unwrap()))
-        });
+        g.bench_with_input(
+            BenchmarkId::new("samples_per_channel", n),
+            &trace,
+            |b, tr| b.iter(|| black_box(estimate(tr, &ax, &params).unwrap())),
+        );
     }
     g.finish();
 }

@@ -34,7 +34,10 @@ fn check_noisy(label: &str, cfg: &feedscope::sim::SimConfig) {
             100.0 * e.mean_rel
         );
         assert!(e.rms_n < 0.10 * e.fluctuation_rms_n, "{label}: {e:?}");
-        assert!(e.rms_n <= 1.3 * explained, "{label}: {e:?} vs noise {explained}");
+        assert!(
+            e.rms_n <= 1.3 * explained,
+            "{label}: {e:?} vs noise {explained}"
+        );
         assert!(e.mean_rel.abs() < 0.01, "{label}: {e:?}");
     }
 }
@@ -107,13 +110,23 @@ fn lead5_modulated_dropouts_offsets_noise_free() {
 #[test]
 fn lead5_modulated_dropouts_offsets_noisy() {
     let mut c = lead5_config();
-    c.sampling.effort.current_noise_std_a = 0.0005;
+    // 0.25 mA is 0.57 N of table force on this 5 mm lead: the current noise alone stays below
+    // the 10 % bar, so that bar tests everything else.
+    c.sampling.effort.current_noise_std_a = 0.00025;
+    // 0.1 µm position resolution (FANUC IS-C class). With 1 µm on this heavy 5 mm-lead drive
+    // (m_eq ≈ 6700 kg) the quantisation alone, twice differentiated, is ≈ 0.7 N RMS after
+    // smoothing at order 64: a physical floor, not an estimator error (docs/estimation.md).
+    c.sampling.position.quantum_mm = 1e-4;
     check_noisy("lead 5 mm modulated noisy", &c);
 }
 
-/// Synchronous 1 kHz torque at a much higher feed, lead 16 mm.
+/// Synchronous 1 kHz torque at a much higher feed, lead 16 mm, with the position resolution
+/// of servo-tuning tools (10 nm; a 1 µm quantum twice differentiated at 1 kHz is ~1 m/s² of
+/// noise, more than any real signal).
 fn sync_config() -> feedscope::sim::SimConfig {
     let mut c = config(200.0, 1200.0);
+    c.sampling.position.quantum_mm = 1e-5;
+    c.sampling.effort.torque_noise_std_nm = 0.002;
     c.axis.lead_mm = 16.0;
     c.axis.inertia_kgm2 = 0.006;
     c.friction = None;

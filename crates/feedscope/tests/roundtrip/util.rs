@@ -95,7 +95,11 @@ pub fn rms_between(a: &StrokeFriction, b: &StrokeFriction) -> f64 {
     let step = (a.position_m[1] - a.position_m[0]).abs();
     let key = |z: f64| (z / step).round() as i64;
     let (ka, kb) = (key(a.position_m[0]), key(b.position_m[0]));
-    let sign = if a.position_m[1] > a.position_m[0] { 1 } else { -1 };
+    let sign = if a.position_m[1] > a.position_m[0] {
+        1
+    } else {
+        -1
+    };
     let (mut se, mut n) = (0.0, 0.0);
     for j in inner(a, 2.0) {
         let k = (ka - kb) * sign + j as i64;
