@@ -179,6 +179,24 @@ impl<'a> CubicSpline<'a> {
         (v, d1, d2)
     }
 
+    /// The cubic of interval k in power form around x_k (cheap repeated evaluation).
+    ///
+    /// # Panics
+    /// When `k + 1` is not a knot index (a caller's mistake).
+    #[inline]
+    pub fn piece(&self, k: usize) -> Piece {
+        let h = self.x[k + 1] - self.x[k];
+        let (m0, m1) = (self.m[k], self.m[k + 1]);
+        Piece {
+            x0: self.x[k],
+            h,
+            c0: self.y[k],
+            c1: (self.y[k + 1] - self.y[k]) / h - h * (2.0 * m0 + m1) / 6.0,
+            c2: 0.5 * m0,
+            c3: (m1 - m0) / (6.0 * h),
+        }
+    }
+
     /// A cursor for queries at non-decreasing t: O(1) amortised per query.
     pub fn cursor(&self) -> Cursor<'_, 'a> {
         Cursor { s: self, k: 0 }
@@ -345,6 +363,34 @@ pub fn alpha_for_cutoff(mean_spacing: f64, cutoff_hz: f64) -> f64 {
     1.0 / (mean_spacing * w * w * w * w)
 }
 
+/// One interval's cubic c0 + c1·u + c2·u² + c3·u³ with u = t − x0, for 0 ≤ u ≤ h.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Piece {
+    /// Left knot.
+    pub x0: f64,
+    /// Interval length.
+    pub h: f64,
+    /// Value at x0.
+    pub c0: f64,
+    /// First derivative at x0.
+    pub c1: f64,
+    /// Half the second derivative at x0.
+    pub c2: f64,
+    /// A sixth of the third derivative.
+    pub c3: f64,
+}
+
+impl Piece {
+    /// Value, first and second derivative at offset u from x0.
+    #[inline]
+    pub fn eval(&self, u: f64) -> (f64, f64, f64) {
+        let v = self.c0 + u * (self.c1 + u * (self.c2 + u * self.c3));
+        let d1 = self.c1 + u * (2.0 * self.c2 + 3.0 * u * self.c3);
+        let d2 = 2.0 * self.c2 + 6.0 * u * self.c3;
+        (v, d1, d2)
+    }
+}
+
 /// Walks a spline's intervals for queries in non-decreasing order.
 #[derive(Debug)]
 pub struct Cursor<'s, 'a> {
@@ -498,6 +544,25 @@ mod tests {
             assert!((v - ev).abs() < 1e-11, "t={t}: {v} vs {ev}");
             assert!((d1 - ed1).abs() < 1e-11, "t={t}");
             assert!((d2 - ed2).abs() < 1e-11, "t={t}");
+        }
+    }
+
+    #[test]
+    fn power_form_piece_agrees() {
+        let x = [0.0, 0.4, 1.1, 1.5, 2.9, 3.0];
+        let y = [1.0, -2.0, 0.5, 0.7, 3.0, -1.0];
+        let s = CubicSpline::new(&x, &y, EndCondition::NotAKnot).unwrap();
+        for k in 0..5 {
+            let p = s.piece(k);
+            for j in 0..=10 {
+                let t = x[k] + (x[k + 1] - x[k]) * j as f64 / 10.0;
+                let (a, b, c) = s.eval_in(k, t);
+                let (d, e, f) = p.eval(t - x[k]);
+                assert!(
+                    (a - d).abs() + (b - e).abs() + (c - f).abs() < 1e-11,
+                    "k={k} t={t}"
+                );
+            }
         }
     }
 

@@ -27,9 +27,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let mut cfg = SimConfig::default();
-    cfg.seed = args.seed;
-    cfg.axis.name = Some("demo lathe Z (simulated)".into());
+    let mut axis = SimConfig::default().axis;
+    axis.name = Some("demo lathe Z (simulated)".into());
+    let cfg = SimConfig {
+        seed: args.seed,
+        axis,
+        ..SimConfig::default()
+    };
     eprintln!("simulating the demo lathe Z axis (0 -> 410 -> 0 mm at 100 mm/min) ...");
     let pb = bar(1000, "simulate");
     let sim = simulate(&cfg, &mut |f| pb.set_position((f * 1000.0) as u64));
@@ -83,8 +87,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut acc = [(0.0f64, 0usize); 2];
     for line in text.lines().skip(1) {
         let f: Vec<&str> = line.split(',').collect();
-        let (z_mm, v_mm_s, fr): (f64, f64, f64) =
-            (f[2].parse()?, f[4].parse()?, f[7].parse()?);
+        let (z_mm, v_mm_s, fr): (f64, f64, f64) = (f[2].parse()?, f[4].parse()?, f[7].parse()?);
         let k = usize::from(f[1] == "backward");
         let e = fr - model.friction_n(z_mm * 1e-3, v_mm_s * 1e-3);
         acc[k].0 += e * e;
@@ -103,7 +106,10 @@ pub fn run(args: Args) -> Result<()> {
     for (f, what) in [
         ("trace.csv", "the simulated controller trace (long layout)"),
         ("axis.toml", "the axis parameters"),
-        ("truth.json", "the true friction model and commanded strokes"),
+        (
+            "truth.json",
+            "the true friction model and commanded strokes",
+        ),
         ("truth.csv", "the true state every 10 ms"),
         ("friction.csv", "estimated friction along the travel"),
         ("friction.json", "per-stroke summary"),

@@ -413,28 +413,41 @@ pub fn estimate_stroke(
     };
     let mut ecur = es.cursor();
     let mut k_int = zs.interval(w_lo);
+    let mut piece = zs.piece(k_int);
     let mut non_monotone = false;
     let mut t_prev = w_lo;
     let mut sum = 0.0;
     for j in 0..count {
         let zg = (k_first as f64 + s * j as f64) * step;
-        let (t, k) = match &knot_spline {
+        let (t, v, a) = match &knot_spline {
             Some(ks) => {
                 let t = ks.time_at(zg).clamp(w_lo, w_hi);
-                (t, zs.interval(t))
+                let (_, v, a) = zs.eval_all(t);
+                (t, v, a)
             }
             None => {
                 // Advance to the knot interval whose end lies beyond the target.
+                let k_old = k_int;
                 while k_int + 2 < zz.len() && s * (zz[k_int + 1] - zg) < 0.0 {
                     k_int += 1;
                 }
-                let (t, k, ok) = invert_in(&zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
-                non_monotone |= !ok;
-                (t, k)
+                if k_int != k_old {
+                    piece = zs.piece(k_int);
+                }
+                match newton_in_piece(&piece, zg) {
+                    Some((u, v, a)) => (piece.x0 + u, v, a),
+                    None => {
+                        // Not monotone here: the safeguarded search over neighbours.
+                        let (t, k, ok) =
+                            invert_in(&zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
+                        non_monotone |= !ok;
+                        let (_, v, a) = zs.eval_in(k, t);
+                        (t, v, a)
+                    }
+                }
             }
         };
         t_prev = t;
-        let (_, v, a) = zs.eval_in(k, t);
         let e = ecur.eval(t);
         let f = gain * e - m_eq * a - b_eq * v;
         if !f.is_finite() {
@@ -491,6 +504,41 @@ pub fn estimate_stroke(
     }
     sm.warnings = warnings;
     Ok(Some(out))
+}
+
+/// Newton's method for z(x0 + u) = target inside one monotone piece, started from linear
+/// interpolation between the piece's ends. Returns (u, z', z'') or `None` when the piece does
+/// not bracket the target monotonically (then [`invert_in`] takes over).
+#[inline]
+fn newton_in_piece(p: &crate::spline::Piece, target: f64) -> Option<(f64, f64, f64)> {
+    let z1 = p.c0 + p.h * (p.c1 + p.h * (p.c2 + p.h * p.c3));
+    let dz = z1 - p.c0;
+    if dz == 0.0 {
+        return None;
+    }
+    let frac = (target - p.c0) / dz;
+    if !(0.0..=1.0).contains(&frac) {
+        return None;
+    }
+    let mut u = frac * p.h;
+    // Steps below 1e-13 of the interval are rounding noise.
+    let tol = 1e-13 * p.h;
+    for _ in 0..12 {
+        let (z, d1, _) = p.eval(u);
+        if d1 == 0.0 || (d1 > 0.0) != (dz > 0.0) {
+            return None;
+        }
+        let du = (z - target) / d1;
+        u -= du;
+        if du.abs() <= tol {
+            if !(-tol..=p.h + tol).contains(&u) {
+                return None;
+            }
+            let (_, d1, d2) = p.eval(u);
+            return Some((u, d1, d2));
+        }
+    }
+    None
 }
 
 /// Solve z(t) = target on knot interval k (then its neighbours) by Newton steps safeguarded
