@@ -119,8 +119,18 @@ fn plot_err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
 /// When no series holds a finite point, or plotters fails.
 pub fn line_chart_svg(chart: &LineChart) -> Result<String> {
     register_font();
-    let (x0, x1) = extent(chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)))?;
-    let (y0, y1) = extent(chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)))?;
+    let (x0, x1) = extent(
+        chart
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter().map(|p| p.0)),
+    )?;
+    let (y0, y1) = extent(
+        chart
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter().map(|p| p.1)),
+    )?;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
@@ -190,7 +200,9 @@ pub fn heatmap_svg(map: &Heatmap) -> Result<String> {
     register_font();
     let (nx, ny) = (map.x.len(), map.y.len());
     if nx == 0 || ny == 0 || map.z.len() != ny || map.z.iter().any(|r| r.len() != nx) {
-        return Err(anyhow!("heat map grid is empty or its rows do not match the axes"));
+        return Err(anyhow!(
+            "heat map grid is empty or its rows do not match the axes"
+        ));
     }
     let edges = |c: &[f64]| -> Vec<f64> {
         // Cell edges halfway between centres; the outer cells mirror their inner neighbour.

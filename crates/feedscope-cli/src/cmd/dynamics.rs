@@ -106,7 +106,10 @@ pub fn run(args: Args) -> Result<()> {
         }
     };
     let mut stdout = std::io::stdout().lock();
-    match stdout.write_all(text.as_bytes()).and_then(|()| stdout.flush()) {
+    match stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+    {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         other => other.context("cannot write to stdout"),
     }
@@ -144,8 +147,16 @@ fn summary_text(r: &DynamicsReport) -> String {
     let mut s = String::new();
     let name = r.name.as_deref().unwrap_or("feed drive");
     let _ = writeln!(s, "dynamics of {name} (nut at {:.0} mm)", r.position_mm);
-    let _ = writeln!(s, "  static first frequency     {:8.2} Hz", r.static_first_hz);
-    let _ = writeln!(s, "  after breakaway (v = 0+)   {:8.2} Hz", r.breakaway_first_hz);
+    let _ = writeln!(
+        s,
+        "  static first frequency     {:8.2} Hz",
+        r.static_first_hz
+    );
+    let _ = writeln!(
+        s,
+        "  after breakaway (v = 0+)   {:8.2} Hz",
+        r.breakaway_first_hz
+    );
     let _ = writeln!(
         s,
         "  peak                       {:8.2} Hz at {:.2} m/min",
@@ -168,7 +179,10 @@ fn summary_text(r: &DynamicsReport) -> String {
         }
     }
     if r.resonances.is_empty() {
-        let _ = writeln!(s, "  no ripple harmonic meets a natural frequency in the sweep");
+        let _ = writeln!(
+            s,
+            "  no ripple harmonic meets a natural frequency in the sweep"
+        );
     } else {
         let _ = writeln!(
             s,
@@ -219,7 +233,14 @@ fn write_outputs(dir: &Path, r: &DynamicsReport) -> Result<Vec<PathBuf>> {
     for sweep in &r.position_sweeps {
         for p in &sweep.points {
             for (m, f) in p.frequencies_hz.iter().enumerate() {
-                let _ = writeln!(csv, "{},{},{},{}", sweep.feed_mm_min, p.position_mm, m + 1, f);
+                let _ = writeln!(
+                    csv,
+                    "{},{},{},{}",
+                    sweep.feed_mm_min,
+                    p.position_mm,
+                    m + 1,
+                    f
+                );
             }
         }
     }
@@ -271,7 +292,9 @@ fn feed_chart(r: &DynamicsReport) -> LineChart<'static> {
         .collect();
     let (lo, hi) = first
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.1), b.max(p.1))
+        });
     let (ylo, yhi) = (0.85 * lo, 1.15 * hi);
     let vmax = r.feed_sweep.points.last().map_or(0.0, |p| p.feed_mm_min);
     let mut series = vec![Series {

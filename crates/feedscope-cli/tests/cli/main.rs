@@ -1,2 +1,3 @@
 //! End-to-end tests of the `feedscope` binary, each in a temporary directory.
+mod dynamics;
 mod util;

@@ -133,7 +133,14 @@ impl ScrewModel {
         for e in 0..x.len() - 1 {
             let l = x[e + 1] - x[e];
             let (a, b) = (layout.u[e], layout.u[e + 1]);
-            add_rod(&mut k, &mut m, Some(a), Some(b), self.ea_n / l, self.rho_a_kg_m * l);
+            add_rod(
+                &mut k,
+                &mut m,
+                Some(a),
+                Some(b),
+                self.ea_n / l,
+                self.rho_a_kg_m * l,
+            );
             add_rod(
                 &mut k,
                 &mut m,

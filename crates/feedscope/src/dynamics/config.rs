@@ -418,7 +418,10 @@ impl DriveConfig {
         let f = &self.friction;
         non_negative("friction.coulomb_n", f.coulomb_n)?;
         non_negative("friction.static_n", f.static_n)?;
-        non_negative("friction.stribeck_velocity_mm_min", f.stribeck_velocity_mm_min)?;
+        non_negative(
+            "friction.stribeck_velocity_mm_min",
+            f.stribeck_velocity_mm_min,
+        )?;
         non_negative("friction.viscous_n_per_mm_min", f.viscous_n_per_mm_min)?;
         positive("friction.shape_exponent", f.shape_exponent)?;
         let r = &self.ripple;

@@ -201,7 +201,11 @@ impl DriveModel {
     }
 }
 
-fn solve_lower(l: &DMatrix<f64>, b: &DMatrix<f64>, y_m: f64) -> Result<DMatrix<f64>, DynamicsError> {
+fn solve_lower(
+    l: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    y_m: f64,
+) -> Result<DMatrix<f64>, DynamicsError> {
     l.solve_lower_triangular(b)
         .ok_or(DynamicsError::MassNotPositiveDefinite { position_m: y_m })
 }
@@ -321,7 +325,10 @@ impl PositionPlan {
     /// # Panics
     /// If `out` is longer than [`Self::dofs`].
     pub fn frequencies_into(&self, feed_m_s: f64, scratch: &mut DMatrix<f64>, out: &mut [f64]) {
-        assert!(out.len() <= self.layout.dofs, "more modes than degrees of freedom");
+        assert!(
+            out.len() <= self.layout.dofs,
+            "more modes than degrees of freedom"
+        );
         let joints = self.joints.state(feed_m_s);
         self.projected(&joints, scratch);
         let mut ev: Vec<f64> = scratch.symmetric_eigenvalues().iter().copied().collect();
@@ -358,7 +365,12 @@ impl PositionPlan {
                 ModeShape {
                     frequency_hz: omega_to_hz(eig.eigenvalues[i]),
                     axial: self.layout.u.iter().map(|&d| x[d]).collect(),
-                    torsion: self.layout.theta.iter().map(|d| d.map_or(0.0, |d| x[d])).collect(),
+                    torsion: self
+                        .layout
+                        .theta
+                        .iter()
+                        .map(|d| d.map_or(0.0, |d| x[d]))
+                        .collect(),
                     table,
                     table_mass_fraction: self.table_mass_kg * table * table,
                 }

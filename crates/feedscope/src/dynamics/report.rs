@@ -136,11 +136,15 @@ pub fn analyse(model: &DriveModel) -> Result<DynamicsReport, DynamicsError> {
     let static_first_hz = static_modes.modes[0].frequency_hz;
     // f(0⁺): the friction has reached F_s; 1e-9 m/s is far below any Stribeck velocity.
     let breakaway_first_hz = plan.frequencies_hz(1e-9, 1)[0];
-    let (peak_feed_mm_min, peak_first_hz) = feeds
-        .iter()
-        .zip(&freqs)
-        .map(|(&v, f)| (v, f[0]))
-        .fold((0.0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+    let (peak_feed_mm_min, peak_first_hz) =
+        feeds
+            .iter()
+            .zip(&freqs)
+            .map(|(&v, f)| (v, f[0]))
+            .fold(
+                (0.0, f64::NEG_INFINITY),
+                |a, b| if b.1 > a.1 { b } else { a },
+            );
 
     let bearing_unload = model.bearing_unload_feed_m_s().map(|v| {
         // ±1e-6 relative either side of the root to see the step in stiffness.
