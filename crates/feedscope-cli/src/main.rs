@@ -1,6 +1,7 @@
 //! The `feedscope` command-line tool.
 use clap::Parser;
 mod cmd;
+mod output;
 mod plot;
 
 fn main() -> std::process::ExitCode {

@@ -163,12 +163,7 @@ pub fn line_chart_svg(chart: &LineChart) -> Result<String> {
                     .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
                     .map_err(plot_err)?,
                 Style::Dashed => ctx
-                    .draw_series(DashedLineSeries::new(
-                        pts,
-                        8,
-                        5,
-                        colour.stroke_width(2).into(),
-                    ))
+                    .draw_series(DashedLineSeries::new(pts, 8, 5, colour.stroke_width(2)))
                     .map_err(plot_err)?,
                 Style::Points => ctx
                     .draw_series(pts.map(|p| Circle::new(p, 1, colour.mix(0.5).filled())))

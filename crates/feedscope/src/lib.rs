@@ -7,8 +7,10 @@
 
 pub mod axis;
 pub mod dynamics;
+pub mod estimate;
 pub mod order;
 pub mod profile;
 pub mod sim;
+pub mod spline;
 pub mod stribeck;
 pub mod trace;

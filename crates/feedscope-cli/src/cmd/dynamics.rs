@@ -7,19 +7,20 @@
 //! (`harmonic,feed_mm_min,frequency_hz,mode,margin_hz,order,feed_low_mm_min,feed_high_mm_min`),
 //! `frequency_vs_feed.svg`, `frequency_vs_position.svg`.
 //!
-//! Exit codes: 0 ok; 2 bad input (unreadable or invalid drive file); 1 anything else (e.g. the
-//! output directory cannot be written). Input errors are wrapped in [`InputError`] so that a
-//! caller can tell them apart with `err.chain().any(|e| e.is::<InputError>())`.
+//! Exit codes (mapped in `cmd::run`): 0 ok; 2 bad input: an unreadable or invalid drive file,
+//! reported as [`BadInput`] naming the key; 1 anything else (e.g. the output directory cannot
+//! be written). The drive file is validated before any output is written.
 
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use feedscope::dynamics::{analyse, ripple_frequency_hz, DriveConfig, DriveModel, DynamicsReport};
 use serde::Serialize;
 
+use super::BadInput;
+use crate::output::write_atomic;
 use crate::plot::{line_chart_svg, write_svg, LineChart, Series, Style};
 
 /// Output format of the summary on stdout.
@@ -46,42 +47,14 @@ pub struct Args {
     pub format: Format,
 }
 
-/// Bad input (exit code 2): the drive file cannot be read, parsed or validated.
-#[derive(Debug)]
-pub struct InputError(String);
-
-impl std::fmt::Display for InputError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for InputError {}
-
-/// Print `{:#}` of an error to stderr and map it to the exit code: 2 for an [`InputError`]
-/// anywhere in the chain, 1 otherwise.
-pub fn finish(result: Result<()>) -> ExitCode {
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
-            eprintln!("error: {err:#}");
-            if err.chain().any(|e| e.is::<InputError>()) {
-                ExitCode::from(2)
-            } else {
-                ExitCode::from(1)
-            }
-        }
-    }
-}
-
 /// Read and validate the drive file before any output is written.
 fn load(path: &Path) -> Result<DriveModel> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| InputError(format!("cannot read drive file {}: {e}", path.display())))?;
+        .map_err(|e| BadInput(format!("cannot read drive file {}: {e}", path.display())))?;
     let cfg = DriveConfig::from_toml_str(&text, &path.display().to_string())
-        .map_err(|e| InputError(format!("invalid drive file {}: {e}", path.display())))?;
+        .map_err(|e| BadInput(format!("invalid drive file {}: {e}", path.display())))?;
     DriveModel::from_config(&cfg)
-        .map_err(|e| InputError(format!("invalid drive file {}: {e}", path.display())).into())
+        .map_err(|e| BadInput(format!("invalid drive file {}: {e}", path.display())).into())
 }
 
 /// Run the subcommand.
@@ -207,7 +180,7 @@ fn summary_text(r: &DynamicsReport) -> String {
 }
 
 fn write_file(path: &Path, text: &str) -> Result<()> {
-    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+    write_atomic(path, text.as_bytes())
 }
 
 fn write_outputs(dir: &Path, r: &DynamicsReport) -> Result<Vec<PathBuf>> {

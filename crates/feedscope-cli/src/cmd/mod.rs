@@ -1,11 +1,18 @@
-//! One module per subcommand.
+//! One module per subcommand; `run` maps errors to documented exit codes.
+//!
+//! Exit codes: 0 success; 1 a check failed or a requested failure condition was met; 2 bad
+//! input or usage (unreadable or malformed files, invalid parameters).
 use clap::{Parser, Subcommand};
 
 mod dynamics;
+mod estimate;
 
 /// feedscope: how are the ball-screw feed drives of this machine doing?
+///
+/// Reads what the CNC controller already records (axis position and servo motor current or
+/// torque, with timestamps) and estimates the friction of the drive along its whole travel.
 #[derive(Debug, Parser)]
-#[command(name = "feedscope", version, about, long_about = None)]
+#[command(name = "feedscope", version, about, long_about)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -13,12 +20,56 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Estimate friction along the travel from a trace (paper 000, Eq. 5).
+    Estimate(estimate::Args),
     /// Natural frequency vs feed rate and position; torque-ripple resonance risks.
     Dynamics(dynamics::Args),
 }
 
+/// Marks an error as the user's input being wrong (exit code 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct BadInput(pub String);
+
+/// Exit code for an error: 2 when any cause is bad input, else 1.
+pub fn exit_code(err: &anyhow::Error) -> u8 {
+    use feedscope::{axis::AxisError, estimate::EstimateError, trace::TraceError};
+    let input = err.chain().any(|c| {
+        c.is::<BadInput>()
+            || c.is::<TraceError>()
+            || c.is::<AxisError>()
+            || c.is::<EstimateError>()
+            || c.is::<toml::de::Error>()
+            || c.is::<serde_json::Error>()
+            || c.downcast_ref::<std::io::Error>()
+                .is_some_and(|e| e.kind() == std::io::ErrorKind::NotFound)
+    });
+    if input {
+        2
+    } else {
+        1
+    }
+}
+
+/// True when the error is only a closed stdout (e.g. `feedscope ... | head`).
+fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
 pub fn run(cli: Cli) -> std::process::ExitCode {
-    match cli.command {
-        Command::Dynamics(args) => dynamics::finish(dynamics::run(args)),
+    let result = match cli.command {
+        Command::Estimate(a) => estimate::run(a),
+        Command::Dynamics(a) => dynamics::run(a),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) if is_broken_pipe(&e) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::from(exit_code(&e))
+        }
     }
 }

@@ -1,3 +1,4 @@
 //! End-to-end tests of the `feedscope` binary, each in a temporary directory.
 mod dynamics;
+mod estimate;
 mod util;

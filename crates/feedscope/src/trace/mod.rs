@@ -3,8 +3,22 @@
 //!
 //! Inside the library every value is SI: time in seconds, position in metres, current in
 //! amperes, torque in newton-metres. Files use the units named in their column headers.
+//!
+//! # File layouts (CSV)
+//! - **long** (asynchronous channels): header `time_s,channel,value`, one sample per row; the
+//!   channel names carry units: `position_mm` or `position_m`, and `current_a` or `torque_nm`.
+//!   Other channel names are ignored (and counted in [`ReadReport::ignored_rows`]).
+//! - **wide** (synchronous channels): header `time_s,position_mm,current_a` (or `torque_nm`,
+//!   `position_m`) in any column order, extra columns ignored; an empty cell means "no sample of
+//!   this channel at this time", so a wide file can also carry asynchronous channels.
+//!
+//! Either layout may use `time_ms` instead of `time_s`. Lines starting with `#` and blank lines
+//! are skipped, a UTF-8 byte-order mark is accepted, and lines may end in LF, CRLF or a bare CR.
 
 use std::io::Write;
+
+mod read;
+pub use read::{parse_trace, read_trace_file, ReadOptions, ReadReport, TraceError, MIN_SAMPLES};
 
 /// What the effort channel measures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

@@ -1,0 +1,392 @@
+//! `feedscope estimate`: friction along the travel from a trace file.
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::ValueEnum;
+use feedscope::axis::{AxisParams, ConfigFormat};
+use feedscope::estimate::{
+    estimate_streaming, EstimateParams, StrokeFriction, StrokeSummary, TimeOfPosition, Zone,
+};
+use feedscope::spline::EndCondition;
+use feedscope::trace::{read_trace_file, EffortKind, ReadOptions, ReadReport, Trace};
+use serde::Serialize;
+
+use crate::output::{bar, push_fixed, AtomicFile};
+use crate::plot;
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum EndArg {
+    /// Third derivative continuous at the second and second-to-last knot (MATLAB `spline`).
+    NotAKnot,
+    /// Zero curvature at both ends.
+    Natural,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum TimeArg {
+    /// Invert the position spline z(t) exactly.
+    Invert,
+    /// Interpolate the knots (z, t) with a spline, as paper 000 does.
+    KnotSpline,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum EffortArg {
+    /// Use the `current_a` channel (needs torque_constant_nm_per_a).
+    Current,
+    /// Use the `torque_nm` channel.
+    Torque,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum Format {
+    /// A table for people.
+    Text,
+    /// The JSON summary on stdout.
+    Json,
+}
+
+/// Estimate friction along the travel (paper 000, Section 3, Eq. 5).
+///
+/// Finds the steady forward and backward strokes, interpolates position and current (or
+/// torque) with cubic splines, resamples them every lead/m of travel and solves Eq. 5 for the
+/// friction force. Writes a CSV with one row per resampled point
+/// (`stroke,direction,position_mm,time_s,velocity_mm_s,accel_mm_s2,current_a|torque_nm,friction_n`),
+/// a JSON summary per stroke and an SVG plot of friction against position.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Trace CSV: long layout `time_s,channel,value` or wide `time_s,position_mm,current_a`.
+    pub trace: PathBuf,
+    /// Axis parameters (TOML, or JSON with the same keys).
+    #[arg(long)]
+    pub axis: PathBuf,
+    /// Friction CSV to write.
+    #[arg(short = 'o', long = "output", default_value = "friction.csv")]
+    pub output: PathBuf,
+    /// JSON summary to write [default: OUTPUT with extension .json].
+    #[arg(long)]
+    pub summary: Option<PathBuf>,
+    /// SVG plot of friction vs position [default: OUTPUT with extension .svg].
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Do not write the SVG plot.
+    #[arg(long)]
+    pub no_plot: bool,
+    /// Resampling points per screw lead (m in paper 000; the position step is lead/m).
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    pub samples_per_lead: u32,
+    /// Spline end condition.
+    #[arg(long, value_enum, default_value_t = EndArg::NotAKnot)]
+    pub end_condition: EndArg,
+    /// How the run time t(z) at each resampled position is found.
+    #[arg(long, value_enum, default_value_t = TimeArg::Invert)]
+    pub time_of_position: TimeArg,
+    /// Which effort channel to use when the file has both current and torque.
+    #[arg(long, value_enum)]
+    pub effort: Option<EffortArg>,
+    /// What to print on stdout.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    pub format: Format,
+}
+
+/// Read and validate an axis file.
+pub fn load_axis(path: &Path) -> Result<AxisParams> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    Ok(AxisParams::parse(
+        &text,
+        ConfigFormat::from_path(path),
+        &path.display().to_string(),
+    )?)
+}
+
+/// The JSON summary written beside the friction CSV.
+#[derive(Debug, Serialize)]
+pub struct Summary {
+    pub source: String,
+    pub effort: EffortKind,
+    pub axis: AxisParams,
+    pub params: EstimateParams,
+    pub strokes: Vec<StrokeSummary>,
+    pub zones: Vec<Zone>,
+    pub skipped: Vec<String>,
+    pub ignored_rows: u64,
+    pub ignored_channels: Vec<String>,
+}
+
+/// Plot data kept while streaming: decimated friction per stroke.
+#[derive(Default)]
+pub struct PlotData {
+    pub forward: Vec<Vec<(f64, f64)>>,
+    pub backward: Vec<Vec<(f64, f64)>>,
+}
+
+const PLOT_POINTS_PER_STROKE: usize = 4000;
+const PLOT_STROKES_PER_DIRECTION: usize = 6;
+
+impl PlotData {
+    fn add(&mut self, s: &StrokeFriction) {
+        let dst = match s.summary.direction {
+            feedscope::estimate::Direction::Forward => &mut self.forward,
+            feedscope::estimate::Direction::Backward => &mut self.backward,
+        };
+        if dst.len() >= PLOT_STROKES_PER_DIRECTION {
+            return;
+        }
+        let stride = s.position_m.len().div_ceil(PLOT_POINTS_PER_STROKE).max(1);
+        dst.push(
+            s.position_m
+                .iter()
+                .zip(&s.friction_n)
+                .step_by(stride)
+                .map(|(z, f)| (z * 1e3, *f))
+                .collect(),
+        );
+    }
+
+    /// Friction vs position, both directions, optional extra series (e.g. the truth).
+    pub fn svg(&self, title: &str, extra: Vec<plot::Series>) -> Result<String> {
+        let mut series = Vec::new();
+        for (label, strokes) in [("forward", &self.forward), ("backward", &self.backward)] {
+            for (k, pts) in strokes.iter().enumerate() {
+                series.push(plot::Series {
+                    name: if strokes.len() > 1 {
+                        format!("{label} stroke {}", k + 1)
+                    } else {
+                        label.to_string()
+                    },
+                    points: pts.clone(),
+                    style: plot::Style::Line,
+                });
+            }
+        }
+        series.extend(extra);
+        plot::line_chart_svg(&plot::LineChart {
+            title,
+            x_label: "position (mm)",
+            y_label: "friction force F_f (N), signed as Eq. 5",
+            series,
+        })
+    }
+}
+
+/// What an estimate run produced; `csv` is written but not yet in place (see
+/// [`AtomicFile::commit`]), so the caller can commit all outputs together.
+pub struct Outcome {
+    pub summary: Summary,
+    pub plot: PlotData,
+    pub csv: AtomicFile,
+}
+
+/// Estimate `trace` and stream the friction CSV into `csv_path` (atomically).
+pub fn estimate_to_csv(
+    trace: &Trace,
+    report: &ReadReport,
+    source: &str,
+    axis: &AxisParams,
+    params: &EstimateParams,
+    csv_path: &Path,
+) -> Result<Outcome> {
+    let mut out = AtomicFile::create(csv_path)?;
+    let effort_col = trace.effort_kind.column();
+    writeln!(
+        out.writer(),
+        "stroke,direction,position_mm,time_s,velocity_mm_s,accel_mm_s2,{effort_col},friction_n"
+    )
+    .with_context(|| format!("writing {}", csv_path.display()))?;
+    let n_threads = rayon::current_num_threads();
+    let pb = bar(trace.position_m.len() as u64, "estimate");
+    let mut summaries = Vec::new();
+    let mut plot = PlotData::default();
+    let (zones, skipped) = estimate_streaming(
+        trace,
+        axis,
+        params,
+        2 * n_threads,
+        |s: StrokeFriction| -> Result<(), anyhow::Error> {
+            let rows = format_stroke(&s);
+            out.writer()
+                .write_all(&rows)
+                .with_context(|| format!("writing {}", csv_path.display()))?;
+            pb.inc(s.summary.position_samples as u64);
+            plot.add(&s);
+            summaries.push(s.summary);
+            Ok(())
+        },
+    )?;
+    pb.finish_and_clear();
+    Ok(Outcome {
+        csv: out,
+        summary: Summary {
+            source: source.to_string(),
+            effort: trace.effort_kind,
+            axis: axis.clone(),
+            params: params.clone(),
+            strokes: summaries,
+            zones,
+            skipped,
+            ignored_rows: report.ignored_rows,
+            ignored_channels: report.ignored_channels.clone(),
+        },
+        plot,
+    })
+}
+
+/// CSV rows of one stroke, formatted in parallel chunks (formatting dominates writing).
+fn format_stroke(s: &StrokeFriction) -> Vec<u8> {
+    use rayon::prelude::*;
+    let n = s.position_m.len();
+    let dir = s.summary.direction.as_str().as_bytes();
+    let stroke = s.summary.stroke.to_string();
+    let chunk = 16_384;
+    let parts: Vec<Vec<u8>> = (0..n.div_ceil(chunk))
+        .into_par_iter()
+        .map(|c| {
+            let mut b = Vec::with_capacity(chunk * 90);
+            for j in c * chunk..((c + 1) * chunk).min(n) {
+                b.extend_from_slice(stroke.as_bytes());
+                b.push(b',');
+                b.extend_from_slice(dir);
+                b.push(b',');
+                push_fixed(&mut b, s.position_m[j] * 1e3, 6);
+                b.push(b',');
+                push_fixed(&mut b, s.time_s[j], 6);
+                b.push(b',');
+                push_fixed(&mut b, s.velocity_m_s[j] * 1e3, 6);
+                b.push(b',');
+                push_fixed(&mut b, s.accel_m_s2[j] * 1e3, 6);
+                b.push(b',');
+                push_fixed(&mut b, s.effort[j], 6);
+                b.push(b',');
+                push_fixed(&mut b, s.friction_n[j], 4);
+                b.push(b'\n');
+            }
+            b
+        })
+        .collect();
+    parts.concat()
+}
+
+/// The stroke table for people.
+pub fn print_table(summary: &Summary) {
+    println!(
+        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>9}  {:>9}",
+        "stroke", "dir", "feed", "from", "to", "mean F_f", "samples", "max"
+    );
+    println!(
+        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>9}  {:>9}",
+        "", "", "(mm/min)", "(mm)", "(mm)", "(N)", "per lead", "order"
+    );
+    for s in &summary.strokes {
+        println!(
+            "{:>6}  {:<8}  {:>10.1}  {:>9.2}  {:>9.2}  {:>12.2}  {:>9.1}  {:>9.1}",
+            s.stroke,
+            s.direction.as_str(),
+            s.feed_mm_min,
+            s.start_mm,
+            s.end_mm,
+            s.mean_friction_n,
+            s.raw_samples_per_lead,
+            s.max_order
+        );
+    }
+    for s in &summary.strokes {
+        for w in &s.warnings {
+            eprintln!("warning: stroke {}: {w}", s.stroke);
+        }
+    }
+    for w in &summary.skipped {
+        eprintln!("warning: skipped {w}");
+    }
+    if summary.ignored_rows > 0 {
+        eprintln!(
+            "note: ignored {} rows of other channels ({})",
+            summary.ignored_rows,
+            summary.ignored_channels.join(", ")
+        );
+    }
+}
+
+pub fn params_from(args: &Args) -> EstimateParams {
+    EstimateParams {
+        samples_per_lead: args.samples_per_lead,
+        end_condition: match args.end_condition {
+            EndArg::NotAKnot => EndCondition::NotAKnot,
+            EndArg::Natural => EndCondition::Natural,
+        },
+        time_of_position: match args.time_of_position {
+            TimeArg::Invert => TimeOfPosition::Invert,
+            TimeArg::KnotSpline => TimeOfPosition::KnotSpline,
+        },
+        ..EstimateParams::default()
+    }
+}
+
+pub fn run(args: Args) -> Result<()> {
+    // Validate everything cheap before the expensive read.
+    let axis = load_axis(&args.axis)?;
+    let params = params_from(&args);
+    let summary_path = args
+        .summary
+        .clone()
+        .unwrap_or_else(|| args.output.with_extension("json"));
+    let plot_path = (!args.no_plot).then(|| {
+        args.plot
+            .clone()
+            .unwrap_or_else(|| args.output.with_extension("svg"))
+    });
+    let opts = ReadOptions {
+        effort: args.effort.map(|e| match e {
+            EffortArg::Current => EffortKind::CurrentA,
+            EffortArg::Torque => EffortKind::TorqueNm,
+        }),
+        threads: 0,
+    };
+    let spinner = indicatif::ProgressBar::new_spinner();
+    spinner.set_message(format!("reading {}", args.trace.display()));
+    spinner.enable_steady_tick(std::time::Duration::from_millis(120));
+    let read = read_trace_file(&args.trace, &opts);
+    spinner.finish_and_clear();
+    let (trace, report) = read?;
+    let source = args.trace.display().to_string();
+    let outcome = estimate_to_csv(&trace, &report, &source, &axis, &params, &args.output)?;
+    drop(trace);
+    let json = serde_json::to_string_pretty(&outcome.summary)?;
+    // Everything is rendered before anything is put in place, so an error leaves earlier
+    // outputs untouched.
+    let svg = match &plot_path {
+        Some(_) => {
+            let name = axis.name.as_deref().unwrap_or("axis");
+            Some(outcome.plot.svg(
+                &format!("Estimated friction along the travel ({name})"),
+                vec![],
+            )?)
+        }
+        None => None,
+    };
+    outcome.csv.commit()?;
+    crate::output::write_atomic(&summary_path, json.as_bytes())?;
+    if let (Some(p), Some(svg)) = (&plot_path, svg) {
+        crate::output::write_atomic(p, svg.as_bytes())?;
+    }
+    match args.format {
+        Format::Json => {
+            let mut out = std::io::stdout().lock();
+            writeln!(out, "{json}")?;
+        }
+        Format::Text => {
+            print_table(&outcome.summary);
+            eprintln!(
+                "wrote {} ({} strokes), {}{}",
+                args.output.display(),
+                outcome.summary.strokes.len(),
+                summary_path.display(),
+                plot_path
+                    .map(|p| format!(", {}", p.display()))
+                    .unwrap_or_default()
+            );
+        }
+    }
+    Ok(())
+}

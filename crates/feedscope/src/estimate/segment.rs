@@ -1,0 +1,365 @@
+//! Stroke segmentation: where the table moves at a steady feed, and the dwells and reversals
+//! between.
+//!
+//! 1. Turning points by hysteresis: the position must retreat more than `ε` from its running
+//!    extreme before a reversal is declared, so dwell jitter and quantisation never make one.
+//!    ε = max(8 × the position quantum seen in the data, 10⁻⁴ × the travel, 0.1 µm).
+//! 2. Each move between turning points has a plateau speed P: the median chord speed
+//!    (Δz/Δt between consecutive position samples) over chords faster than a quarter of the
+//!    move's 95th-percentile speed.
+//! 3. Steady chords are those at ≥ `steady_fraction` × P; each maximal run of them is a stroke
+//!    after `trim_knots` knots are dropped at either end, so the knot at the start of the run
+//!    (still in the dwell or the acceleration ramp) never enters the stroke's spline.
+//!
+//! Everything not inside a stroke is reported as a [`Zone`].
+
+use serde::{Deserialize, Serialize};
+
+use crate::trace::Channel;
+
+/// Direction of travel. Forward means increasing position.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Direction {
+    /// Position increasing.
+    Forward,
+    /// Position decreasing.
+    Backward,
+}
+
+impl Direction {
+    /// +1 forward, −1 backward.
+    pub fn sign(self) -> f64 {
+        match self {
+            Self::Forward => 1.0,
+            Self::Backward => -1.0,
+        }
+    }
+
+    /// `"forward"` or `"backward"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Forward => "forward",
+            Self::Backward => "backward",
+        }
+    }
+}
+
+/// Knot range of one steady stroke in the position channel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StrokeSpan {
+    /// Direction of travel.
+    pub direction: Direction,
+    /// First position knot (inclusive).
+    pub first: usize,
+    /// Last position knot (inclusive).
+    pub last: usize,
+    /// Plateau speed of the move (m/s, positive).
+    pub plateau_speed_m_s: f64,
+}
+
+/// What happens in a stretch of the trace that is not a steady stroke.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ZoneKind {
+    /// Before the first stroke.
+    Start,
+    /// Between strokes of opposite direction (deceleration, dwell, reversal, acceleration).
+    Reversal,
+    /// Between strokes of the same direction (a stop or a feed change).
+    Pause,
+    /// After the last stroke.
+    End,
+}
+
+/// A stretch of the trace excluded from the strokes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Zone {
+    /// What it is.
+    pub kind: ZoneKind,
+    /// Start time (s).
+    pub start_time_s: f64,
+    /// End time (s).
+    pub end_time_s: f64,
+    /// Position at the start (mm).
+    pub start_position_mm: f64,
+    /// Position at the end (mm).
+    pub end_position_mm: f64,
+}
+
+/// Segmentation settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SegmentParams {
+    /// A chord at or above this fraction of the plateau speed counts as steady. Default 0.5,
+    /// which keeps feed modulations of up to ±50 % inside the stroke.
+    pub steady_fraction: f64,
+    /// Knots dropped at each end of a steady run. Default 2.
+    pub trim_knots: usize,
+    /// Shortest stroke kept (mm). Default 1.
+    pub min_stroke_mm: f64,
+    /// Fewest position knots in a kept stroke. Default 8.
+    pub min_knots: usize,
+}
+
+impl Default for SegmentParams {
+    fn default() -> Self {
+        Self {
+            steady_fraction: 0.5,
+            trim_knots: 2,
+            min_stroke_mm: 1.0,
+            min_knots: 8,
+        }
+    }
+}
+
+/// Hysteresis for turning points (m), see the module docs.
+fn hysteresis_m(z: &[f64]) -> f64 {
+    let (lo, hi) = z
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let quantum = z
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 1e-12)
+        .fold(f64::INFINITY, f64::min);
+    let quantum = if quantum.is_finite() { quantum } else { 0.0 };
+    (8.0 * quantum).max(1e-4 * (hi - lo)).max(1e-7)
+}
+
+/// Indices of alternating extremes (first and last sample included).
+fn turning_points(z: &[f64], eps: f64) -> Vec<usize> {
+    let mut tp = Vec::new();
+    let n = z.len();
+    // Until a direction is known, track both extremes.
+    let (mut imin, mut imax) = (0usize, 0usize);
+    let mut k = 0;
+    let mut up;
+    loop {
+        if k >= n {
+            return vec![0, n - 1];
+        }
+        if z[k] < z[imin] {
+            imin = k;
+        }
+        if z[k] > z[imax] {
+            imax = k;
+        }
+        if z[k] - z[imin] > eps {
+            up = true;
+            tp.push(imin);
+            break;
+        }
+        if z[imax] - z[k] > eps {
+            up = false;
+            tp.push(imax);
+            break;
+        }
+        k += 1;
+    }
+    let mut ext = k;
+    for k in k..n {
+        if up {
+            if z[k] >= z[ext] {
+                ext = k;
+            } else if z[ext] - z[k] > eps {
+                tp.push(ext);
+                up = false;
+                ext = k;
+            }
+        } else if z[k] <= z[ext] {
+            ext = k;
+        } else if z[k] - z[ext] > eps {
+            tp.push(ext);
+            up = true;
+            ext = k;
+        }
+    }
+    if *tp.last().unwrap_or(&usize::MAX) != ext {
+        tp.push(ext);
+    }
+    tp
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mid = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    *m
+}
+
+/// Find the steady strokes in a position channel (time strictly increasing).
+pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpan> {
+    let (t, z) = (&position.time_s, &position.value);
+    let n = z.len();
+    if n < 2 {
+        return Vec::new();
+    }
+    let eps = hysteresis_m(z);
+    let tp = turning_points(z, eps);
+    let mut out = Vec::new();
+    let mut speeds = Vec::new();
+    for w in tp.windows(2) {
+        let (i0, i1) = (w[0], w[1]);
+        if i1 <= i0 + 1 {
+            continue;
+        }
+        let dir = if z[i1] > z[i0] {
+            Direction::Forward
+        } else {
+            Direction::Backward
+        };
+        let s = dir.sign();
+        let chord = |k: usize| s * (z[k + 1] - z[k]) / (t[k + 1] - t[k]);
+        speeds.clear();
+        speeds.extend((i0..i1).map(chord));
+        let mut sorted = speeds.clone();
+        sorted.sort_unstable_by(|a, b| a.total_cmp(b));
+        let p95 = sorted[((sorted.len() - 1) as f64 * 0.95).round() as usize];
+        if p95.is_nan() || p95 <= 0.0 {
+            continue;
+        }
+        let mut fast: Vec<f64> = speeds
+            .iter()
+            .copied()
+            .filter(|v| *v >= 0.25 * p95)
+            .collect();
+        let plateau = median(&mut fast);
+        let threshold = params.steady_fraction * plateau;
+        // Maximal runs of steady chords.
+        let mut c = 0;
+        while c < speeds.len() {
+            if speeds[c] < threshold {
+                c += 1;
+                continue;
+            }
+            let c0 = c;
+            while c < speeds.len() && speeds[c] >= threshold {
+                c += 1;
+            }
+            let c1 = c - 1; // last steady chord
+                            // Chords c0..=c1 join knots i0+c0 ..= i0+c1+1.
+            let first = i0 + c0 + params.trim_knots;
+            let last = (i0 + c1 + 1).saturating_sub(params.trim_knots);
+            if last < first || last + 1 - first < params.min_knots.max(4) {
+                continue;
+            }
+            if (z[last] - z[first]).abs() < params.min_stroke_mm * 1e-3 {
+                continue;
+            }
+            out.push(StrokeSpan {
+                direction: dir,
+                first,
+                last,
+                plateau_speed_m_s: plateau,
+            });
+        }
+    }
+    out
+}
+
+/// The stretches of the trace not covered by `strokes` (in time order).
+pub fn zones_between(position: &Channel, strokes: &[StrokeSpan]) -> Vec<Zone> {
+    let (t, z) = (&position.time_s, &position.value);
+    let n = t.len();
+    let mut zones = Vec::new();
+    let zone = |kind, a: usize, b: usize| Zone {
+        kind,
+        start_time_s: t[a],
+        end_time_s: t[b],
+        start_position_mm: z[a] * 1e3,
+        end_position_mm: z[b] * 1e3,
+    };
+    if let Some(f) = strokes.first() {
+        if f.first > 0 {
+            zones.push(zone(ZoneKind::Start, 0, f.first));
+        }
+    }
+    for w in strokes.windows(2) {
+        let kind = if w[0].direction == w[1].direction {
+            ZoneKind::Pause
+        } else {
+            ZoneKind::Reversal
+        };
+        zones.push(zone(kind, w[0].last, w[1].first));
+    }
+    if let Some(l) = strokes.last() {
+        if l.last + 1 < n {
+            zones.push(zone(ZoneKind::End, l.last, n - 1));
+        }
+    }
+    zones
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Forward 0→100 mm at 10 mm/s, dwell 1 s, back at 5 mm/s; 50 ms sampling, 1 µm steps.
+    fn back_and_forth() -> Channel {
+        let mut c = Channel::default();
+        let mut t = 0.0;
+        while t < 33.0 {
+            let z_mm = if t < 1.0 {
+                0.0
+            } else if t < 11.0 {
+                10.0 * (t - 1.0)
+            } else if t < 12.0 {
+                100.0
+            } else if t < 32.0 {
+                100.0 - 5.0 * (t - 12.0)
+            } else {
+                0.0
+            };
+            c.time_s.push(t);
+            c.value.push((z_mm * 1e3).round() * 1e-6);
+            t += 0.05;
+        }
+        c
+    }
+
+    #[test]
+    fn finds_both_strokes_and_zones() {
+        let c = back_and_forth();
+        let s = find_strokes(&c, &SegmentParams::default());
+        assert_eq!(s.len(), 2, "{s:?}");
+        assert_eq!(s[0].direction, Direction::Forward);
+        assert_eq!(s[1].direction, Direction::Backward);
+        assert!((s[0].plateau_speed_m_s - 0.010).abs() < 1e-6);
+        assert!((s[1].plateau_speed_m_s - 0.005).abs() < 1e-6);
+        // Steady parts only: no knot of the dwell at 0 or 100 mm.
+        for sp in &s {
+            for k in sp.first..=sp.last {
+                let zmm = c.value[k] * 1e3;
+                assert!(zmm > 0.05 && zmm < 99.95, "knot {k} at {zmm} mm");
+            }
+        }
+        let zones = zones_between(&c, &s);
+        let kinds: Vec<_> = zones.iter().map(|z| z.kind).collect();
+        assert_eq!(kinds, [ZoneKind::Start, ZoneKind::Reversal, ZoneKind::End]);
+        assert!(zones[1].start_time_s < 11.0 && zones[1].end_time_s > 12.0);
+    }
+
+    #[test]
+    fn dwell_noise_is_not_a_stroke() {
+        let mut c = back_and_forth();
+        // ±1 µm jitter everywhere.
+        for (k, v) in c.value.iter_mut().enumerate() {
+            *v += if k % 2 == 0 { 1e-6 } else { -1e-6 };
+        }
+        let s = find_strokes(&c, &SegmentParams::default());
+        assert_eq!(s.len(), 2);
+    }
+
+    #[test]
+    fn no_motion_no_stroke() {
+        let c = Channel {
+            time_s: (0..100).map(|k| k as f64).collect(),
+            value: vec![0.0; 100],
+        };
+        assert!(find_strokes(&c, &SegmentParams::default()).is_empty());
+    }
+}

@@ -1,0 +1,180 @@
+//! Analytic round trips: a known trajectory and friction, the current from the exact inverse
+//! dynamics of Eq. 5, sampled asynchronously; the estimator must give the friction back.
+use super::*;
+use crate::axis::{AxisParams, ConfigFormat};
+use crate::trace::Channel;
+use rand::{Rng, SeedableRng};
+
+fn axis(lead_mm: f64) -> AxisParams {
+    AxisParams::parse(
+        &format!(
+            "lead_mm = {lead_mm}\ntable_mass_kg = 350\ninertia_kgm2 = 0.003\n\
+             damping_nms_per_rad = 0.004\ntorque_constant_nm_per_a = 1.4\n"
+        ),
+        ConfigFormat::Toml,
+        "test",
+    )
+    .unwrap()
+}
+
+/// Forward at v0·(1 + a·sin ωt) from z = 1 mm.
+struct Motion {
+    v0: f64,
+    a: f64,
+    w: f64,
+}
+
+impl Motion {
+    fn state(&self, t: f64) -> (f64, f64, f64) {
+        let z = 1e-3 + self.v0 * t + self.v0 * self.a / self.w * (1.0 - (self.w * t).cos());
+        let v = self.v0 * (1.0 + self.a * (self.w * t).sin());
+        let acc = self.v0 * self.a * self.w * (self.w * t).cos();
+        (z, v, acc)
+    }
+}
+
+/// Friction magnitude at z: mean trend + orders 0.6, 1, 3 and 8.6 of the lead.
+fn friction(z: f64, lead: f64) -> f64 {
+    let th = 2.0 * std::f64::consts::PI * z / lead;
+    180.0
+        + 4000.0 * z
+        + 6.0 * (0.6 * th + 0.3).sin()
+        + 8.0 * th.sin()
+        + 4.0 * (3.0 * th + 1.0).sin()
+        + 3.0 * (8.6 * th + 2.0).sin()
+}
+
+fn fluctuation_rms() -> f64 {
+    ((36.0 + 64.0 + 16.0 + 9.0) / 2.0f64).sqrt()
+}
+
+/// Jittered sample times from `start` with mean `dt`, some dropped.
+fn times(rng: &mut impl Rng, start: f64, end: f64, dt: f64, drop: f64) -> Vec<f64> {
+    let mut t = start;
+    let mut v = Vec::new();
+    while t < end {
+        if rng.random::<f64>() >= drop {
+            v.push(t);
+        }
+        t += dt * (1.0 + 0.03 * (rng.random::<f64>() - 0.5));
+    }
+    v
+}
+
+fn trace(lead_mm: f64, m: &Motion, dt: f64, duration: f64, seed: u64) -> (Trace, AxisParams) {
+    let ax = axis(lead_mm);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let tz = times(&mut rng, 0.0, duration, dt, 0.05);
+    // The current channel starts later and runs on its own clock.
+    let ti = times(&mut rng, 0.031, duration, dt * 1.01, 0.05);
+    let gain = ax.force_per_torque_n_per_nm() * ax.torque_constant_nm_per_a;
+    let pos = Channel {
+        value: tz.iter().map(|&t| m.state(t).0).collect(),
+        time_s: tz,
+    };
+    let cur = Channel {
+        value: ti
+            .iter()
+            .map(|&t| {
+                let (z, v, a) = m.state(t);
+                (ax.equivalent_mass_kg() * a
+                    + ax.equivalent_damping_n_s_per_m() * v
+                    + friction(z, ax.lead_m()))
+                    / gain
+            })
+            .collect(),
+        time_s: ti,
+    };
+    (
+        Trace {
+            position_m: pos,
+            effort: cur,
+            effort_kind: EffortKind::CurrentA,
+        },
+        ax,
+    )
+}
+
+/// RMS of (estimate − truth) over points at least 2 mm from the stroke ends.
+fn rms_error(s: &StrokeFriction, lead: f64) -> f64 {
+    let (z0, z1) = (s.position_m[0], s.position_m[s.position_m.len() - 1]);
+    let (lo, hi) = (z0.min(z1) + 2e-3, z0.max(z1) - 2e-3);
+    let (mut se, mut n) = (0.0, 0);
+    for (z, f) in s.position_m.iter().zip(&s.friction_n) {
+        if *z >= lo && *z <= hi {
+            se += (f - friction(*z, lead)).powi(2);
+            n += 1;
+        }
+    }
+    (se / n as f64).sqrt()
+}
+
+#[test]
+fn modulated_feed_async_channels_lead_5mm() {
+    // 60 mm/min ± 30 % at 0.5 Hz: inertia force m_eq·a ≈ 5.1e3 kg · 9.4e-4 m/s² ≈ 4.8 N peak.
+    let m = Motion {
+        v0: 1e-3,
+        a: 0.3,
+        w: 2.0 * std::f64::consts::PI * 0.5,
+    };
+    let (tr, ax) = trace(5.0, &m, 0.05, 60.0, 7);
+    let est = estimate(&tr, &ax, &EstimateParams::default()).unwrap();
+    assert_eq!(est.strokes.len(), 1);
+    let s = &est.strokes[0];
+    let err = rms_error(s, ax.lead_m());
+    // Noise-free: within 2 % of the fluctuation RMS.
+    eprintln!(
+        "modulated feed, lead 5 mm: rms error {err:.4} N of {:.2} N",
+        fluctuation_rms()
+    );
+    assert!(err < 0.02 * fluctuation_rms(), "rms error {err} N");
+    // Position grid: absolute multiples of p/1024.
+    let step = ax.lead_m() / 1024.0;
+    for z in s.position_m.iter().take(50) {
+        assert!(((z / step) - (z / step).round()).abs() < 1e-6);
+    }
+    // Without the inertia term the error would be large: the test does see inertia.
+    let naive: f64 = s
+        .friction_n
+        .iter()
+        .zip(&s.accel_m_s2)
+        .map(|(f, a)| (f + ax.equivalent_mass_kg() * a) - f)
+        .map(|d| d * d)
+        .sum::<f64>()
+        / s.friction_n.len() as f64;
+    assert!(naive.sqrt() > 3.0, "inertia RMS {}", naive.sqrt());
+}
+
+#[test]
+fn knot_spline_time_of_position_is_close_too() {
+    let m = Motion {
+        v0: 2e-3,
+        a: 0.0,
+        w: 1.0,
+    };
+    let (tr, ax) = trace(10.0, &m, 0.072, 40.0, 3);
+    let p = EstimateParams {
+        time_of_position: TimeOfPosition::KnotSpline,
+        ..EstimateParams::default()
+    };
+    let est = estimate(&tr, &ax, &p).unwrap();
+    let err = rms_error(&est.strokes[0], ax.lead_m());
+    eprintln!("knot-spline t(z): rms error {err:.4} N");
+    assert!(err < 0.05 * fluctuation_rms(), "rms error {err} N");
+}
+
+#[test]
+fn inversion_is_exact() {
+    let m = Motion {
+        v0: 2e-3,
+        a: 0.2,
+        w: 1.3,
+    };
+    let (tr, ax) = trace(10.0, &m, 0.072, 20.0, 5);
+    let est = estimate(&tr, &ax, &EstimateParams::default()).unwrap();
+    let s = &est.strokes[0];
+    // z(t(Z)) = Z on the spline; against the true motion the spline error is a few nm.
+    for (z, t) in s.position_m.iter().zip(&s.time_s) {
+        assert!((m.state(*t).0 - z).abs() < 5e-9, "{z} at {t}");
+    }
+}

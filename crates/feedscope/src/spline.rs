@@ -1,0 +1,462 @@
+//! Interpolating cubic splines with first and second derivatives.
+//!
+//! The spline is held in moment form: the knots (x_k, y_k) are borrowed and only the second
+//! derivatives m_k = S''(x_k) are stored (8 bytes a knot), found by one O(n) tridiagonal solve.
+//! On [x_k, x_{k+1}] with h = x_{k+1} − x_k, a = x_{k+1} − t, b = t − x_k:
+//!
+//! S(t)   = (m_k a³ + m_{k+1} b³)/(6h) + (y_k/h − m_k h/6)·a + (y_{k+1}/h − m_{k+1} h/6)·b
+//! S'(t)  = (m_{k+1} b² − m_k a²)/(2h) + (y_{k+1} − y_k)/h − (m_{k+1} − m_k)·h/6
+//! S''(t) = (m_k a + m_{k+1} b)/h
+//!
+//! End conditions: not-a-knot (third derivative continuous at x_1 and x_{n−2}, as MATLAB's
+//! `spline`; with 3 knots the parabola through them, with 2 the line) or natural (m = 0 at both
+//! ends). Outside [x_0, x_{n−1}] the end cubics are extended.
+//!
+//! # Reference
+//! Paper 000, Section 3.2 steps (1)-(2): spline interpolation of z(t) and i(t) and the
+//! derivatives z'(t), z''(t).
+//!
+//! # Example
+//! ```
+//! use feedscope::spline::{CubicSpline, EndCondition};
+//! let x = [0.0, 0.7, 1.5, 2.0, 3.1, 4.0, 5.2];
+//! let y: Vec<f64> = x.iter().map(|&x| x * x * x - 2.0 * x).collect();
+//! let s = CubicSpline::new(&x, &y, EndCondition::NotAKnot).unwrap();
+//! // A cubic is reproduced exactly, derivatives included.
+//! let (v, d1, d2) = s.eval_all(5.0);
+//! assert!((v - 115.0).abs() < 1e-9 && (d1 - 73.0).abs() < 1e-9 && (d2 - 30.0).abs() < 1e-9);
+//! ```
+
+/// Boundary condition at both ends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EndCondition {
+    /// Third derivative continuous across the second and the second-to-last knot (MATLAB).
+    #[default]
+    NotAKnot,
+    /// Zero second derivative at both ends.
+    Natural,
+}
+
+/// Why a spline could not be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SplineError {
+    /// x and y differ in length.
+    #[error("x has {x} values but y has {y}")]
+    LengthMismatch {
+        /// Length of x.
+        x: usize,
+        /// Length of y.
+        y: usize,
+    },
+    /// Fewer than two knots.
+    #[error("a spline needs at least 2 knots, got {0}")]
+    TooFewKnots(usize),
+    /// x does not strictly increase.
+    #[error("knot abscissae must strictly increase: x[{index}] = {value} after {previous}")]
+    NotIncreasing {
+        /// Index of the offending knot.
+        index: usize,
+        /// Its abscissa.
+        value: f64,
+        /// The previous abscissa.
+        previous: f64,
+    },
+    /// A knot is NaN or infinite.
+    #[error("knot {index} is not finite")]
+    NonFinite {
+        /// Index of the offending knot.
+        index: usize,
+    },
+}
+
+/// A cubic spline through borrowed knots; see the module docs for the formulas.
+#[derive(Debug, Clone)]
+pub struct CubicSpline<'a> {
+    x: &'a [f64],
+    y: &'a [f64],
+    m: Vec<f64>,
+}
+
+impl<'a> CubicSpline<'a> {
+    /// Build the spline through (x_k, y_k).
+    ///
+    /// # Errors
+    /// [`SplineError`] when lengths differ, fewer than 2 knots are given, x does not strictly
+    /// increase, or a value is not finite.
+    pub fn new(x: &'a [f64], y: &'a [f64], end: EndCondition) -> Result<Self, SplineError> {
+        let mut scratch = Vec::new();
+        Self::with_scratch(x, y, end, &mut scratch)
+    }
+
+    /// As [`CubicSpline::new`], reusing `scratch` for the tridiagonal sweep.
+    ///
+    /// # Errors
+    /// As [`CubicSpline::new`].
+    pub fn with_scratch(
+        x: &'a [f64],
+        y: &'a [f64],
+        end: EndCondition,
+        scratch: &mut Vec<f64>,
+    ) -> Result<Self, SplineError> {
+        let n = x.len();
+        if y.len() != n {
+            return Err(SplineError::LengthMismatch { x: n, y: y.len() });
+        }
+        if n < 2 {
+            return Err(SplineError::TooFewKnots(n));
+        }
+        for k in 0..n {
+            if !(x[k].is_finite() && y[k].is_finite()) {
+                return Err(SplineError::NonFinite { index: k });
+            }
+            if k > 0 && x[k] <= x[k - 1] {
+                return Err(SplineError::NotIncreasing {
+                    index: k,
+                    value: x[k],
+                    previous: x[k - 1],
+                });
+            }
+        }
+        let m = moments(x, y, end, scratch);
+        Ok(Self { x, y, m })
+    }
+
+    /// The knots' abscissae.
+    pub fn x(&self) -> &[f64] {
+        self.x
+    }
+
+    /// The knots' ordinates.
+    pub fn y(&self) -> &[f64] {
+        self.y
+    }
+
+    /// Second derivatives at the knots.
+    pub fn moments(&self) -> &[f64] {
+        &self.m
+    }
+
+    /// Index k of the interval [x_k, x_{k+1}] holding t (clamped to the end intervals).
+    #[inline]
+    pub fn interval(&self, t: f64) -> usize {
+        let n = self.x.len();
+        let k = self.x.partition_point(|&xi| xi <= t);
+        k.saturating_sub(1).min(n - 2)
+    }
+
+    /// Value at t.
+    #[inline]
+    pub fn eval(&self, t: f64) -> f64 {
+        self.eval_in(self.interval(t), t).0
+    }
+
+    /// Value, first and second derivative at t.
+    #[inline]
+    pub fn eval_all(&self, t: f64) -> (f64, f64, f64) {
+        self.eval_in(self.interval(t), t)
+    }
+
+    /// Value, first and second derivative at t using the cubic of interval k.
+    ///
+    /// # Panics
+    /// When `k + 1` is not a knot index (a caller's mistake).
+    #[inline]
+    pub fn eval_in(&self, k: usize, t: f64) -> (f64, f64, f64) {
+        let (x0, x1) = (self.x[k], self.x[k + 1]);
+        let (y0, y1) = (self.y[k], self.y[k + 1]);
+        let (m0, m1) = (self.m[k], self.m[k + 1]);
+        let h = x1 - x0;
+        let a = x1 - t;
+        let b = t - x0;
+        let inv_h = 1.0 / h;
+        let c0 = y0 * inv_h - m0 * h / 6.0;
+        let c1 = y1 * inv_h - m1 * h / 6.0;
+        let v = (m0 * a * a * a + m1 * b * b * b) * inv_h / 6.0 + c0 * a + c1 * b;
+        let d1 = (m1 * b * b - m0 * a * a) * 0.5 * inv_h + c1 - c0;
+        let d2 = (m0 * a + m1 * b) * inv_h;
+        (v, d1, d2)
+    }
+
+    /// A cursor for queries at non-decreasing t: O(1) amortised per query.
+    pub fn cursor(&self) -> Cursor<'_, 'a> {
+        Cursor { s: self, k: 0 }
+    }
+}
+
+/// Walks a spline's intervals for queries in non-decreasing order.
+#[derive(Debug)]
+pub struct Cursor<'s, 'a> {
+    s: &'s CubicSpline<'a>,
+    k: usize,
+}
+
+impl Cursor<'_, '_> {
+    /// Move to the interval holding t (forward only; a smaller t falls back to a search).
+    #[inline]
+    pub fn seek(&mut self, t: f64) -> usize {
+        let x = self.s.x;
+        let last = x.len() - 2;
+        if t < x[self.k] {
+            self.k = self.s.interval(t);
+            return self.k;
+        }
+        // A few linear steps, then a galloping search for big jumps.
+        let mut steps = 0;
+        while self.k < last && t >= x[self.k + 1] {
+            self.k += 1;
+            steps += 1;
+            if steps == 8 {
+                let rest = &x[self.k + 1..];
+                let j = rest.partition_point(|&xi| xi <= t);
+                self.k = (self.k + j).min(last);
+                break;
+            }
+        }
+        self.k
+    }
+
+    /// Value, first and second derivative at t.
+    #[inline]
+    pub fn eval_all(&mut self, t: f64) -> (f64, f64, f64) {
+        let k = self.seek(t);
+        self.s.eval_in(k, t)
+    }
+
+    /// Value at t.
+    #[inline]
+    pub fn eval(&mut self, t: f64) -> f64 {
+        self.eval_all(t).0
+    }
+}
+
+/// Solve for the second derivatives at the knots (x strictly increasing, n ≥ 2).
+fn moments(x: &[f64], y: &[f64], end: EndCondition, cp: &mut Vec<f64>) -> Vec<f64> {
+    let n = x.len();
+    let mut m = vec![0.0; n];
+    if n == 2 {
+        return m; // a straight line
+    }
+    let h = |k: usize| x[k + 1] - x[k];
+    let d = |k: usize| (y[k + 1] - y[k]) / h(k);
+    if n == 3 && end == EndCondition::NotAKnot {
+        // Not-a-knot through 3 points is the interpolating parabola (MATLAB does the same).
+        let c = 2.0 * (d(1) - d(0)) / (x[2] - x[0]);
+        m.fill(c);
+        return m;
+    }
+    // Interior rows k = 1..=n−2: sub·m_{k−1} + diag·m_k + sup·m_{k+1} = r_k, with the
+    // not-a-knot ends eliminated into rows 1 and n−2.
+    let nak = end == EndCondition::NotAKnot;
+    let row = |k: usize| -> (f64, f64, f64, f64) {
+        let (h0, h1) = (h(k - 1), h(k));
+        let r = 6.0 * (d(k) - d(k - 1));
+        let (mut sub, mut diag, mut sup) = (h0, 2.0 * (h0 + h1), h1);
+        if nak && k == 1 {
+            // m_0 = ((h0 + h1)·m_1 − h0·m_2)/h1
+            diag += h0 * (h0 + h1) / h1;
+            sup -= h0 * h0 / h1;
+            sub = 0.0;
+        }
+        if nak && k == n - 2 {
+            // m_{n−1} = ((a + b)·m_{n−2} − b·m_{n−3})/a with a = h_{n−3}, b = h_{n−2}
+            diag += h1 * (h0 + h1) / h0;
+            sub -= h1 * h1 / h0;
+            sup = 0.0;
+        }
+        (sub, diag, sup, r)
+    };
+    // Thomas algorithm: c' in `cp`, d' in `m`. Rows are diagonally dominant (also the
+    // not-a-knot rows: |h1 − h0²/h1| < (h0 + h1)(2 + h0/h1)), so no pivoting is needed.
+    cp.clear();
+    cp.resize(n, 0.0);
+    for k in 1..n - 1 {
+        let (sub, diag, sup, r) = row(k);
+        let denom = diag - sub * cp[k - 1];
+        cp[k] = sup / denom;
+        m[k] = (r - sub * m[k - 1]) / denom;
+    }
+    for k in (1..n - 2).rev() {
+        m[k] -= cp[k] * m[k + 1];
+    }
+    if nak {
+        let (h0, h1) = (h(0), h(1));
+        m[0] = ((h0 + h1) * m[1] - h0 * m[2]) / h1;
+        let (a, b) = (h(n - 3), h(n - 2));
+        m[n - 1] = ((a + b) * m[n - 2] - b * m[n - 3]) / a;
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Dense reference: assemble the full n×n system and solve it with nalgebra's LU.
+    fn dense_moments(x: &[f64], y: &[f64], end: EndCondition) -> Vec<f64> {
+        let n = x.len();
+        let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
+        let mut r = nalgebra::DVector::<f64>::zeros(n);
+        let h = |k: usize| x[k + 1] - x[k];
+        for k in 1..n - 1 {
+            a[(k, k - 1)] = h(k - 1);
+            a[(k, k)] = 2.0 * (h(k - 1) + h(k));
+            a[(k, k + 1)] = h(k);
+            r[k] = 6.0 * ((y[k + 1] - y[k]) / h(k) - (y[k] - y[k - 1]) / h(k - 1));
+        }
+        match end {
+            EndCondition::Natural => {
+                a[(0, 0)] = 1.0;
+                a[(n - 1, n - 1)] = 1.0;
+            }
+            EndCondition::NotAKnot => {
+                // (m1 − m0)/h0 = (m2 − m1)/h1
+                a[(0, 0)] = -1.0 / h(0);
+                a[(0, 1)] = 1.0 / h(0) + 1.0 / h(1);
+                a[(0, 2)] = -1.0 / h(1);
+                a[(n - 1, n - 3)] = -1.0 / h(n - 3);
+                a[(n - 1, n - 2)] = 1.0 / h(n - 3) + 1.0 / h(n - 2);
+                a[(n - 1, n - 1)] = -1.0 / h(n - 2);
+            }
+        }
+        a.lu().solve(&r).unwrap().iter().copied().collect()
+    }
+
+    #[test]
+    fn cubic_reproduced_exactly_on_uneven_knots() {
+        let x = [0.0, 0.7, 1.5, 2.0, 3.1, 4.0, 5.2];
+        let f = |t: f64| (t * t * t - 2.0 * t, 3.0 * t * t - 2.0, 6.0 * t);
+        let y: Vec<f64> = x.iter().map(|&t| f(t).0).collect();
+        let s = CubicSpline::new(&x, &y, EndCondition::NotAKnot).unwrap();
+        for k in 0..=104 {
+            let t = -0.1 + 0.05 * k as f64;
+            let (v, d1, d2) = s.eval_all(t);
+            let (ev, ed1, ed2) = f(t);
+            // Tolerance: a few ulps of the largest magnitude involved (~150).
+            assert!((v - ev).abs() < 1e-11, "t={t}: {v} vs {ev}");
+            assert!((d1 - ed1).abs() < 1e-11, "t={t}");
+            assert!((d2 - ed2).abs() < 1e-11, "t={t}");
+        }
+    }
+
+    #[test]
+    fn few_knots() {
+        let x = [0.0, 1.0];
+        let y = [1.0, 3.0];
+        let s = CubicSpline::new(&x, &y, EndCondition::NotAKnot).unwrap();
+        assert!((s.eval(0.5) - 2.0).abs() < 1e-15);
+        let x = [0.0, 1.0, 3.0];
+        let y: Vec<f64> = x.iter().map(|&t| 2.0 * t * t - t + 1.0).collect();
+        let s = CubicSpline::new(&x, &y, EndCondition::NotAKnot).unwrap();
+        let (v, d1, d2) = s.eval_all(2.0);
+        assert!((v - 7.0).abs() < 1e-12 && (d1 - 7.0).abs() < 1e-12 && (d2 - 4.0).abs() < 1e-12);
+        assert!(matches!(
+            CubicSpline::new(&x[..1], &y[..1], EndCondition::Natural),
+            Err(SplineError::TooFewKnots(1))
+        ));
+    }
+
+    #[test]
+    fn bad_knots_are_errors() {
+        let y = [0.0; 4];
+        assert!(matches!(
+            CubicSpline::new(&[0.0, 1.0, 1.0, 2.0], &y, EndCondition::NotAKnot),
+            Err(SplineError::NotIncreasing { index: 2, .. })
+        ));
+        assert!(matches!(
+            CubicSpline::new(&[0.0, 1.0, f64::NAN, 2.0], &y, EndCondition::NotAKnot),
+            Err(SplineError::NonFinite { index: 2 })
+        ));
+        assert!(matches!(
+            CubicSpline::new(&[0.0, 1.0], &y, EndCondition::NotAKnot),
+            Err(SplineError::LengthMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn natural_ends_have_zero_curvature_and_keep_lines() {
+        let x = [0.0, 0.3, 1.1, 1.5, 2.7];
+        let y = [1.0, -1.0, 2.0, 0.5, 0.0];
+        let s = CubicSpline::new(&x, &y, EndCondition::Natural).unwrap();
+        assert!(s.moments()[0].abs() < 1e-15 && s.moments()[4].abs() < 1e-15);
+        let yl: Vec<f64> = x.iter().map(|&t| 3.0 * t - 1.0).collect();
+        let s = CubicSpline::new(&x, &yl, EndCondition::Natural).unwrap();
+        assert!(s.moments().iter().all(|m| m.abs() < 1e-12));
+    }
+
+    /// Error of value, 1st and 2nd derivative of the spline of sin on a uniform grid.
+    fn sin_errors(n: usize) -> (f64, f64, f64) {
+        let x: Vec<f64> = (0..n).map(|k| 3.0 * k as f64 / (n - 1) as f64).collect();
+        let y: Vec<f64> = x.iter().map(|t| t.sin()).collect();
+        let s = CubicSpline::new(&x, &y, EndCondition::NotAKnot).unwrap();
+        let mut e = (0.0f64, 0.0f64, 0.0f64);
+        let mut c = s.cursor();
+        for k in 0..3000 {
+            let t = 3.0 * (k as f64 + 0.5) / 3000.0;
+            let (v, d1, d2) = c.eval_all(t);
+            e.0 = e.0.max((v - t.sin()).abs());
+            e.1 = e.1.max((d1 - t.cos()).abs());
+            e.2 = e.2.max((d2 + t.sin()).abs());
+        }
+        e
+    }
+
+    #[test]
+    fn derivatives_converge_at_expected_order() {
+        // Halving h divides the error by 2^4, 2^3, 2^2 for S, S', S''.
+        let (a, b) = (sin_errors(41), sin_errors(81));
+        let order = |ea: f64, eb: f64| (ea / eb).log2();
+        assert!(order(a.0, b.0) > 3.7, "value order {}", order(a.0, b.0));
+        assert!(order(a.1, b.1) > 2.7, "slope order {}", order(a.1, b.1));
+        assert!(order(a.2, b.2) > 1.8, "curvature order {}", order(a.2, b.2));
+    }
+
+    #[test]
+    fn cursor_agrees_with_search_and_goes_back() {
+        let x: Vec<f64> = (0..200).map(|k| (k as f64).powf(1.3)).collect();
+        let y: Vec<f64> = x.iter().map(|t| (0.1 * t).cos()).collect();
+        let s = CubicSpline::new(&x, &y, EndCondition::NotAKnot).unwrap();
+        let mut c = s.cursor();
+        for &t in &[0.5, 0.6, 300.0, 301.0, 50.0, 900.0, 2.0] {
+            let (a, b, cc) = c.eval_all(t);
+            let (d, e, f) = s.eval_all(t);
+            assert!(
+                (a - d).abs() + (b - e).abs() + (cc - f).abs() < 1e-13,
+                "t={t}"
+            );
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn matches_dense_solve_and_passes_through_knots(
+            steps in prop::collection::vec(0.01f64..2.0, 3..40),
+            ys in prop::collection::vec(-100.0f64..100.0, 41),
+            natural in any::<bool>(),
+        ) {
+            let mut x = vec![0.0];
+            for s in &steps { x.push(x.last().unwrap() + s); }
+            let y = &ys[..x.len()];
+            let end = if natural { EndCondition::Natural } else { EndCondition::NotAKnot };
+            let s = CubicSpline::new(&x, y, end).unwrap();
+            let reference = dense_moments(&x, y, end);
+            // Conditioning: spacing ratios up to 200 and |y| ≤ 100 give |m| up to ~1e7;
+            // allow 1e-9 relative to that scale.
+            let scale = reference.iter().fold(1.0f64, |a, v| a.max(v.abs()));
+            for (a, b) in s.moments().iter().zip(&reference) {
+                prop_assert!((a - b).abs() <= 1e-9 * scale, "{a} vs {b}");
+            }
+            for k in 0..x.len() {
+                prop_assert!((s.eval(x[k]) - y[k]).abs() <= 1e-9 * (1.0 + y[k].abs()));
+            }
+            // First derivative continuous across interior knots.
+            for k in 1..x.len() - 1 {
+                let left = s.eval_in(k - 1, x[k]).1;
+                let right = s.eval_in(k, x[k]).1;
+                prop_assert!((left - right).abs() <= 1e-7 * (1.0 + scale));
+            }
+        }
+    }
+}

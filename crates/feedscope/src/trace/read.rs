@@ -1,0 +1,1076 @@
+//! Reading trace CSV files fast and strictly.
+//!
+//! The file is read in blocks of a few tens of megabytes; each block is cut at line ends into
+//! one piece per worker thread and the pieces are parsed in parallel, then appended in order.
+//! Memory stays at the parsed samples (16 bytes each) plus one block. Errors carry the file
+//! name and the 1-based line number counted over the whole file (comments and header included).
+
+use std::fs::File;
+use std::io::Read;
+use std::path::Path;
+
+use super::{Channel, EffortKind, Trace};
+
+/// Why a trace could not be read. Every variant names the input and, where it applies, the line.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TraceError {
+    /// The file could not be opened or read.
+    #[error("{source_name}: cannot read: {error}")]
+    Io {
+        /// The file.
+        source_name: String,
+        /// The operating system's error.
+        error: std::io::Error,
+    },
+    /// The input has no header line (empty, or only comments).
+    #[error("{source_name}: no header line found (the file is empty or holds only comments)")]
+    Empty {
+        /// The file.
+        source_name: String,
+    },
+    /// The header does not describe a known layout.
+    #[error("{source_name}:{line}: bad header `{found}`: {reason}")]
+    BadHeader {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// The header as read (shortened).
+        found: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A row has the wrong number of fields.
+    #[error("{source_name}:{line}: expected {expected} comma-separated fields, found {found}")]
+    FieldCount {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// Fields in the header.
+        expected: usize,
+        /// Fields in this row.
+        found: usize,
+    },
+    /// A field that must be a number is not.
+    #[error("{source_name}:{line}: column `{column}`: `{text}` is not a number")]
+    NotANumber {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// Column name.
+        column: String,
+        /// The text found (shortened).
+        text: String,
+    },
+    /// A number is NaN or infinite.
+    #[error("{source_name}:{line}: column `{column}`: `{text}` is not finite")]
+    NonFinite {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// Column name.
+        column: String,
+        /// The text found.
+        text: String,
+    },
+    /// Time does not strictly increase within a channel.
+    #[error(
+        "{source_name}:{line}: channel `{channel}`: time {time_s} s does not come after the \
+         previous sample at {previous_time_s} s (time must strictly increase within a channel)"
+    )]
+    TimeNotIncreasing {
+        /// The file.
+        source_name: String,
+        /// Channel name.
+        channel: String,
+        /// 1-based line number.
+        line: u64,
+        /// The offending time (s).
+        time_s: f64,
+        /// The previous time of this channel (s).
+        previous_time_s: f64,
+    },
+    /// A required channel is absent.
+    #[error("{source_name}: no `{channel}` samples found (channels seen: {found})")]
+    MissingChannel {
+        /// The file.
+        source_name: String,
+        /// The channel wanted, e.g. `position_mm`.
+        channel: String,
+        /// Channel names that were present.
+        found: String,
+    },
+    /// Both current and torque are present and no choice was made.
+    #[error(
+        "{source_name}: both `current_a` and `torque_nm` are present; choose one \
+         (option `effort`)"
+    )]
+    AmbiguousEffort {
+        /// The file.
+        source_name: String,
+    },
+    /// Too few samples to interpolate a channel.
+    #[error(
+        "{source_name}: channel `{channel}` has {found} samples, at least {needed} are needed"
+    )]
+    TooFewSamples {
+        /// The file.
+        source_name: String,
+        /// Channel name.
+        channel: String,
+        /// Samples found.
+        found: usize,
+        /// Minimum needed.
+        needed: usize,
+    },
+    /// The axis never moves.
+    #[error(
+        "{source_name}: the position never moves (it spans only {range_mm} mm); \
+         friction needs motion"
+    )]
+    NoMotion {
+        /// The file.
+        source_name: String,
+        /// Range of the position channel (mm).
+        range_mm: f64,
+    },
+}
+
+/// Options for reading a trace.
+#[derive(Debug, Clone, Default)]
+pub struct ReadOptions {
+    /// Which effort channel to use when a file has both current and torque; `None` takes the
+    /// one present and fails when both are.
+    pub effort: Option<EffortKind>,
+    /// Worker threads for parsing; `0` = the rayon pool size.
+    pub threads: usize,
+}
+
+/// Facts about a file that was read successfully.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReadReport {
+    /// Rows of the long layout whose channel is not one feedscope uses.
+    pub ignored_rows: u64,
+    /// Names of the ignored channels (at most 16 listed).
+    pub ignored_channels: Vec<String>,
+    /// Lines in the file.
+    pub lines: u64,
+    /// The layout detected.
+    pub layout: Option<super::Layout>,
+}
+
+/// Fewest samples a channel needs (a not-a-knot cubic needs four knots).
+pub const MIN_SAMPLES: usize = 4;
+const BLOCK_BYTES: usize = 32 << 20;
+
+/// Read a trace file (CSV, either layout).
+///
+/// # Errors
+/// Any [`TraceError`]: unreadable file, bad header, malformed or non-finite numbers, time not
+/// increasing within a channel, a missing channel, too few samples, or no motion.
+pub fn read_trace_file(path: &Path, opts: &ReadOptions) -> Result<(Trace, ReadReport), TraceError> {
+    let name = path.display().to_string();
+    let io = |error| TraceError::Io {
+        source_name: name.clone(),
+        error,
+    };
+    let mut file = File::open(path).map_err(io)?;
+    let size_hint = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let mut reader = BlockParser::new(name.clone(), opts, size_hint);
+    let mut buf: Vec<u8> = Vec::with_capacity(BLOCK_BYTES.min(size_hint as usize + 1) + 64);
+    let mut eof = false;
+    while !eof {
+        // Fill the buffer up to one block after the carried-over partial line.
+        let start = buf.len();
+        let want = BLOCK_BYTES.max(start + 1);
+        buf.resize(want, 0);
+        let mut filled = start;
+        while filled < want {
+            let n = file.read(&mut buf[filled..]).map_err(io)?;
+            if n == 0 {
+                eof = true;
+                break;
+            }
+            filled += n;
+        }
+        buf.truncate(filled);
+        let consumed = reader.feed(&buf, eof)?;
+        buf.drain(..consumed);
+    }
+    reader.finish()
+}
+
+/// Parse a trace held in memory; `source_name` labels errors.
+///
+/// # Errors
+/// As [`read_trace_file`].
+pub fn parse_trace(
+    bytes: &[u8],
+    source_name: &str,
+    opts: &ReadOptions,
+) -> Result<(Trace, ReadReport), TraceError> {
+    let mut reader = BlockParser::new(source_name.to_string(), opts, bytes.len() as u64);
+    let consumed = reader.feed(bytes, true)?;
+    debug_assert_eq!(consumed, bytes.len());
+    reader.finish()
+}
+
+/// Which channel a long-layout row belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Slot {
+    Position,
+    Current,
+    Torque,
+}
+
+#[derive(Debug, Clone)]
+enum Header {
+    /// `time, channel, value`.
+    Long { time_scale: f64 },
+    /// Column indices.
+    Wide {
+        fields: usize,
+        time: usize,
+        time_scale: f64,
+        position: usize,
+        position_scale: f64,
+        effort: usize,
+        effort_kind: EffortKind,
+        names: Vec<String>,
+    },
+}
+
+/// Samples of one piece, with the local line of each channel's first sample.
+#[derive(Default)]
+struct Piece {
+    pos: Channel,
+    cur: Channel,
+    tor: Channel,
+    first_line: [u64; 3],
+    lines: u64,
+    ignored_rows: u64,
+    ignored_names: Vec<String>,
+}
+
+struct BlockParser {
+    name: String,
+    effort_choice: Option<EffortKind>,
+    threads: usize,
+    size_hint: u64,
+    terminator: Option<u8>,
+    header: Option<Header>,
+    lines: u64,
+    pos: Channel,
+    cur: Channel,
+    tor: Channel,
+    ignored_rows: u64,
+    ignored_names: Vec<String>,
+    bom_checked: bool,
+}
+
+fn shorten(b: &[u8]) -> String {
+    let s = String::from_utf8_lossy(b);
+    let s = s.trim();
+    if s.chars().count() > 60 {
+        format!("{}…", s.chars().take(60).collect::<String>())
+    } else {
+        s.to_string()
+    }
+}
+
+impl BlockParser {
+    fn new(name: String, opts: &ReadOptions, size_hint: u64) -> Self {
+        let threads = if opts.threads == 0 {
+            rayon::current_num_threads().max(1)
+        } else {
+            opts.threads
+        };
+        Self {
+            name,
+            effort_choice: opts.effort,
+            threads,
+            size_hint,
+            terminator: None,
+            header: None,
+            lines: 0,
+            pos: Channel::default(),
+            cur: Channel::default(),
+            tor: Channel::default(),
+            ignored_rows: 0,
+            ignored_names: Vec::new(),
+            bom_checked: false,
+        }
+    }
+
+    /// Parse all complete lines of `buf` (all of it when `eof`); returns the bytes consumed.
+    fn feed(&mut self, buf: &[u8], eof: bool) -> Result<usize, TraceError> {
+        let mut off = 0;
+        if !self.bom_checked && (buf.len() >= 3 || eof) {
+            self.bom_checked = true;
+            if buf.starts_with(&[0xEF, 0xBB, 0xBF]) {
+                off = 3;
+            }
+        }
+        let term = *self.terminator.get_or_insert_with(|| {
+            // A file with bare CR line ends (old Mac style) has no LF at all.
+            if memchr::memchr(b'\n', buf).is_none() && memchr::memchr(b'\r', buf).is_some() {
+                b'\r'
+            } else {
+                b'\n'
+            }
+        });
+        // Only complete lines now; the rest waits for the next block.
+        let end = if eof {
+            buf.len()
+        } else {
+            match memchr::memrchr(term, buf) {
+                Some(k) => k + 1,
+                None => return Ok(off),
+            }
+        };
+        // Header first: skip comments and blank lines.
+        while self.header.is_none() && off < end {
+            let line_end = memchr::memchr(term, &buf[off..end]).map_or(end, |k| off + k);
+            let line = trim_line(&buf[off..line_end]);
+            self.lines += 1;
+            off = (line_end + 1).min(end);
+            if line.is_empty() || line[0] == b'#' {
+                continue;
+            }
+            self.header = Some(self.parse_header(line)?);
+            if let Some(Header::Wide { .. }) = self.header {
+                let est = (self.size_hint / 24) as usize;
+                self.pos.time_s.reserve(est);
+                self.pos.value.reserve(est);
+            }
+        }
+        let Some(header) = self.header.clone() else {
+            return Ok(end);
+        };
+        if off >= end {
+            return Ok(end);
+        }
+        // Cut [off, end) into pieces at line ends and parse them in parallel.
+        let body = &buf[off..end];
+        let n = if body.len() < (1 << 20) {
+            1
+        } else {
+            self.threads
+        };
+        let mut cuts = vec![0usize];
+        for k in 1..n {
+            let target = body.len() * k / n;
+            let prev = *cuts.last().unwrap_or(&0);
+            if target <= prev {
+                continue;
+            }
+            match memchr::memchr(term, &body[target..]) {
+                Some(j) if target + j + 1 < body.len() => cuts.push(target + j + 1),
+                _ => break,
+            }
+        }
+        cuts.push(body.len());
+        let pieces: Vec<&[u8]> = cuts.windows(2).map(|w| &body[w[0]..w[1]]).collect();
+        let results: Vec<Result<Piece, (u64, TraceError)>> = if pieces.len() == 1 {
+            vec![parse_piece(pieces[0], term, &header, &self.name)]
+        } else {
+            use rayon::prelude::*;
+            pieces
+                .par_iter()
+                .map(|p| parse_piece(p, term, &header, &self.name))
+                .collect()
+        };
+        for r in results {
+            let piece = r.map_err(|(local, e)| relocate(e, self.lines + local))?;
+            self.append(piece)?;
+        }
+        Ok(end)
+    }
+
+    fn parse_header(&mut self, line: &[u8]) -> Result<Header, TraceError> {
+        let text = String::from_utf8_lossy(line);
+        let names: Vec<String> = text
+            .split(',')
+            .map(|s| s.trim().trim_matches('"').to_ascii_lowercase())
+            .collect();
+        let bad = |reason: String| TraceError::BadHeader {
+            source_name: self.name.clone(),
+            line: self.lines,
+            found: shorten(line),
+            reason,
+        };
+        let time = names
+            .iter()
+            .position(|n| n == "time_s" || n == "time_ms")
+            .ok_or_else(|| {
+                bad("the first header needs a time column `time_s` or `time_ms`".into())
+            })?;
+        let time_scale = if names[time] == "time_ms" { 1e-3 } else { 1.0 };
+        if names.len() == 3 && names[1] == "channel" && names[2] == "value" && time == 0 {
+            return Ok(Header::Long { time_scale });
+        }
+        let position = names
+            .iter()
+            .position(|n| n == "position_mm" || n == "position_m")
+            .ok_or_else(|| {
+                bad(
+                    "expected `time_s,channel,value` (long layout) or a `position_mm` column \
+                     (wide layout)"
+                        .into(),
+                )
+            })?;
+        let position_scale = if names[position] == "position_mm" {
+            1e-3
+        } else {
+            1.0
+        };
+        let cur = names.iter().position(|n| n == "current_a");
+        let tor = names.iter().position(|n| n == "torque_nm");
+        let (effort, effort_kind) = match (cur, tor, self.effort_choice) {
+            (Some(c), None, None | Some(EffortKind::CurrentA)) => (c, EffortKind::CurrentA),
+            (None, Some(t), None | Some(EffortKind::TorqueNm)) => (t, EffortKind::TorqueNm),
+            (Some(c), Some(_), Some(EffortKind::CurrentA)) => (c, EffortKind::CurrentA),
+            (Some(_), Some(t), Some(EffortKind::TorqueNm)) => (t, EffortKind::TorqueNm),
+            (Some(_), Some(_), None) => {
+                return Err(TraceError::AmbiguousEffort {
+                    source_name: self.name.clone(),
+                })
+            }
+            (_, _, Some(k)) => {
+                return Err(TraceError::MissingChannel {
+                    source_name: self.name.clone(),
+                    channel: k.column().into(),
+                    found: names.join(", "),
+                })
+            }
+            (None, None, None) => {
+                return Err(bad("no `current_a` or `torque_nm` column".into()));
+            }
+        };
+        Ok(Header::Wide {
+            fields: names.len(),
+            time,
+            time_scale,
+            position,
+            position_scale,
+            effort,
+            effort_kind,
+            names,
+        })
+    }
+
+    fn append(&mut self, piece: Piece) -> Result<(), TraceError> {
+        let base = self.lines;
+        let chans = [
+            (&mut self.pos, piece.pos, "position"),
+            (&mut self.cur, piece.cur, "current_a"),
+            (&mut self.tor, piece.tor, "torque_nm"),
+        ];
+        for (k, (dst, src, name)) in chans.into_iter().enumerate() {
+            if let (Some(&prev), Some(&first)) = (dst.time_s.last(), src.time_s.first()) {
+                if first.partial_cmp(&prev) != Some(std::cmp::Ordering::Greater) {
+                    return Err(TraceError::TimeNotIncreasing {
+                        source_name: self.name.clone(),
+                        channel: name.into(),
+                        line: base + piece.first_line[k],
+                        time_s: first,
+                        previous_time_s: prev,
+                    });
+                }
+            }
+            if dst.time_s.is_empty() {
+                *dst = src;
+            } else {
+                dst.time_s.extend_from_slice(&src.time_s);
+                dst.value.extend_from_slice(&src.value);
+            }
+        }
+        self.lines += piece.lines;
+        self.ignored_rows += piece.ignored_rows;
+        for n in piece.ignored_names {
+            if self.ignored_names.len() < 16 && !self.ignored_names.contains(&n) {
+                self.ignored_names.push(n);
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> Result<(Trace, ReadReport), TraceError> {
+        let name = self.name;
+        let header = self.header.ok_or_else(|| TraceError::Empty {
+            source_name: name.clone(),
+        })?;
+        let (effort, effort_kind, layout) = match header {
+            Header::Wide { effort_kind, .. } => {
+                let ch = match effort_kind {
+                    EffortKind::CurrentA => self.cur,
+                    EffortKind::TorqueNm => self.tor,
+                };
+                (ch, effort_kind, super::Layout::Wide)
+            }
+            Header::Long { .. } => {
+                let seen = || {
+                    let mut v = Vec::new();
+                    if !self.pos.is_empty() {
+                        v.push("position");
+                    }
+                    if !self.cur.is_empty() {
+                        v.push("current_a");
+                    }
+                    if !self.tor.is_empty() {
+                        v.push("torque_nm");
+                    }
+                    let mut s: Vec<String> = v.into_iter().map(String::from).collect();
+                    s.extend(self.ignored_names.iter().cloned());
+                    if s.is_empty() {
+                        "none".to_string()
+                    } else {
+                        s.join(", ")
+                    }
+                };
+                let choice = match (self.cur.is_empty(), self.tor.is_empty(), self.effort_choice) {
+                    (_, _, Some(k)) => k,
+                    (false, true, None) => EffortKind::CurrentA,
+                    (true, false, None) => EffortKind::TorqueNm,
+                    (false, false, None) => {
+                        return Err(TraceError::AmbiguousEffort { source_name: name })
+                    }
+                    (true, true, None) => {
+                        return Err(TraceError::MissingChannel {
+                            source_name: name,
+                            channel: "current_a or torque_nm".into(),
+                            found: seen(),
+                        })
+                    }
+                };
+                let ch = match choice {
+                    EffortKind::CurrentA => &self.cur,
+                    EffortKind::TorqueNm => &self.tor,
+                };
+                if ch.is_empty() {
+                    return Err(TraceError::MissingChannel {
+                        source_name: name,
+                        channel: choice.column().into(),
+                        found: seen(),
+                    });
+                }
+                if self.pos.is_empty() {
+                    return Err(TraceError::MissingChannel {
+                        source_name: name,
+                        channel: "position_mm".into(),
+                        found: seen(),
+                    });
+                }
+                let ch = match choice {
+                    EffortKind::CurrentA => self.cur,
+                    EffortKind::TorqueNm => self.tor,
+                };
+                (ch, choice, super::Layout::Long)
+            }
+        };
+        let position_m = self.pos;
+        for (ch, label) in [(&position_m, "position"), (&effort, effort_kind.column())] {
+            if ch.len() < MIN_SAMPLES {
+                return Err(TraceError::TooFewSamples {
+                    source_name: name,
+                    channel: label.into(),
+                    found: ch.len(),
+                    needed: MIN_SAMPLES,
+                });
+            }
+        }
+        let (lo, hi) = position_m
+            .value
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        // Below a nanometre nothing measurable moved.
+        if hi - lo <= 1e-9 {
+            return Err(TraceError::NoMotion {
+                source_name: name,
+                range_mm: (hi - lo) * 1e3,
+            });
+        }
+        let report = ReadReport {
+            ignored_rows: self.ignored_rows,
+            ignored_channels: self.ignored_names,
+            lines: self.lines,
+            layout: Some(layout),
+        };
+        Ok((
+            Trace {
+                position_m,
+                effort,
+                effort_kind,
+            },
+            report,
+        ))
+    }
+}
+
+/// Put the file-global line number into an error raised with a piece-local one.
+fn relocate(e: TraceError, line_abs: u64) -> TraceError {
+    match e {
+        TraceError::FieldCount {
+            source_name,
+            expected,
+            found,
+            ..
+        } => TraceError::FieldCount {
+            source_name,
+            line: line_abs,
+            expected,
+            found,
+        },
+        TraceError::NotANumber {
+            source_name,
+            column,
+            text,
+            ..
+        } => TraceError::NotANumber {
+            source_name,
+            line: line_abs,
+            column,
+            text,
+        },
+        TraceError::NonFinite {
+            source_name,
+            column,
+            text,
+            ..
+        } => TraceError::NonFinite {
+            source_name,
+            line: line_abs,
+            column,
+            text,
+        },
+        TraceError::TimeNotIncreasing {
+            source_name,
+            channel,
+            time_s,
+            previous_time_s,
+            ..
+        } => TraceError::TimeNotIncreasing {
+            source_name,
+            channel,
+            line: line_abs,
+            time_s,
+            previous_time_s,
+        },
+        other => other,
+    }
+}
+
+#[inline]
+fn trim_line(mut l: &[u8]) -> &[u8] {
+    while let [rest @ .., b'\r' | b' ' | b'\t'] = l {
+        l = rest;
+    }
+    while let [b' ' | b'\t', rest @ ..] = l {
+        l = rest;
+    }
+    l
+}
+
+#[inline]
+fn trim_field(mut f: &[u8]) -> &[u8] {
+    while let [b' ' | b'\t' | b'"', rest @ ..] = f {
+        f = rest;
+    }
+    while let [rest @ .., b' ' | b'\t' | b'"'] = f {
+        f = rest;
+    }
+    f
+}
+
+/// Parse a decimal number. Plain `[-+]digits[.digits]` with at most 19 significant digits and
+/// at most 22 decimals takes the exact fast path (Clinger: mantissa and power of ten are both
+/// exact doubles, so one correctly rounded division); anything else goes to the standard
+/// library's correctly rounded parser.
+#[inline]
+pub(crate) fn parse_f64(f: &[u8]) -> Option<f64> {
+    const POW10: [f64; 23] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    ];
+    let (neg, digits) = match f.first() {
+        Some(b'-') => (true, &f[1..]),
+        Some(b'+') => (false, &f[1..]),
+        _ => (false, f),
+    };
+    let mut mant: u64 = 0;
+    let mut n_digits = 0u32;
+    let mut frac_digits = 0u32;
+    let mut seen_dot = false;
+    let mut any = false;
+    for &c in digits {
+        match c {
+            b'0'..=b'9' => {
+                any = true;
+                if mant == 0 && c == b'0' {
+                    // leading zeros do not count as significant digits
+                } else {
+                    n_digits += 1;
+                }
+                mant = mant.wrapping_mul(10).wrapping_add((c - b'0') as u64);
+                if seen_dot {
+                    frac_digits += 1;
+                }
+            }
+            b'.' if !seen_dot => seen_dot = true,
+            _ => return slow_parse(f),
+        }
+    }
+    if !any {
+        return slow_parse(f);
+    }
+    if n_digits > 15 || frac_digits > 22 {
+        // 2^53 ≈ 9.007e15: beyond 15 digits the mantissa may not be exact.
+        return slow_parse(f);
+    }
+    let v = mant as f64 / POW10[frac_digits as usize];
+    Some(if neg { -v } else { v })
+}
+
+#[cold]
+fn slow_parse(f: &[u8]) -> Option<f64> {
+    std::str::from_utf8(f).ok()?.parse::<f64>().ok()
+}
+
+/// Parse one piece of complete lines. Errors carry the piece-local line (1-based).
+fn parse_piece(
+    body: &[u8],
+    term: u8,
+    header: &Header,
+    name: &str,
+) -> Result<Piece, (u64, TraceError)> {
+    let mut p = Piece::default();
+    let avg_line = 28;
+    let est = body.len() / avg_line;
+    let mut line_no: u64 = 0;
+    let num = |field: &[u8], column: &str, line: u64| -> Result<f64, (u64, TraceError)> {
+        let f = trim_field(field);
+        match parse_f64(f) {
+            Some(v) if v.is_finite() => Ok(v),
+            Some(_) => Err((
+                line,
+                TraceError::NonFinite {
+                    source_name: name.to_string(),
+                    line: 0,
+                    column: column.into(),
+                    text: shorten(f),
+                },
+            )),
+            None => Err((
+                line,
+                TraceError::NotANumber {
+                    source_name: name.to_string(),
+                    line: 0,
+                    column: column.into(),
+                    text: shorten(f),
+                },
+            )),
+        }
+    };
+    let not_inc = |channel: &str, line: u64, t: f64, prev: f64| {
+        (
+            line,
+            TraceError::TimeNotIncreasing {
+                source_name: name.to_string(),
+                channel: channel.into(),
+                line: 0,
+                time_s: t,
+                previous_time_s: prev,
+            },
+        )
+    };
+    let field_count = |line: u64, expected: usize, found: usize| {
+        (
+            line,
+            TraceError::FieldCount {
+                source_name: name.to_string(),
+                line: 0,
+                expected,
+                found,
+            },
+        )
+    };
+    match header {
+        Header::Long { time_scale } => {
+            p.pos.time_s.reserve(est / 2);
+            p.pos.value.reserve(est / 2);
+            p.cur.time_s.reserve(est / 2);
+            p.cur.value.reserve(est / 2);
+            for raw in body.split(|&b| b == term) {
+                line_no += 1;
+                let line = trim_line(raw);
+                if line.is_empty() || line[0] == b'#' {
+                    continue;
+                }
+                let c1 = memchr::memchr(b',', line);
+                let c2 = c1.and_then(|a| memchr::memchr(b',', &line[a + 1..]).map(|b| a + 1 + b));
+                let (Some(a), Some(b)) = (c1, c2) else {
+                    let found = 1 + line.iter().filter(|&&c| c == b',').count();
+                    return Err(field_count(line_no, 3, found));
+                };
+                let value_field = &line[b + 1..];
+                if memchr::memchr(b',', value_field).is_some() {
+                    let found = 1 + line.iter().filter(|&&c| c == b',').count();
+                    return Err(field_count(line_no, 3, found));
+                }
+                let chan = trim_field(&line[a + 1..b]);
+                let (slot, scale) = match chan {
+                    b"position_mm" => (Slot::Position, 1e-3),
+                    b"current_a" => (Slot::Current, 1.0),
+                    b"torque_nm" => (Slot::Torque, 1.0),
+                    b"position_m" => (Slot::Position, 1.0),
+                    other => {
+                        if other.is_empty() {
+                            return Err((
+                                line_no,
+                                TraceError::NotANumber {
+                                    source_name: name.to_string(),
+                                    line: 0,
+                                    column: "channel".into(),
+                                    text: "(empty channel name)".into(),
+                                },
+                            ));
+                        }
+                        p.ignored_rows += 1;
+                        let n = String::from_utf8_lossy(other).into_owned();
+                        if p.ignored_names.len() < 16 && !p.ignored_names.contains(&n) {
+                            p.ignored_names.push(n);
+                        }
+                        continue;
+                    }
+                };
+                let t = num(&line[..a], "time", line_no)? * time_scale;
+                let v = num(value_field, "value", line_no)? * scale;
+                let (ch, idx, cname) = match slot {
+                    Slot::Position => (&mut p.pos, 0, "position"),
+                    Slot::Current => (&mut p.cur, 1, "current_a"),
+                    Slot::Torque => (&mut p.tor, 2, "torque_nm"),
+                };
+                if let Some(&prev) = ch.time_s.last() {
+                    if t <= prev {
+                        return Err(not_inc(cname, line_no, t, prev));
+                    }
+                } else {
+                    p.first_line[idx] = line_no;
+                }
+                ch.time_s.push(t);
+                ch.value.push(v);
+            }
+        }
+        Header::Wide {
+            fields,
+            time,
+            time_scale,
+            position,
+            position_scale,
+            effort,
+            effort_kind,
+            names,
+        } => {
+            p.pos.time_s.reserve(est);
+            p.pos.value.reserve(est);
+            let (eff_ch, eff_idx, eff_name) = match effort_kind {
+                EffortKind::CurrentA => (1usize, 1usize, "current_a"),
+                EffortKind::TorqueNm => (2, 2, "torque_nm"),
+            };
+            let mut cells: Vec<&[u8]> = Vec::with_capacity(*fields);
+            for raw in body.split(|&b| b == term) {
+                line_no += 1;
+                let line = trim_line(raw);
+                if line.is_empty() || line[0] == b'#' {
+                    continue;
+                }
+                cells.clear();
+                cells.extend(line.split(|&b| b == b','));
+                if cells.len() != *fields {
+                    return Err(field_count(line_no, *fields, cells.len()));
+                }
+                let t = num(cells[*time], &names[*time], line_no)? * time_scale;
+                for (col, scale, slot, cname) in [
+                    (*position, *position_scale, 0usize, "position"),
+                    (*effort, 1.0, eff_ch, eff_name),
+                ] {
+                    let cell = trim_field(cells[col]);
+                    if cell.is_empty() {
+                        continue; // no sample of this channel at this time
+                    }
+                    let v = num(cell, &names[col], line_no)? * scale;
+                    let (ch, idx) = if slot == 0 {
+                        (&mut p.pos, 0)
+                    } else if slot == 1 {
+                        (&mut p.cur, eff_idx)
+                    } else {
+                        (&mut p.tor, eff_idx)
+                    };
+                    if let Some(&prev) = ch.time_s.last() {
+                        if t <= prev {
+                            return Err(not_inc(cname, line_no, t, prev));
+                        }
+                    } else {
+                        p.first_line[idx] = line_no;
+                    }
+                    ch.time_s.push(t);
+                    ch.value.push(v);
+                }
+            }
+        }
+    }
+    // `split` yields one empty tail after a final terminator; it is not a line.
+    if body.last() == Some(&term) {
+        line_no -= 1;
+    }
+    p.lines = line_no;
+    Ok(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(s: &str) -> Result<(Trace, ReadReport), TraceError> {
+        parse_trace(s.as_bytes(), "t.csv", &ReadOptions::default())
+    }
+
+    #[test]
+    fn fast_float_matches_std() {
+        for s in [
+            "0",
+            "1",
+            "-1",
+            "3.14159",
+            "0.000001",
+            "123456.789012",
+            "-0.5",
+            "+2.5",
+            "1e-3",
+            "1.5E3",
+            "123456789012345678",
+            "0.1",
+            "0.2",
+            "0.3",
+            "9007199254740993",
+            ".5",
+            "5.",
+        ] {
+            let a = parse_f64(s.as_bytes()).unwrap();
+            let b: f64 = s.parse().unwrap();
+            assert_eq!(a.to_bits(), b.to_bits(), "{s}");
+        }
+        assert!(parse_f64(b"abc").is_none());
+        assert!(parse_f64(b"").is_none());
+        assert!(parse_f64(b"-").is_none());
+        assert!(parse_f64(b"1.2.3").is_none());
+    }
+
+    #[test]
+    fn long_layout_async_channels() {
+        let (t, r) = parse(
+            "\u{feff}# comment\ntime_s,channel,value\n0.0,position_mm,0\n0.01,current_a,1.0\n\
+             0.07,position_mm,0.1\n0.08,current_a,1.1\n0.14,position_mm,0.2\n0.15,current_a,1.2\n\
+             0.21,position_mm,0.3\n0.22,current_a,1.3\n0.23,speed,5\n",
+        )
+        .unwrap();
+        assert_eq!(t.position_m.len(), 4);
+        assert!((t.position_m.value[3] - 0.3e-3).abs() < 1e-18);
+        assert_eq!(t.effort_kind, EffortKind::CurrentA);
+        assert_eq!(r.ignored_rows, 1);
+        assert_eq!(r.lines, 11);
+    }
+
+    #[test]
+    fn wide_layout_crlf_and_ms() {
+        let (t, _) =
+            parse("time_ms,position_mm,torque_nm\r\n0,0,1\r\n1,1,2\r\n2,2,3\r\n3,3,4\r\n").unwrap();
+        assert_eq!(t.effort_kind, EffortKind::TorqueNm);
+        assert!((t.position_m.time_s[3] - 0.003).abs() < 1e-15);
+    }
+
+    #[test]
+    fn bare_cr_line_ends() {
+        let (t, _) = parse("time_s,position_mm,current_a\r0,0,1\r1,1,2\r2,2,3\r3,3,4\r").unwrap();
+        assert_eq!(t.position_m.len(), 4);
+    }
+
+    #[test]
+    fn wide_empty_cells_are_async() {
+        let (t, _) = parse(
+            "time_s,position_mm,current_a\n0,0,\n0.5,,1\n1,1,\n1.5,,2\n2,2,\n2.5,,3\n3,3,\n3.5,,4\n",
+        )
+        .unwrap();
+        assert_eq!(t.position_m.len(), 4);
+        assert_eq!(t.effort.len(), 4);
+    }
+
+    #[test]
+    fn error_lines_are_global() {
+        let mut s = String::from("time_s,channel,value\n");
+        for k in 0..100 {
+            s.push_str(&format!("{k},position_mm,{k}\n"));
+        }
+        s.push_str("100,position_mm,abc\n");
+        match parse(&s).unwrap_err() {
+            TraceError::NotANumber { line, .. } => assert_eq!(line, 102),
+            e => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn large_input_parallel_matches_serial() {
+        let mut s = String::from("time_s,channel,value\n");
+        for k in 0..200_000 {
+            s.push_str(&format!(
+                "{}.5,position_mm,{}\n{}.7,current_a,{}\n",
+                k,
+                k % 97,
+                k,
+                k % 13
+            ));
+        }
+        let one = parse_trace(
+            s.as_bytes(),
+            "a",
+            &ReadOptions {
+                effort: None,
+                threads: 1,
+            },
+        )
+        .unwrap();
+        let four = parse_trace(
+            s.as_bytes(),
+            "a",
+            &ReadOptions {
+                effort: None,
+                threads: 4,
+            },
+        )
+        .unwrap();
+        assert_eq!(one.0, four.0);
+        assert_eq!(one.1.lines, four.1.lines);
+        assert_eq!(one.1.lines, 400_001);
+        // a repeated time deep in the file is caught at its line, across piece boundaries
+        let bad = s.replace("150000.5,position_mm", "149999.5,position_mm");
+        match parse_trace(
+            bad.as_bytes(),
+            "a",
+            &ReadOptions {
+                effort: None,
+                threads: 4,
+            },
+        )
+        .unwrap_err()
+        {
+            TraceError::TimeNotIncreasing { line, .. } => assert_eq!(line, 2 + 2 * 150_000),
+            e => panic!("{e}"),
+        }
+    }
+}
