@@ -267,6 +267,12 @@ fn paper_trends_on_example_drive() {
     for w in before.windows(2) {
         assert!(w[1].frequencies_hz[0] < w[0].frequencies_hz[0]);
     }
+    // and nothing beyond unloading drops below the value at unloading
+    for p in &report.feed_sweep.points {
+        if p.feed_mm_min > unload.feed_mm_min {
+            assert!(p.frequencies_hz[0] >= unload.first_after_hz - 1e-9);
+        }
+    }
 }
 
 #[test]
