@@ -59,6 +59,14 @@ fn dynamics_example_writes_documented_files() {
     assert!((f0 - 108.0).abs() < 0.1, "{f0}");
     assert!(json["bearing_unload"]["feed_mm_min"].as_f64().unwrap() > 0.0);
     assert!(json["static_modes"]["modes"].as_array().unwrap().len() == 3);
+    // 3 positions × 4 feeds of the example, each with node coordinates and shapes
+    let shapes = json["mode_shapes"].as_array().unwrap();
+    assert_eq!(shapes.len(), 12);
+    assert!(shapes[1]["joints"]["feed_m_s"].as_f64().unwrap() > 0.0);
+    assert_eq!(
+        shapes[0]["modes"][0]["axial"].as_array().unwrap().len(),
+        shapes[0]["node_positions_m"].as_array().unwrap().len()
+    );
     for svg in ["frequency_vs_feed.svg", "frequency_vs_position.svg"] {
         let s = std::fs::read_to_string(out.join(svg)).unwrap();
         assert!(

@@ -86,6 +86,10 @@ pub struct DynamicsReport {
     pub bearing_unload: Option<UnloadEvent>,
     /// Modes at rest at the feed-sweep position, with shapes (SI).
     pub static_modes: ModalResult,
+    /// Mode shapes against feed and position: at the feed-sweep position for each feed of
+    /// `sweep.position_feeds_mm_min`, then at the first and last position of the position
+    /// sweep for each of those feeds. Each result names its position and feed (SI).
+    pub mode_shapes: Vec<ModalResult>,
     /// Frequencies against feed rate.
     pub feed_sweep: FeedSweep,
     /// Frequencies against position, one sweep per requested feed rate.
@@ -177,6 +181,14 @@ pub fn analyse(model: &DriveModel) -> Result<DynamicsReport, DynamicsError> {
         });
     }
 
+    let mut mode_shapes = Vec::new();
+    for y_mm in [sw.position_mm, sw.position_min_mm, sw.position_max_mm] {
+        let p = model.at_position(y_mm / 1000.0)?;
+        for &v in &sw.position_feeds_mm_min {
+            mode_shapes.push(p.modes(v * MM_MIN_TO_M_S, n_modes));
+        }
+    }
+
     let resonances = find_resonances(&plan, &feeds, &freqs, &cfg.ripple, cfg.screw.lead_mm);
 
     Ok(DynamicsReport {
@@ -188,6 +200,7 @@ pub fn analyse(model: &DriveModel) -> Result<DynamicsReport, DynamicsError> {
         peak_feed_mm_min,
         bearing_unload,
         static_modes,
+        mode_shapes,
         feed_sweep,
         position_sweeps,
         ripple: cfg.ripple.clone(),
