@@ -59,6 +59,28 @@ fn dynamics_example_writes_documented_files() {
     assert!((f0 - 108.0).abs() < 0.1, "{f0}");
     assert!(json["bearing_unload"]["feed_mm_min"].as_f64().unwrap() > 0.0);
     assert!(json["static_modes"]["modes"].as_array().unwrap().len() == 3);
+    // JSON shape (golden: the documented top-level keys)
+    let mut keys: Vec<&String> = json.as_object().unwrap().keys().collect();
+    keys.sort();
+    assert_eq!(
+        keys,
+        [
+            "bearing_unload",
+            "breakaway_first_hz",
+            "feed_sweep",
+            "lead_mm",
+            "mode_shapes",
+            "name",
+            "peak_feed_mm_min",
+            "peak_first_hz",
+            "position_mm",
+            "position_sweeps",
+            "resonances",
+            "ripple",
+            "static_first_hz",
+            "static_modes",
+        ]
+    );
     // 3 positions × 4 feeds of the example, each with node coordinates and shapes
     let shapes = json["mode_shapes"].as_array().unwrap();
     assert_eq!(shapes.len(), 12);
@@ -114,4 +136,17 @@ fn dynamics_bad_config_exits_2_naming_the_key() {
     let o = run(cmd);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("missing.toml"));
+}
+
+#[test]
+fn dynamics_help_names_the_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cmd = feedscope(dir.path());
+    cmd.args(["dynamics", "--help"]);
+    let o = run(cmd);
+    assert!(o.status.success());
+    let h = stdout(&o);
+    for opt in ["--config <FILE>", "--out <DIR>", "--format <FORMAT>"] {
+        assert!(h.contains(opt), "{opt}: {h}");
+    }
 }
