@@ -445,6 +445,13 @@ impl DriveConfig {
                 reason: "must be greater than sweep.position_min_mm",
             });
         }
+        if w.position_feeds_mm_min.is_empty() {
+            return Err(DynamicsError::InvalidValue {
+                key: "sweep.position_feeds_mm_min",
+                value: 0.0,
+                reason: "must list at least one feed rate",
+            });
+        }
         for &v in &w.position_feeds_mm_min {
             if !v.is_finite() {
                 return Err(DynamicsError::InvalidValue {
