@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 
 mod dynamics;
 mod estimate;
+mod simulate;
 
 /// feedscope: how are the ball-screw feed drives of this machine doing?
 ///
@@ -20,8 +21,10 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Estimate friction along the travel from a trace (paper 000, Eq. 5).
+    // Help text from the doc comment of `estimate::Args`.
     Estimate(estimate::Args),
+    // Help text from the doc comment of `simulate::Args`.
+    Simulate(simulate::Args),
     /// Natural frequency vs feed rate and position; torque-ripple resonance risks.
     Dynamics(dynamics::Args),
 }
@@ -62,6 +65,8 @@ fn is_broken_pipe(err: &anyhow::Error) -> bool {
 pub fn run(cli: Cli) -> std::process::ExitCode {
     let result = match cli.command {
         Command::Estimate(a) => estimate::run(a),
+        // Prints its own errors and chooses its exit code (2 bad input, 1 otherwise).
+        Command::Simulate(a) => return simulate::run(a),
         Command::Dynamics(a) => dynamics::run(a),
     };
     match result {

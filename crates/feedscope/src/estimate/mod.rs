@@ -76,6 +76,14 @@ pub struct EstimateParams {
     pub end_condition: EndCondition,
     /// How t(z) is obtained. Default: exact inversion.
     pub time_of_position: TimeOfPosition,
+    /// Position smoothing before differentiation, as a cut-off order (cycles per lead).
+    /// Twice differentiating a quantised or noisy position amplifies its noise as 1/h²,
+    /// which swamps the inertia term at kHz sampling. When a stroke's raw position samples
+    /// resolve orders well above this cut-off (Nyquist order > 1.25 × cut-off), z(t) is a
+    /// Reinsch smoothing spline whose half-power point is at this order at the stroke's
+    /// feed; otherwise it interpolates exactly (paper 000). Default 64, twice the highest
+    /// order paper 000 found significant (28.5). `None` always interpolates.
+    pub position_cutoff_order: Option<f64>,
     /// Stroke segmentation.
     pub segment: SegmentParams,
 }
@@ -86,6 +94,7 @@ impl Default for EstimateParams {
             samples_per_lead: 1024,
             end_condition: EndCondition::NotAKnot,
             time_of_position: TimeOfPosition::Invert,
+            position_cutoff_order: Some(64.0),
             segment: SegmentParams::default(),
         }
     }
@@ -165,6 +174,8 @@ pub struct StrokeSummary {
     /// Highest order (cycles per lead) resolvable without aliasing: half the raw samples per
     /// lead.
     pub max_order: f64,
+    /// Cut-off order of the position smoothing, when it was applied.
+    pub position_cutoff_order: Option<f64>,
     /// Things a user should know about this stroke.
     pub warnings: Vec<String>,
 }
@@ -304,12 +315,30 @@ pub fn estimate_stroke(
     }
     let te = &te_all[e0..e1];
     let ee = &trace.effort.value[e0..e1];
-    let zs =
-        CubicSpline::new(tz, zz, params.end_condition).map_err(|error| EstimateError::Spline {
-            stroke: index,
-            channel: "position",
-            error,
-        })?;
+    let lead = axis.lead_m();
+    let spline_err = |error| EstimateError::Spline {
+        stroke: index,
+        channel: "position",
+        error,
+    };
+    // Position samples per lead decide whether smoothing can help (see `position_cutoff_order`).
+    let spl_z = (tz.len() - 1) as f64 * lead / (zz[zz.len() - 1] - zz[0]).abs().max(1e-12);
+    let cutoff = params
+        .position_cutoff_order
+        .filter(|&c| c > 0.0 && 0.5 * spl_z > 1.25 * c);
+    let mut z_smooth = Vec::new();
+    let zs = match cutoff {
+        Some(order) => {
+            let h = (t_hi - t_lo) / (tz.len() - 1) as f64;
+            let f_c = order * span.plateau_speed_m_s / lead;
+            let alpha = crate::spline::alpha_for_cutoff(h, f_c);
+            let m = crate::spline::smoothing_moments(tz, zz, alpha, &mut z_smooth)
+                .map_err(spline_err)?;
+            CubicSpline::from_moments(tz, &z_smooth, m).map_err(spline_err)?
+        }
+        None => CubicSpline::new(tz, zz, params.end_condition).map_err(spline_err)?,
+    };
+    let zz: &[f64] = if cutoff.is_some() { &z_smooth } else { zz };
     let es =
         CubicSpline::new(te, ee, params.end_condition).map_err(|error| EstimateError::Spline {
             stroke: index,
@@ -319,7 +348,6 @@ pub fn estimate_stroke(
     let (w_lo, w_hi) = (te[0].max(t_lo), te[te.len() - 1].min(t_hi));
     let dir = span.direction;
     let s = dir.sign();
-    let lead = axis.lead_m();
     let step = lead / f64::from(params.samples_per_lead);
     // Position range covered by the window, on the spline (exact at knots, else evaluated).
     let (z_a, z_b) = (zs.eval(w_lo), zs.eval(w_hi));
@@ -351,6 +379,7 @@ pub fn estimate_stroke(
             points: count,
             raw_samples_per_lead: 0.0,
             max_order: 0.0,
+            position_cutoff_order: cutoff,
             warnings: Vec::new(),
         },
         position_m: Vec::with_capacity(count),
@@ -389,20 +418,22 @@ pub fn estimate_stroke(
     let mut sum = 0.0;
     for j in 0..count {
         let zg = (k_first as f64 + s * j as f64) * step;
-        let t = match &knot_spline {
-            Some(ks) => ks.time_at(zg).clamp(w_lo, w_hi),
+        let (t, k) = match &knot_spline {
+            Some(ks) => {
+                let t = ks.time_at(zg).clamp(w_lo, w_hi);
+                (t, zs.interval(t))
+            }
             None => {
                 // Advance to the knot interval whose end lies beyond the target.
                 while k_int + 2 < zz.len() && s * (zz[k_int + 1] - zg) < 0.0 {
                     k_int += 1;
                 }
-                let (t, ok) = invert_in(&zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
+                let (t, k, ok) = invert_in(&zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
                 non_monotone |= !ok;
-                t
+                (t, k)
             }
         };
         t_prev = t;
-        let k = zs.interval(t);
         let (_, v, a) = zs.eval_in(k, t);
         let e = ecur.eval(t);
         let f = gain * e - m_eq * a - b_eq * v;
@@ -438,7 +469,6 @@ pub fn estimate_stroke(
     let travel = (out.position_m[count - 1] - out.position_m[0]).abs();
     // Raw samples per lead of each channel over its own span inside the stroke.
     let z_span = |a: f64, b: f64| (zs.eval(b) - zs.eval(a)).abs().max(1e-12);
-    let spl_z = (tz.len() - 1) as f64 * lead / (zz[zz.len() - 1] - zz[0]).abs().max(1e-12);
     let spl_e = (te.len() - 1) as f64 * lead / z_span(te[0], te[te.len() - 1]);
     let spl = spl_z.min(spl_e);
     let sm = &mut out.summary;
@@ -464,7 +494,8 @@ pub fn estimate_stroke(
 }
 
 /// Solve z(t) = target on knot interval k (then its neighbours) by Newton steps safeguarded
-/// with bisection. Returns the time and whether a bracketing interval was found.
+/// with bisection. Returns the time, the interval holding it, and whether a bracketing
+/// interval was found.
 fn invert_in(
     zs: &CubicSpline<'_>,
     k: usize,
@@ -472,7 +503,7 @@ fn invert_in(
     guess: f64,
     w_lo: f64,
     w_hi: f64,
-) -> (f64, bool) {
+) -> (f64, usize, bool) {
     let x = zs.x();
     let n_int = x.len() - 1;
     // Search this interval and a few after it for a sign change (the spline can overshoot
@@ -483,47 +514,51 @@ fn invert_in(
             continue;
         }
         let fa = zs.eval_in(kk, a).0 - target;
-        let fb = zs.eval_in(kk, b).0 - target;
         if fa == 0.0 {
-            return (a, true);
+            return (a, kk, true);
         }
+        let fb = zs.eval_in(kk, b).0 - target;
         if fa * fb > 0.0 {
             continue;
         }
-        let (mut lo, mut hi, mut flo) = (a, b, fa);
+        // Converged when a step is below a few ulps of t.
+        let tol = 4.0 * f64::EPSILON * b.abs().max(1.0);
+        let (mut lo, mut hi) = (a, b);
         let mut t = if guess > a && guess < b {
             guess
         } else {
-            // linear guess
             a + (b - a) * fa / (fa - fb)
         };
-        for _ in 0..60 {
+        for _ in 0..100 {
             let (v, d1, _) = zs.eval_in(kk, t);
             let f = v - target;
             if f == 0.0 {
-                return (t, true);
+                return (t, kk, true);
             }
-            if (f < 0.0) == (flo < 0.0) {
+            if (f < 0.0) == (fa < 0.0) {
                 lo = t;
-                flo = f;
             } else {
                 hi = t;
             }
             let newton = t - f / d1;
-            let next = if d1 != 0.0 && newton > lo && newton < hi {
-                newton
+            if d1 != 0.0 && newton >= lo && newton <= hi {
+                // Newton from one side lands on the bracket's edge when it has converged,
+                // so test convergence before anything else.
+                if (newton - t).abs() <= tol {
+                    return (newton, kk, true);
+                }
+                t = newton;
             } else {
-                0.5 * (lo + hi)
-            };
-            // Converged when the step is below a few ulps of t.
-            if (next - t).abs() <= 4.0 * f64::EPSILON * t.abs().max(1.0) {
-                return (next, true);
+                t = 0.5 * (lo + hi);
+                if hi - lo <= tol {
+                    return (t, kk, true);
+                }
             }
-            t = next;
         }
-        return (t, true);
+        return (t, kk, true);
     }
-    (guess.clamp(w_lo, w_hi), false)
+    let t = guess.clamp(w_lo, w_hi);
+    (t, zs.interval(t), false)
 }
 
 /// The paper's t(z): a spline through (s·z_k, t_k).

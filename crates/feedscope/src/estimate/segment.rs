@@ -28,6 +28,15 @@ pub enum Direction {
 }
 
 impl Direction {
+    /// Direction of a velocity: forward for v ≥ 0, backward for v < 0.
+    pub fn of_velocity(velocity_m_s: f64) -> Self {
+        if velocity_m_s < 0.0 {
+            Self::Backward
+        } else {
+            Self::Forward
+        }
+    }
+
     /// +1 forward, −1 backward.
     pub fn sign(self) -> f64 {
         match self {

@@ -1,0 +1,724 @@
+//! Simulator configuration (TOML, user units in every key name) and its validation.
+
+use serde::{Deserialize, Serialize};
+
+use super::friction::{FrictionModel, FrictionParams};
+use super::motion::{FeedModulation, StrokeConfig};
+use super::SimError;
+use crate::axis::{AxisError, AxisParams};
+use crate::trace::EffortKind;
+
+/// Complete configuration of one simulation. `Default` is a plausible lathe Z axis (paper 000)
+/// doing one forward and one backward stroke over 0-410 mm at 100 mm/min.
+///
+/// Every section is optional in TOML; missing ones take their defaults. A missing
+/// `[friction]` table takes [`FrictionParams::default_for`] the configured axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimConfig {
+    /// Seed of every random draw (jitter, dropouts, noise). Default 1.
+    pub seed: u64,
+    /// The mechanism (same keys as an axis file).
+    pub axis: AxisParams,
+    /// The friction truth; `None` = defaults for the axis.
+    pub friction: Option<FrictionParams>,
+    /// The NC program.
+    pub motion: MotionConfig,
+    /// Ideal (inverse dynamics) or servo-loop dynamics.
+    pub dynamics: DynamicsConfig,
+    /// How the controller samples position and effort.
+    pub sampling: SamplingConfig,
+    /// The decimated true-state series.
+    pub truth: TruthConfig,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        let axis = AxisParams {
+            name: Some("simulated lathe Z".to_string()),
+            lead_mm: 10.0,
+            table_mass_kg: 425.0,
+            inertia_kgm2: 0.004,
+            damping_nms_per_rad: 0.002,
+            torque_constant_nm_per_a: 1.82,
+            screw_diameter_mm: Some(40.0),
+            screw_ball_diameter_mm: Some(5.556),
+            contact_angle_deg: Some(45.0),
+            // ½·18·(40 − 5.556·cos45°)/40 = 8.12 ≈ 8 as in paper 000 Section 4
+            screw_balls_per_turn: Some(18.0),
+            guide_ball_diameter_mm: Some(6.0),
+            guide_balls_per_raceway: Some(19.0),
+            travel_min_mm: Some(0.0),
+            travel_max_mm: Some(410.0),
+            declared_orders: vec![crate::axis::DeclaredOrder {
+                order: 0.56,
+                cause: "rolling-tool mark".to_string(),
+            }],
+        };
+        let friction = Some(FrictionParams::default_for(&axis));
+        Self {
+            seed: 1,
+            axis,
+            friction,
+            motion: MotionConfig::default(),
+            dynamics: DynamicsConfig::default(),
+            sampling: SamplingConfig::default(),
+            truth: TruthConfig::default(),
+        }
+    }
+}
+
+/// The NC program (`[motion]`): start position, strokes, acceleration limit, modulation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MotionConfig {
+    /// Position at t = 0 (mm). Default 0.
+    pub start_mm: f64,
+    /// Acceleration limit of the trapezoidal profile (mm/s²), > 0. Default 1000.
+    pub acceleration_mm_s2: f64,
+    /// Standstill before the first stroke (s), ≥ 0. Default 0.5.
+    pub lead_in_s: f64,
+    /// Standstill after the last dwell (s), ≥ 0. Default 0.5.
+    pub lead_out_s: f64,
+    /// Strokes in program order (`[[motion.stroke]]`). Default: to 410 mm at 100 mm/min, dwell
+    /// 1 s, back to 0 at 100 mm/min.
+    #[serde(rename = "stroke")]
+    pub strokes: Vec<StrokeConfig>,
+    /// Optional sinusoidal feed modulation (`[motion.modulation]`).
+    pub modulation: Option<FeedModulation>,
+}
+
+impl Default for MotionConfig {
+    fn default() -> Self {
+        Self {
+            start_mm: 0.0,
+            acceleration_mm_s2: 1000.0,
+            lead_in_s: 0.5,
+            lead_out_s: 0.5,
+            strokes: vec![
+                StrokeConfig {
+                    to_mm: 410.0,
+                    feed_mm_min: 100.0,
+                    dwell_s: 1.0,
+                },
+                StrokeConfig {
+                    to_mm: 0.0,
+                    feed_mm_min: 100.0,
+                    dwell_s: 0.0,
+                },
+            ],
+            modulation: None,
+        }
+    }
+}
+
+/// How the table motion is produced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DynamicsMode {
+    /// The table follows the commanded path exactly; the current is the inverse dynamics of
+    /// paper 000 Eq. 5.
+    Ideal,
+    /// A cascaded position/velocity loop drives the plant of Eq. 5 (default).
+    #[default]
+    Servo,
+}
+
+/// Dynamics and servo loop (`[dynamics]`).
+///
+/// The servo is a P position loop (gain K_p) cascaded with a PI velocity loop whose
+/// proportional gain is chosen so that the velocity loop has the bandwidth ω_v on the rigid
+/// plant of Eq. 5: K_v = ω_v·m_eq/((2π/p)·k_e) (A per m/s), K_i = K_v·ω_i (A per m), plus
+/// velocity feed-forward (into the velocity reference) and acceleration + viscous feed-forward
+/// (m_eq·a_cmd + b_eq·v_cmd as current). The current follows its command with a first-order
+/// lag τ. The controller runs every `step_ms` with zero-order hold; the plant is integrated by
+/// RK4 with sub-steps where the friction sign change makes it stiff.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DynamicsConfig {
+    /// `"servo"` (default) or `"ideal"`.
+    pub mode: DynamicsMode,
+    /// Controller period and base integration step (ms), > 0. Default 0.1.
+    pub step_ms: f64,
+    /// Position loop gain K_p (1/s), > 0. Default 30.
+    pub position_gain_per_s: f64,
+    /// Velocity loop bandwidth ω_v/2π (Hz), > 0. Default 50.
+    pub velocity_bandwidth_hz: f64,
+    /// Velocity PI corner ω_i/2π (Hz), ≥ 0. Default 10.
+    pub velocity_integral_corner_hz: f64,
+    /// Current loop time constant τ (ms), > 0. Default 0.2.
+    pub current_time_constant_ms: f64,
+}
+
+impl Default for DynamicsConfig {
+    fn default() -> Self {
+        Self {
+            mode: DynamicsMode::Servo,
+            step_ms: 0.1,
+            position_gain_per_s: 30.0,
+            velocity_bandwidth_hz: 50.0,
+            velocity_integral_corner_hz: 10.0,
+            current_time_constant_ms: 0.2,
+        }
+    }
+}
+
+/// Asynchronous (own clock per channel) or synchronous (shared timestamps) sampling.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SamplingMode {
+    /// Each channel has its own interval, jitter, offset and dropouts (default; paper 000).
+    #[default]
+    Asynchronous,
+    /// Both channels at `synchronous_rate_hz` on the same instants.
+    Synchronous,
+}
+
+/// Sampling (`[sampling]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SamplingConfig {
+    /// `"asynchronous"` (default) or `"synchronous"`.
+    pub mode: SamplingMode,
+    /// What the effort channel carries: `"current_a"` (default) or `"torque_nm"`.
+    pub effort_kind: EffortKind,
+    /// Rate of synchronous sampling (Hz), > 0. Default 1000.
+    pub synchronous_rate_hz: f64,
+    /// Probability that a synchronous row is dropped, in [0, 1). Default 0.
+    pub synchronous_dropout_probability: f64,
+    /// Position channel (`[sampling.position]`).
+    pub position: PositionSampling,
+    /// Effort channel (`[sampling.effort]`).
+    pub effort: EffortSampling,
+}
+
+impl Default for SamplingConfig {
+    fn default() -> Self {
+        Self {
+            mode: SamplingMode::Asynchronous,
+            effort_kind: EffortKind::CurrentA,
+            synchronous_rate_hz: 1000.0,
+            synchronous_dropout_probability: 0.0,
+            position: PositionSampling::default(),
+            effort: EffortSampling::default(),
+        }
+    }
+}
+
+/// Position channel sampling. Timing keys apply to asynchronous mode only; noise and
+/// quantisation to both.
+///
+/// Sample instants: t₀ = offset, t_{n+1} = t_n + interval + U(−jitter, jitter); each sample is
+/// dropped with the dropout probability; the reported stamp is t_n + delay +
+/// U(−timestamp_jitter, timestamp_jitter). Value = round((z + N(0, σ²))/q)·q.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PositionSampling {
+    /// Mean interval (ms), > 0. Default 72.
+    pub interval_ms: f64,
+    /// Half-width of the uniform interval jitter (ms), < interval. Default 1.5 (70.5-73.5 ms).
+    pub jitter_ms: f64,
+    /// Time of the first sample (ms), ≥ 0. Default 0.
+    pub start_offset_ms: f64,
+    /// Probability that a sample is dropped, in [0, 1). Default 0.
+    pub dropout_probability: f64,
+    /// Quantum q (mm), ≥ 0 (0 = none). Default 0.001 (1 µm).
+    pub quantum_mm: f64,
+    /// Gaussian noise std σ (mm), ≥ 0. Default 0.
+    pub noise_std_mm: f64,
+    /// Constant delay of the reported stamp after the true instant (ms), ≥ 0. Default 0.
+    pub timestamp_delay_ms: f64,
+    /// Half-width of the uniform stamp error (ms), ≥ 0, < (interval − jitter)/2. Default 0.
+    pub timestamp_jitter_ms: f64,
+}
+
+impl Default for PositionSampling {
+    fn default() -> Self {
+        Self {
+            interval_ms: 72.0,
+            jitter_ms: 1.5,
+            start_offset_ms: 0.0,
+            dropout_probability: 0.0,
+            quantum_mm: 0.001,
+            noise_std_mm: 0.0,
+            timestamp_delay_ms: 0.0,
+            timestamp_jitter_ms: 0.0,
+        }
+    }
+}
+
+/// Effort channel sampling; timing as [`PositionSampling`]. The quantum and noise keys of the
+/// configured `effort_kind` are used (current in A, torque in N·m).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EffortSampling {
+    /// Mean interval (ms), > 0. Default 72.
+    pub interval_ms: f64,
+    /// Half-width of the uniform interval jitter (ms), < interval. Default 1.5.
+    pub jitter_ms: f64,
+    /// Time of the first sample (ms), ≥ 0. Default 36 (half an interval after position).
+    pub start_offset_ms: f64,
+    /// Probability that a sample is dropped, in [0, 1). Default 0.
+    pub dropout_probability: f64,
+    /// Current quantum (A), ≥ 0. Default 0.001 (≈ 1.1 N of table force on the default axis).
+    pub current_quantum_a: f64,
+    /// Current noise std (A), ≥ 0. Default 0.002.
+    pub current_noise_std_a: f64,
+    /// Torque quantum (N·m), ≥ 0. Default 0.002.
+    pub torque_quantum_nm: f64,
+    /// Torque noise std (N·m), ≥ 0. Default 0.004.
+    pub torque_noise_std_nm: f64,
+    /// Constant delay of the reported stamp (ms), ≥ 0. Default 0.
+    pub timestamp_delay_ms: f64,
+    /// Half-width of the uniform stamp error (ms), ≥ 0, < (interval − jitter)/2. Default 0.
+    pub timestamp_jitter_ms: f64,
+}
+
+impl Default for EffortSampling {
+    fn default() -> Self {
+        Self {
+            interval_ms: 72.0,
+            jitter_ms: 1.5,
+            start_offset_ms: 36.0,
+            dropout_probability: 0.0,
+            current_quantum_a: 0.001,
+            current_noise_std_a: 0.002,
+            torque_quantum_nm: 0.002,
+            torque_noise_std_nm: 0.004,
+            timestamp_delay_ms: 0.0,
+            timestamp_jitter_ms: 0.0,
+        }
+    }
+}
+
+/// The decimated true-state series (`[truth]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TruthConfig {
+    /// Interval of the true-state series (ms), > 0. Default 10.
+    pub interval_ms: f64,
+}
+
+impl Default for TruthConfig {
+    fn default() -> Self {
+        Self { interval_ms: 10.0 }
+    }
+}
+
+/// Timing of one channel in SI, shared by both channel kinds.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Timing {
+    pub interval_s: f64,
+    pub jitter_s: f64,
+    pub offset_s: f64,
+    pub dropout: f64,
+    pub delay_s: f64,
+    pub stamp_jitter_s: f64,
+}
+
+impl PositionSampling {
+    pub(crate) fn timing(&self) -> Timing {
+        Timing {
+            interval_s: self.interval_ms * 1e-3,
+            jitter_s: self.jitter_ms * 1e-3,
+            offset_s: self.start_offset_ms * 1e-3,
+            dropout: self.dropout_probability,
+            delay_s: self.timestamp_delay_ms * 1e-3,
+            stamp_jitter_s: self.timestamp_jitter_ms * 1e-3,
+        }
+    }
+}
+
+impl EffortSampling {
+    pub(crate) fn timing(&self) -> Timing {
+        Timing {
+            interval_s: self.interval_ms * 1e-3,
+            jitter_s: self.jitter_ms * 1e-3,
+            offset_s: self.start_offset_ms * 1e-3,
+            dropout: self.dropout_probability,
+            delay_s: self.timestamp_delay_ms * 1e-3,
+            stamp_jitter_s: self.timestamp_jitter_ms * 1e-3,
+        }
+    }
+
+    /// (quantum, noise std) in the unit of `kind`.
+    pub(crate) fn quantum_and_noise(&self, kind: EffortKind) -> (f64, f64) {
+        match kind {
+            EffortKind::CurrentA => (self.current_quantum_a, self.current_noise_std_a),
+            EffortKind::TorqueNm => (self.torque_quantum_nm, self.torque_noise_std_nm),
+        }
+    }
+}
+
+/// At most this many samples per channel (and truth records), to keep memory bounded.
+pub(crate) const MAX_SAMPLES: f64 = 2e7;
+/// At most this many controller steps.
+pub(crate) const MAX_STEPS: f64 = 2e10;
+
+impl SimConfig {
+    /// Parse a TOML config and validate it.
+    ///
+    /// # Errors
+    /// [`SimError::Parse`] for syntax errors, unknown or mistyped keys; the validation errors
+    /// of [`SimConfig::validate`].
+    pub fn from_toml_str(text: &str) -> Result<Self, SimError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let cfg: Self = toml::from_str(text).map_err(|e| SimError::Parse {
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// The config as TOML (for `--print-default-config`).
+    ///
+    /// # Errors
+    /// [`SimError::Parse`] if serialization fails (it does not for valid configs).
+    pub fn to_toml_string(&self) -> Result<String, SimError> {
+        toml::to_string_pretty(self).map_err(|e| SimError::Parse {
+            message: e.to_string(),
+        })
+    }
+
+    /// The friction truth of this config (the `[friction]` table or the axis defaults).
+    pub fn friction_model(&self) -> FrictionModel {
+        let params = self
+            .friction
+            .clone()
+            .unwrap_or_else(|| FrictionParams::default_for(&self.axis));
+        FrictionModel::new(self.axis.lead_mm, params)
+    }
+
+    /// Check every value, naming the first offending key (`motion.stroke[1].feed_mm_min`).
+    ///
+    /// # Errors
+    /// [`SimError::InvalidValue`] naming the key.
+    pub fn validate(&self) -> Result<(), SimError> {
+        self.axis.validate("axis").map_err(|e| match e {
+            AxisError::InvalidValue {
+                key, value, reason, ..
+            } => bad(&format!("axis.{key}"), value, reason),
+            other => SimError::Axis(other),
+        })?;
+        let finite = |key: &str, v: f64| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                Err(bad(key, v, "must be a finite number"))
+            }
+        };
+        let positive = |key: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(bad(key, v, "must be a finite number greater than zero"))
+            }
+        };
+        let non_negative = |key: &str, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(bad(key, v, "must be a finite number, zero or greater"))
+            }
+        };
+        let probability = |key: &str, v: f64| {
+            if v.is_finite() && (0.0..1.0).contains(&v) {
+                Ok(())
+            } else {
+                Err(bad(key, v, "must lie in [0, 1)"))
+            }
+        };
+
+        // friction
+        let f = self.friction_model();
+        let fp = &f.params;
+        positive("friction.sign_smoothing_mm_s", fp.sign_smoothing_mm_s)?;
+        for (name, l) in [("forward", &fp.forward), ("backward", &fp.backward)] {
+            finite(&format!("friction.{name}.offset_n"), l.offset_n)?;
+            finite(&format!("friction.{name}.trend_n_per_mm"), l.trend_n_per_mm)?;
+            for (k, b) in l.bumps.iter().enumerate() {
+                finite(&format!("friction.{name}.bump[{k}].center_mm"), b.center_mm)?;
+                positive(&format!("friction.{name}.bump[{k}].width_mm"), b.width_mm)?;
+                finite(&format!("friction.{name}.bump[{k}].height_n"), b.height_n)?;
+            }
+        }
+        let v = &fp.velocity;
+        non_negative("friction.velocity.static_excess_n", v.static_excess_n)?;
+        positive(
+            "friction.velocity.stribeck_velocity_mm_min",
+            v.stribeck_velocity_mm_min,
+        )?;
+        positive("friction.velocity.shape_exponent", v.shape_exponent)?;
+        non_negative("friction.velocity.viscous_n_s_per_m", v.viscous_n_s_per_m)?;
+        for (k, c) in fp.components.iter().enumerate() {
+            positive(&format!("friction.component[{k}].order"), c.order)?;
+            non_negative(
+                &format!("friction.component[{k}].amplitude_n"),
+                c.amplitude_n,
+            )?;
+            finite(&format!("friction.component[{k}].phase_deg"), c.phase_deg)?;
+        }
+
+        // motion
+        let m = &self.motion;
+        let travel = (self.axis.travel_min_mm, self.axis.travel_max_mm);
+        let in_travel = |key: &str, z: f64| {
+            finite(key, z)?;
+            if let Some(lo) = travel.0 {
+                if z < lo {
+                    return Err(bad(key, z, "lies below axis.travel_min_mm"));
+                }
+            }
+            if let Some(hi) = travel.1 {
+                if z > hi {
+                    return Err(bad(key, z, "lies beyond axis.travel_max_mm"));
+                }
+            }
+            Ok(())
+        };
+        in_travel("motion.start_mm", m.start_mm)?;
+        positive("motion.acceleration_mm_s2", m.acceleration_mm_s2)?;
+        non_negative("motion.lead_in_s", m.lead_in_s)?;
+        non_negative("motion.lead_out_s", m.lead_out_s)?;
+        for (k, s) in m.strokes.iter().enumerate() {
+            in_travel(&format!("motion.stroke[{k}].to_mm"), s.to_mm)?;
+            positive(&format!("motion.stroke[{k}].feed_mm_min"), s.feed_mm_min)?;
+            non_negative(&format!("motion.stroke[{k}].dwell_s"), s.dwell_s)?;
+        }
+        if let Some(md) = &m.modulation {
+            probability(
+                "motion.modulation.relative_amplitude",
+                md.relative_amplitude,
+            )?;
+            positive("motion.modulation.period_s", md.period_s)?;
+        }
+
+        // dynamics
+        let d = &self.dynamics;
+        positive("dynamics.step_ms", d.step_ms)?;
+        positive("dynamics.position_gain_per_s", d.position_gain_per_s)?;
+        positive("dynamics.velocity_bandwidth_hz", d.velocity_bandwidth_hz)?;
+        non_negative(
+            "dynamics.velocity_integral_corner_hz",
+            d.velocity_integral_corner_hz,
+        )?;
+        positive(
+            "dynamics.current_time_constant_ms",
+            d.current_time_constant_ms,
+        )?;
+        if d.mode == DynamicsMode::Servo {
+            if self.axis.equivalent_mass_kg() <= 0.0 {
+                return Err(bad(
+                    "axis.table_mass_kg",
+                    self.axis.table_mass_kg,
+                    "the servo mode needs m_t + 4π²J/p² > 0 (table mass or inertia)",
+                ));
+            }
+            // The discrete loop must be much faster than its bandwidth (ZOH at 10 samples per
+            // period of the velocity loop is the minimum a drive would use).
+            if d.step_ms * 1e-3 * d.velocity_bandwidth_hz > 0.1 {
+                return Err(bad(
+                    "dynamics.step_ms",
+                    d.step_ms,
+                    "must be at most 1/(10·velocity_bandwidth_hz) for a stable discrete loop",
+                ));
+            }
+        }
+
+        // sampling
+        let s = &self.sampling;
+        positive("sampling.synchronous_rate_hz", s.synchronous_rate_hz)?;
+        probability(
+            "sampling.synchronous_dropout_probability",
+            s.synchronous_dropout_probability,
+        )?;
+        for (name, t) in [
+            ("position", s.position.timing()),
+            ("effort", s.effort.timing()),
+        ] {
+            positive(&format!("sampling.{name}.interval_ms"), t.interval_s)?;
+            non_negative(&format!("sampling.{name}.jitter_ms"), t.jitter_s)?;
+            if t.jitter_s >= t.interval_s {
+                return Err(bad(
+                    &format!("sampling.{name}.jitter_ms"),
+                    t.jitter_s * 1e3,
+                    "must be smaller than interval_ms",
+                ));
+            }
+            non_negative(&format!("sampling.{name}.start_offset_ms"), t.offset_s)?;
+            probability(&format!("sampling.{name}.dropout_probability"), t.dropout)?;
+            non_negative(&format!("sampling.{name}.timestamp_delay_ms"), t.delay_s)?;
+            non_negative(
+                &format!("sampling.{name}.timestamp_jitter_ms"),
+                t.stamp_jitter_s,
+            )?;
+            if 2.0 * t.stamp_jitter_s >= t.interval_s - t.jitter_s {
+                return Err(bad(
+                    &format!("sampling.{name}.timestamp_jitter_ms"),
+                    t.stamp_jitter_s * 1e3,
+                    "must be below (interval_ms − jitter_ms)/2 so that stamps keep increasing",
+                ));
+            }
+        }
+        non_negative("sampling.position.quantum_mm", s.position.quantum_mm)?;
+        non_negative("sampling.position.noise_std_mm", s.position.noise_std_mm)?;
+        non_negative(
+            "sampling.effort.current_quantum_a",
+            s.effort.current_quantum_a,
+        )?;
+        non_negative(
+            "sampling.effort.current_noise_std_a",
+            s.effort.current_noise_std_a,
+        )?;
+        non_negative(
+            "sampling.effort.torque_quantum_nm",
+            s.effort.torque_quantum_nm,
+        )?;
+        non_negative(
+            "sampling.effort.torque_noise_std_nm",
+            s.effort.torque_noise_std_nm,
+        )?;
+        positive("truth.interval_ms", self.truth.interval_ms)?;
+
+        // sizes: bounded memory and time
+        let path = self.path();
+        let duration = super::motion::MotionProfile::duration_s(&path);
+        let count = |key: &str, n: f64, limit: f64| {
+            if n.is_finite() && n <= limit {
+                Ok(())
+            } else {
+                Err(SimError::TooLarge {
+                    key: key.to_string(),
+                    count: n,
+                    limit,
+                })
+            }
+        };
+        count("motion (total duration)", duration, 1e7)?;
+        match s.mode {
+            SamplingMode::Asynchronous => {
+                for (name, t) in [
+                    ("position", s.position.timing()),
+                    ("effort", s.effort.timing()),
+                ] {
+                    count(
+                        &format!("sampling.{name}.interval_ms"),
+                        duration / (t.interval_s - t.jitter_s),
+                        MAX_SAMPLES,
+                    )?;
+                }
+            }
+            SamplingMode::Synchronous => count(
+                "sampling.synchronous_rate_hz",
+                duration * s.synchronous_rate_hz,
+                MAX_SAMPLES,
+            )?,
+        }
+        count(
+            "truth.interval_ms",
+            duration / (self.truth.interval_ms * 1e-3),
+            MAX_SAMPLES,
+        )?;
+        if d.mode == DynamicsMode::Servo {
+            count("dynamics.step_ms", duration / (d.step_ms * 1e-3), MAX_STEPS)?;
+        }
+        Ok(())
+    }
+
+    /// The planned NC path of `[motion]`.
+    pub fn path(&self) -> super::motion::NcPath {
+        let m = &self.motion;
+        super::motion::NcPath::plan(
+            m.start_mm,
+            &m.strokes,
+            m.acceleration_mm_s2,
+            m.modulation.as_ref(),
+            m.lead_in_s,
+            m.lead_out_s,
+        )
+    }
+}
+
+fn bad(key: &str, value: f64, reason: &str) -> SimError {
+    SimError::InvalidValue {
+        key: key.to_string(),
+        value,
+        reason: reason.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn err_of(toml_text: &str) -> String {
+        SimConfig::from_toml_str(toml_text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn default_round_trips_through_toml() {
+        let d = SimConfig::default();
+        d.validate().unwrap();
+        let text = d.to_toml_string().unwrap();
+        let back = SimConfig::from_toml_str(&text).unwrap();
+        assert_eq!(back, d);
+        // an empty file is the default
+        assert_eq!(SimConfig::from_toml_str("").unwrap(), d);
+    }
+
+    #[test]
+    fn bad_values_name_their_key() {
+        let cases = [
+            (
+                "[[motion.stroke]]\nto_mm = 10\nfeed_mm_min = -100\n",
+                "motion.stroke[0].feed_mm_min",
+            ),
+            (
+                "[[motion.stroke]]\nto_mm = 10\nfeed_mm_min = 100\n[[motion.stroke]]\nto_mm = 500\nfeed_mm_min = 100\n",
+                "motion.stroke[1].to_mm",
+            ),
+            ("[motion]\nstart_mm = -1\n", "motion.start_mm"),
+            ("[sampling.position]\ninterval_ms = 0\n", "sampling.position.interval_ms"),
+            ("[sampling.effort]\njitter_ms = 80\n", "sampling.effort.jitter_ms"),
+            (
+                "[sampling.effort]\ndropout_probability = 1.0\n",
+                "sampling.effort.dropout_probability",
+            ),
+            (
+                "[sampling.position]\ntimestamp_jitter_ms = 40\n",
+                "sampling.position.timestamp_jitter_ms",
+            ),
+            ("[dynamics]\nstep_ms = 0\n", "dynamics.step_ms"),
+            ("[dynamics]\nstep_ms = 5\n", "dynamics.step_ms"),
+            ("[truth]\ninterval_ms = -1\n", "truth.interval_ms"),
+            (
+                "[axis]\nlead_mm = 0\ntable_mass_kg = 1\ninertia_kgm2 = 0\ndamping_nms_per_rad = 0\ntorque_constant_nm_per_a = 1\n",
+                "axis.lead_mm",
+            ),
+            ("[motion]\nacceleration_mm_s2 = nan\n", "motion.acceleration_mm_s2"),
+            ("[sampling]\nsynchronous_rate_hz = 0\n", "sampling.synchronous_rate_hz"),
+            ("[sampling.position]\ninterval_ms = 1e-6\njitter_ms = 0\n", "sampling.position.interval_ms"),
+            ("[motion]\nfeedd = 3\n", "feedd"),
+        ];
+        for (text, key) in cases {
+            let e = err_of(text);
+            assert!(e.contains(key), "expected `{key}` in: {e}");
+        }
+    }
+
+    #[test]
+    fn bad_friction_names_key() {
+        let mut c = SimConfig::default();
+        if let Some(f) = c.friction.as_mut() {
+            f.components[2].order = 0.0;
+        }
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.contains("friction.component[2].order"), "{e}");
+        let mut c = SimConfig::default();
+        if let Some(f) = c.friction.as_mut() {
+            f.backward.bumps[0].width_mm = 0.0;
+        }
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.contains("friction.backward.bump[0].width_mm"), "{e}");
+    }
+}

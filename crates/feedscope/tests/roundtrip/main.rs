@@ -1,0 +1,4 @@
+//! Round trips through the digital twin: simulate a drive with known friction, estimate it,
+//! compare with the truth.
+mod estimate;
+mod util;
