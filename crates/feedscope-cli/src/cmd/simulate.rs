@@ -157,7 +157,7 @@ fn tmp_name(dir: &Path, name: &str) -> PathBuf {
 
 /// Write the four files under temporary names, then rename them; on error remove what was
 /// written (and the directory if this call created it).
-fn write_outputs(
+pub(crate) fn write_outputs(
     dir: &Path,
     out: &feedscope::sim::SimOutput,
     layout: Layout,

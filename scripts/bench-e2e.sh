@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# End-to-end timing of `feedscope estimate` on the 10 M-samples-per-channel trace (≈ 640 MB,
+# long layout): wall time and peak resident memory, per input sample.
+# The trace is made by the estimate benchmark (target/bench-data/trace_10m.csv) if missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+data=target/bench-data/trace_10m.csv
+axis=target/bench-data/axis.toml
+if [ ! -f "$data" ]; then
+    cargo bench -p feedscope --bench estimate -- read_csv --warm-up-time 1 --measurement-time 1 >/dev/null
+fi
+cargo build --release -q
+out=$(mktemp -d)
+samples=$(( $(wc -l < "$data") - 1 ))
+for run in 1 2 3; do
+    /usr/bin/time -f "%e %M" -o "$out/time" target/release/feedscope estimate "$data" --axis "$axis" \
+        -o "$out/friction.csv" --no-plot --format json >/dev/null
+    read -r wall kb < "$out/time"
+    echo "run $run: ${wall} s wall, peak RSS $((kb / 1024)) MiB = $(( kb * 1024 / samples )) bytes per input sample ($samples samples)"
+done
+ls -l "$out/friction.csv" | awk '{print "output CSV: " $5 " bytes"}'
+rm -rf "$out"
