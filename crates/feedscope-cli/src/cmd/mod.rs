@@ -5,6 +5,7 @@
 use clap::{Parser, Subcommand};
 
 mod demo;
+mod dynamics;
 mod estimate;
 mod simulate;
 
@@ -26,6 +27,8 @@ pub enum Command {
     Estimate(estimate::Args),
     // Help text from the doc comment of `simulate::Args`.
     Simulate(simulate::Args),
+    /// Natural frequency vs feed rate and position; torque-ripple resonance risks.
+    Dynamics(dynamics::Args),
 }
 
 /// Marks an error as the user's input being wrong (exit code 2).
@@ -68,6 +71,7 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Command::Estimate(a) => estimate::run(a),
         // Prints its own errors and chooses its exit code (2 bad input, 1 otherwise).
         Command::Simulate(a) => return simulate::run(a),
+        Command::Dynamics(a) => dynamics::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
