@@ -186,20 +186,25 @@ impl<'a> CubicSpline<'a> {
     #[inline]
     pub fn piece(&self, k: usize) -> Piece {
         let h = self.x[k + 1] - self.x[k];
+        let inv_h = 1.0 / h;
         let (m0, m1) = (self.m[k], self.m[k + 1]);
         Piece {
             x0: self.x[k],
             h,
             c0: self.y[k],
-            c1: (self.y[k + 1] - self.y[k]) / h - h * (2.0 * m0 + m1) / 6.0,
+            c1: (self.y[k + 1] - self.y[k]) * inv_h - h * (2.0 * m0 + m1) * (1.0 / 6.0),
             c2: 0.5 * m0,
-            c3: (m1 - m0) / (6.0 * h),
+            c3: (m1 - m0) * inv_h * (1.0 / 6.0),
         }
     }
 
     /// A cursor for queries at non-decreasing t: O(1) amortised per query.
     pub fn cursor(&self) -> Cursor<'_, 'a> {
-        Cursor { s: self, k: 0 }
+        Cursor {
+            s: self,
+            k: 0,
+            piece: self.piece(0),
+        }
     }
 }
 
@@ -276,11 +281,10 @@ pub fn smoothing_moments(
         return Ok(m);
     }
     let nn = n - 2; // unknowns γ_1..γ_{n−2}
-    let h = |k: usize| x[k + 1] - x[k];
-    // Column j of Q (knot j = i + 1) has a_j, b_j, c_j at rows j−1, j, j+1.
-    let qa = |j: usize| 1.0 / h(j - 1);
-    let qc = |j: usize| 1.0 / h(j);
-    let qb = |j: usize| -qa(j) - qc(j);
+    let hs: Vec<f64> = x.windows(2).map(|w| w[1] - w[0]).collect();
+    let ih: Vec<f64> = hs.iter().map(|h| 1.0 / h).collect();
+    // Column j of Q (knot j = i + 1) has a_j = 1/h_{j−1}, b_j = −a_j − c_j, c_j = 1/h_j at
+    // rows j−1, j, j+1.
     // Band of A = R + α QᵀQ: e (diagonal), f (first), s (second off-diagonal).
     let mut e = vec![0.0; nn];
     let mut f = vec![0.0; nn];
@@ -288,14 +292,16 @@ pub fn smoothing_moments(
     let mut rhs = vec![0.0; nn];
     for i in 0..nn {
         let j = i + 1;
-        let (a, b, c) = (qa(j), qb(j), qc(j));
-        e[i] = (h(j - 1) + h(j)) / 3.0 + alpha * (a * a + b * b + c * c);
+        let (a, c) = (ih[j - 1], ih[j]);
+        let b = -a - c;
+        e[i] = (hs[j - 1] + hs[j]) / 3.0 + alpha * (a * a + b * b + c * c);
         if i + 1 < nn {
-            let (a1, b1) = (qa(j + 1), qb(j + 1));
-            f[i] = h(j) / 6.0 + alpha * (b * a1 + c * b1);
+            let (a1, c1) = (ih[j], ih[j + 1]);
+            let b1 = -a1 - c1;
+            f[i] = hs[j] / 6.0 + alpha * (b * a1 + c * b1);
         }
         if i + 2 < nn {
-            sd[i] = alpha * c * qa(j + 2);
+            sd[i] = alpha * c * ih[j + 1];
         }
         rhs[i] = a * y[j - 1] + b * y[j] + c * y[j + 1];
     }
@@ -338,18 +344,17 @@ pub fn smoothing_moments(
         }
     }
     m[1..n - 1].copy_from_slice(&rhs);
-    // g = y − α Q γ.
+    // g = y − α Q γ; row k of Q touches columns k−1, k, k+1 (interior knots only).
     for k in 0..n {
         let mut qg = 0.0;
-        // Row k of Q touches columns k−1, k, k+1 (interior knots only).
         if k >= 2 {
-            qg += qc(k - 1) * m[k - 1];
+            qg += ih[k - 1] * m[k - 1];
         }
         if (1..n - 1).contains(&k) {
-            qg += qb(k) * m[k];
+            qg -= (ih[k - 1] + ih[k]) * m[k];
         }
         if k + 2 < n {
-            qg += qa(k + 1) * m[k + 1];
+            qg += ih[k] * m[k + 1];
         }
         g[k] = y[k] - alpha * qg;
     }
@@ -396,6 +401,7 @@ impl Piece {
 pub struct Cursor<'s, 'a> {
     s: &'s CubicSpline<'a>,
     k: usize,
+    piece: Piece,
 }
 
 impl Cursor<'_, '_> {
@@ -427,7 +433,20 @@ impl Cursor<'_, '_> {
     #[inline]
     pub fn eval_all(&mut self, t: f64) -> (f64, f64, f64) {
         let k = self.seek(t);
-        self.s.eval_in(k, t)
+        if k != self.k_piece() {
+            self.piece = self.s.piece(k);
+        }
+        self.piece.eval(t - self.piece.x0)
+    }
+
+    #[inline]
+    fn k_piece(&self) -> usize {
+        // The cached piece is identified by its left knot.
+        if self.s.x[self.k].to_bits() == self.piece.x0.to_bits() {
+            self.k
+        } else {
+            usize::MAX
+        }
     }
 
     /// Value at t.
@@ -455,9 +474,16 @@ fn moments(x: &[f64], y: &[f64], end: EndCondition, cp: &mut Vec<f64>) -> Vec<f6
     // Interior rows k = 1..=n−2: sub·m_{k−1} + diag·m_k + sup·m_{k+1} = r_k, with the
     // not-a-knot ends eliminated into rows 1 and n−2.
     let nak = end == EndCondition::NotAKnot;
-    let row = |k: usize| -> (f64, f64, f64, f64) {
-        let (h0, h1) = (h(k - 1), h(k));
-        let r = 6.0 * (d(k) - d(k - 1));
+    // Thomas algorithm: c' in `cp`, d' in `m`. Rows are diagonally dominant (also the
+    // not-a-knot rows: |h1 − h0²/h1| < (h0 + h1)(2 + h0/h1)), so no pivoting is needed.
+    // h and the slope d roll along so each is computed once.
+    cp.clear();
+    cp.resize(n, 0.0);
+    let (mut h0, mut d0) = (h(0), d(0));
+    for k in 1..n - 1 {
+        let h1 = x[k + 1] - x[k];
+        let d1 = (y[k + 1] - y[k]) / h1;
+        let r = 6.0 * (d1 - d0);
         let (mut sub, mut diag, mut sup) = (h0, 2.0 * (h0 + h1), h1);
         if nak && k == 1 {
             // m_0 = ((h0 + h1)·m_1 − h0·m_2)/h1
@@ -471,17 +497,10 @@ fn moments(x: &[f64], y: &[f64], end: EndCondition, cp: &mut Vec<f64>) -> Vec<f6
             sub -= h1 * h1 / h0;
             sup = 0.0;
         }
-        (sub, diag, sup, r)
-    };
-    // Thomas algorithm: c' in `cp`, d' in `m`. Rows are diagonally dominant (also the
-    // not-a-knot rows: |h1 − h0²/h1| < (h0 + h1)(2 + h0/h1)), so no pivoting is needed.
-    cp.clear();
-    cp.resize(n, 0.0);
-    for k in 1..n - 1 {
-        let (sub, diag, sup, r) = row(k);
-        let denom = diag - sub * cp[k - 1];
-        cp[k] = sup / denom;
-        m[k] = (r - sub * m[k - 1]) / denom;
+        let inv = 1.0 / (diag - sub * cp[k - 1]);
+        cp[k] = sup * inv;
+        m[k] = (r - sub * m[k - 1]) * inv;
+        (h0, d0) = (h1, d1);
     }
     for k in (1..n - 2).rev() {
         m[k] -= cp[k] * m[k + 1];

@@ -226,8 +226,8 @@ pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpa
         speeds.clear();
         speeds.extend((i0..i1).map(chord));
         let mut sorted = speeds.clone();
-        sorted.sort_unstable_by(|a, b| a.total_cmp(b));
-        let p95 = sorted[((sorted.len() - 1) as f64 * 0.95).round() as usize];
+        let rank = ((sorted.len() - 1) as f64 * 0.95).round() as usize;
+        let p95 = *sorted.select_nth_unstable_by(rank, |a, b| a.total_cmp(b)).1;
         if p95.is_nan() || p95 <= 0.0 {
             continue;
         }
