@@ -199,22 +199,43 @@ pub fn estimate_to_csv(
     let pb = bar(trace.position_m.len() as u64, "estimate");
     let mut summaries = Vec::new();
     let mut plot = PlotData::default();
-    let (zones, skipped) = estimate_streaming(
-        trace,
-        axis,
-        params,
-        2 * n_threads,
-        |s: StrokeFriction| -> Result<(), anyhow::Error> {
-            let rows = format_stroke(&s);
-            out.writer()
-                .write_all(&rows)
-                .with_context(|| format!("writing {}", csv_path.display()))?;
-            pb.inc(s.summary.position_samples as u64);
-            plot.add(&s);
-            summaries.push(s.summary);
-            Ok(())
-        },
-    )?;
+    // A writer thread takes formatted strokes, so the copy into the file overlaps with the
+    // estimation of the next batch; the bounded channel caps the memory in flight.
+    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(2 * n_threads);
+    let (streamed, out) = std::thread::scope(|scope| {
+        let writer = scope.spawn(move || -> Result<AtomicFile> {
+            for buf in rx {
+                out.writer()
+                    .write_all(&buf)
+                    .with_context(|| format!("writing {}", csv_path.display()))?;
+            }
+            Ok(out)
+        });
+        let streamed = estimate_streaming(
+            trace,
+            axis,
+            params,
+            2 * n_threads,
+            |s: StrokeFriction| -> Result<(), anyhow::Error> {
+                // A send fails only when the writer stopped on an error; join() reports it.
+                if tx.send(format_stroke(&s)).is_err() {
+                    return Err(anyhow::anyhow!("the CSV writer stopped"));
+                }
+                pb.inc(s.summary.position_samples as u64);
+                plot.add(&s);
+                summaries.push(s.summary);
+                Ok(())
+            },
+        );
+        drop(tx);
+        let out = writer
+            .join()
+            .unwrap_or_else(|p| std::panic::resume_unwind(p));
+        (streamed, out)
+    });
+    // A writer error explains a failed send better than the send itself.
+    let out = out?;
+    let (zones, skipped) = streamed?;
     pb.finish_and_clear();
     Ok(Outcome {
         csv: out,

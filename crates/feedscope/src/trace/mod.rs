@@ -17,7 +17,9 @@
 
 use std::io::Write;
 
+mod format;
 mod read;
+pub use format::push_fixed;
 pub use read::{parse_trace, read_trace_file, ReadOptions, ReadReport, TraceError, MIN_SAMPLES};
 
 /// What the effort channel measures.
@@ -82,7 +84,9 @@ pub enum Layout {
 }
 
 impl Trace {
-    /// Write the trace as CSV in user units (time in s, position in mm).
+    /// Write the trace as CSV in user units: time in s with 6 decimals (1 µs), position in mm
+    /// with 6 decimals (1 nm), current (A) or torque (N·m) with 6 decimals, as a controller
+    /// logger would.
     ///
     /// The long layout merges both channels in time order. The wide layout needs both channels
     /// on the same timestamps.
@@ -98,15 +102,25 @@ impl Trace {
                 writeln!(w, "time_s,channel,value")?;
                 let (p, e) = (&self.position_m, &self.effort);
                 let (mut i, mut j) = (0, 0);
+                let mut line = Vec::with_capacity(64);
                 while i < p.len() || j < e.len() {
                     let take_p = j >= e.len() || (i < p.len() && p.time_s[i] <= e.time_s[j]);
+                    line.clear();
                     if take_p {
-                        writeln!(w, "{},position_mm,{}", p.time_s[i], p.value[i] * 1e3)?;
+                        push_fixed(&mut line, p.time_s[i], 6);
+                        line.extend_from_slice(b",position_mm,");
+                        push_fixed(&mut line, p.value[i] * 1e3, 6);
                         i += 1;
                     } else {
-                        writeln!(w, "{},{effort},{}", e.time_s[j], e.value[j])?;
+                        push_fixed(&mut line, e.time_s[j], 6);
+                        line.push(b',');
+                        line.extend_from_slice(effort.as_bytes());
+                        line.push(b',');
+                        push_fixed(&mut line, e.value[j], 6);
                         j += 1;
                     }
+                    line.push(b'\n');
+                    w.write_all(&line)?;
                 }
             }
             Layout::Wide => {
@@ -117,14 +131,16 @@ impl Trace {
                     ));
                 }
                 writeln!(w, "time_s,position_mm,{effort}")?;
+                let mut line = Vec::with_capacity(64);
                 for k in 0..self.position_m.len() {
-                    writeln!(
-                        w,
-                        "{},{},{}",
-                        self.position_m.time_s[k],
-                        self.position_m.value[k] * 1e3,
-                        self.effort.value[k]
-                    )?;
+                    line.clear();
+                    push_fixed(&mut line, self.position_m.time_s[k], 6);
+                    line.push(b',');
+                    push_fixed(&mut line, self.position_m.value[k] * 1e3, 6);
+                    line.push(b',');
+                    push_fixed(&mut line, self.effort.value[k], 6);
+                    line.push(b'\n');
+                    w.write_all(&line)?;
                 }
             }
         }
