@@ -277,12 +277,22 @@ impl Default for PeakParams {
 
 impl PeakParams {
     fn validate(&self) -> Result<(), OrderError> {
-        let bad = |name, value: f64, reason| Err(OrderError::InvalidParameter { name, value, reason });
+        let bad = |name, value: f64, reason| {
+            Err(OrderError::InvalidParameter {
+                name,
+                value,
+                reason,
+            })
+        };
         if !(self.noise_floor_factor.is_finite() && self.noise_floor_factor > 0.0) {
             return bad("noise_floor_factor", self.noise_floor_factor, "must be > 0");
         }
         if !(self.floor_half_width_orders.is_finite() && self.floor_half_width_orders >= 0.0) {
-            return bad("floor_half_width_orders", self.floor_half_width_orders, "must be >= 0");
+            return bad(
+                "floor_half_width_orders",
+                self.floor_half_width_orders,
+                "must be >= 0",
+            );
         }
         if !(self.min_amplitude_n.is_finite() && self.min_amplitude_n >= 0.0) {
             return bad("min_amplitude_n", self.min_amplitude_n, "must be >= 0");
@@ -317,7 +327,7 @@ pub(crate) fn find_peaks(
 ) -> Vec<RawPeak> {
     let n = samples.len();
     let nb = amplitude.len();
-    if nb < 5 || !(du > 0.0) {
+    if nb < 5 || du.is_nan() || du <= 0.0 {
         return Vec::new();
     }
     let w = analyzer.window_coefficients();
@@ -428,12 +438,12 @@ pub fn kinematic_orders(axis: &AxisParams) -> Vec<KinematicOrder> {
 /// The kinematic order explaining a component at `order`: the nearest one within
 /// tolerance max(`resolution`, `tolerance_fraction` × its order), nearness measured in units of
 /// that tolerance. `None` means unexplained.
-pub fn classify<'k>(
+pub fn classify(
     order: f64,
     resolution: f64,
     tolerance_fraction: f64,
-    kinematic: &'k [KinematicOrder],
-) -> Option<&'k KinematicOrder> {
+    kinematic: &[KinematicOrder],
+) -> Option<&KinematicOrder> {
     kinematic
         .iter()
         .filter_map(|k| {
@@ -526,7 +536,11 @@ pub fn segment_bounds(
             target_leads,
             min_leads,
         } => {
-            if !(target_leads.is_finite() && *target_leads > 0.0 && min_leads.is_finite() && *min_leads > 0.0) {
+            if !(target_leads.is_finite()
+                && *target_leads > 0.0
+                && min_leads.is_finite()
+                && *min_leads > 0.0)
+            {
                 return Err(OrderError::InvalidParameter {
                     name: "segments.target_leads",
                     value: *target_leads,
@@ -753,7 +767,7 @@ pub fn analyze_fluctuation(
                 floor_n: p.floor_n,
                 cause: k.map_or_else(|| "unexplained".to_string(), |k| k.cause.clone()),
                 kinematic_order: k.map(|k| k.order),
-                trusted: !(p.order > stroke.max_trusted_order),
+                trusted: p.order <= stroke.max_trusted_order || stroke.max_trusted_order.is_nan(),
             });
         }
         let keep = ((params.report_max_order / res).floor() as usize + 1).min(amp.len());
@@ -874,12 +888,17 @@ mod tests {
         for n in [100usize, 101] {
             let x: Vec<f64> = (0..n).map(|_| rng.random_range(-3.0..3.0)).collect();
             let mut amp = Vec::new();
-            an.amplitude_spectrum(&x, Window::Rectangular, &mut amp).unwrap();
+            an.amplitude_spectrum(&x, Window::Rectangular, &mut amp)
+                .unwrap();
             // mean(x²) = A_0² + Σ A_k²/2 + A_{N/2}² (N even).
             let last = amp.len() - 1;
             let mut s = amp[0] * amp[0];
             for (k, a) in amp.iter().enumerate().skip(1) {
-                s += if n % 2 == 0 && k == last { a * a } else { 0.5 * a * a };
+                s += if n % 2 == 0 && k == last {
+                    a * a
+                } else {
+                    0.5 * a * a
+                };
             }
             let ms = x.iter().map(|v| v * v).sum::<f64>() / n as f64;
             assert!((s - ms).abs() < 1e-12 * ms, "n {n}: {s} vs {ms}");
@@ -889,9 +908,18 @@ mod tests {
             let g = w.iter().sum::<f64>() / n as f64;
             let mut s = amp[0] * amp[0];
             for (k, a) in amp.iter().enumerate().skip(1) {
-                s += if n % 2 == 0 && k == last { a * a } else { 0.5 * a * a };
+                s += if n % 2 == 0 && k == last {
+                    a * a
+                } else {
+                    0.5 * a * a
+                };
             }
-            let ms = x.iter().zip(&w).map(|(v, wi)| (v * wi).powi(2)).sum::<f64>() / n as f64;
+            let ms = x
+                .iter()
+                .zip(&w)
+                .map(|(v, wi)| (v * wi).powi(2))
+                .sum::<f64>()
+                / n as f64;
             assert!((s * g * g - ms).abs() < 1e-12 * ms, "hann n {n}");
         }
     }
@@ -901,7 +929,9 @@ mod tests {
         let n = 4096;
         let mut an = SpectrumAnalyzer::new();
         for (k, a, ph) in [(37usize, 7.5, 0.3), (400, 2.0, 2.0), (3, 11.0, -1.0)] {
-            let x: Vec<f64> = (0..n).map(|i| a * (2.0 * PI * (k * i) as f64 / n as f64 + ph).cos()).collect();
+            let x: Vec<f64> = (0..n)
+                .map(|i| a * (2.0 * PI * (k * i) as f64 / n as f64 + ph).cos())
+                .collect();
             let mut amp = Vec::new();
             let corr = an.amplitude_spectrum(&x, Window::Hann, &mut amp).unwrap();
             assert!((corr - 2.0 / (0.5 * n as f64)).abs() < 1e-15);
@@ -919,8 +949,16 @@ mod tests {
         let du = 1.0 / 256.0;
         let n = 40 * 256;
         let mut an = SpectrumAnalyzer::new();
-        for (f, a) in [(0.6137, 4.0), (8.6, 10.0), (9.5123, 3.0), (19.0, 5.0), (2.0125, 6.0)] {
-            let x: Vec<f64> = (0..n).map(|i| a * (2.0 * PI * f * i as f64 * du + 0.7).cos()).collect();
+        for (f, a) in [
+            (0.6137, 4.0),
+            (8.6, 10.0),
+            (9.5123, 3.0),
+            (19.0, 5.0),
+            (2.0125, 6.0),
+        ] {
+            let x: Vec<f64> = (0..n)
+                .map(|i| a * (2.0 * PI * f * i as f64 * du + 0.7).cos())
+                .collect();
             let mut amp = Vec::new();
             an.amplitude_spectrum(&x, Window::Hann, &mut amp).unwrap();
             let p = find_peaks(&an, Window::Hann, &x, &amp, du, &PeakParams::default());
@@ -928,7 +966,11 @@ mod tests {
             // Grandke's interpolation is exact for one tone; the negative-frequency image
             // biases it slightly at low orders.
             assert!((p[0].order - f).abs() < 2e-4, "{f}: {}", p[0].order);
-            assert!((p[0].amplitude_n - a).abs() < 1e-3 * a, "{f}: {}", p[0].amplitude_n);
+            assert!(
+                (p[0].amplitude_n - a).abs() < 1e-3 * a,
+                "{f}: {}",
+                p[0].amplitude_n
+            );
         }
     }
 
@@ -944,21 +986,43 @@ mod tests {
         assert_eq!(b.len(), 4);
         assert!((b[3].0 - 300.0).abs() < 1e-12);
         assert!(segment_bounds(&[0.0, 400.0], 10.0, &SegmentSpec::Count { count: 0 }).is_err());
-        assert!(segment_bounds(&[0.0, 400.0], 10.0, &SegmentSpec::LengthMm { length_mm: f64::NAN }).is_err());
+        assert!(segment_bounds(
+            &[0.0, 400.0],
+            10.0,
+            &SegmentSpec::LengthMm {
+                length_mm: f64::NAN
+            }
+        )
+        .is_err());
     }
 
     #[test]
     fn classification_uses_resolution_or_relative_tolerance() {
         let k = vec![
-            KinematicOrder { order: 1.0, cause: "shaft 1x".into() },
-            KinematicOrder { order: 8.6, cause: "nut ball refeed 1x".into() },
-            KinematicOrder { order: 9.5, cause: "guide ball refeed 1x".into() },
+            KinematicOrder {
+                order: 1.0,
+                cause: "shaft 1x".into(),
+            },
+            KinematicOrder {
+                order: 8.6,
+                cause: "nut ball refeed 1x".into(),
+            },
+            KinematicOrder {
+                order: 9.5,
+                cause: "guide ball refeed 1x".into(),
+            },
         ];
         assert_eq!(classify(1.02, 0.025, 0.03, &k).unwrap().cause, "shaft 1x");
         assert!(classify(1.05, 0.025, 0.03, &k).is_none());
         assert!(classify(1.2, 0.25, 0.03, &k).is_some()); // coarse segment resolution
-        assert_eq!(classify(8.8, 0.025, 0.03, &k).unwrap().cause, "nut ball refeed 1x");
-        assert_eq!(classify(9.3, 0.025, 0.03, &k).unwrap().cause, "guide ball refeed 1x");
+        assert_eq!(
+            classify(8.8, 0.025, 0.03, &k).unwrap().cause,
+            "nut ball refeed 1x"
+        );
+        assert_eq!(
+            classify(9.3, 0.025, 0.03, &k).unwrap().cause,
+            "guide ball refeed 1x"
+        );
         assert!(classify(9.05, 0.025, 0.03, &k).is_none());
     }
 
@@ -966,7 +1030,10 @@ mod tests {
     fn spectrum_rejects_bad_samples() {
         let mut an = SpectrumAnalyzer::new();
         let mut amp = Vec::new();
-        assert!(matches!(an.amplitude_spectrum(&[1.0, 2.0], Window::Hann, &mut amp), Err(OrderError::TooFewSamples { .. })));
+        assert!(matches!(
+            an.amplitude_spectrum(&[1.0, 2.0], Window::Hann, &mut amp),
+            Err(OrderError::TooFewSamples { .. })
+        ));
         assert!(matches!(
             an.amplitude_spectrum(&[1.0, 2.0, f64::INFINITY, 0.0], Window::Hann, &mut amp),
             Err(OrderError::NonFinite { index: 2 })

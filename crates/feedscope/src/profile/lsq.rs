@@ -90,7 +90,10 @@ pub(crate) fn lstsq(mut a: Mat, mut b: Vec<f64>) -> Result<LstsqResult, usize> {
         let apply = |col: &mut [f64]| {
             let s: f64 = v[..m].iter().zip(&col[j..]).map(|(a, b)| a * b).sum();
             let f = 2.0 * s / vnorm2;
-            col[j..].iter_mut().zip(&v[..m]).for_each(|(c, vi)| *c -= f * vi);
+            col[j..]
+                .iter_mut()
+                .zip(&v[..m])
+                .for_each(|(c, vi)| *c -= f * vi);
         };
         for k in 0..(p - j - 1) {
             apply(&mut tail[k * n..(k + 1) * n]);
@@ -101,8 +104,8 @@ pub(crate) fn lstsq(mut a: Mat, mut b: Vec<f64>) -> Result<LstsqResult, usize> {
     let mut x = vec![0.0; p];
     for j in (0..p).rev() {
         let mut s = b[j];
-        for k in j + 1..p {
-            s -= a.get(j, k) * x[k];
+        for (k, xk) in x.iter().enumerate().skip(j + 1) {
+            s -= a.get(j, k) * xk;
         }
         x[j] = s / diag[j];
     }
@@ -278,7 +281,11 @@ mod tests {
 
     #[test]
     fn null_space_is_orthonormal_and_annihilated() {
-        let c = vec![vec![1.0, 1.0, 0.0, 0.0], vec![0.0, 1.0, -1.0, 2.0], vec![1.0, 2.0, -1.0, 2.0]];
+        let c = vec![
+            vec![1.0, 1.0, 0.0, 0.0],
+            vec![0.0, 1.0, -1.0, 2.0],
+            vec![1.0, 2.0, -1.0, 2.0],
+        ];
         let z = null_space(&c, 4);
         assert_eq!(z.len(), 2); // the third row is the sum of the first two
         for v in &z {
@@ -296,7 +303,7 @@ mod tests {
         let x: Vec<f64> = (0..50).map(|i| i as f64 * 0.37).collect();
         let y: Vec<f64> = x.iter().map(|v| (v * 0.9).sin() + 0.1 * v).collect();
         let rss = forsythe_rss(&x, &y, None, 5);
-        for m in 0..=5 {
+        for (m, want) in rss.iter().enumerate() {
             let mut a = Mat::zeros(50, m + 1);
             for (i, &v) in x.iter().enumerate() {
                 let mut p = vec![0.0; m + 1];
@@ -306,7 +313,7 @@ mod tests {
                 }
             }
             let r = lstsq(a, y.clone()).unwrap();
-            assert!((r.rss - rss[m]).abs() < 1e-10 * (1.0 + r.rss), "order {m}");
+            assert!((r.rss - want).abs() < 1e-10 * (1.0 + r.rss), "order {m}");
         }
     }
 }

@@ -51,7 +51,9 @@ mod lsq;
 mod piecewise;
 mod select;
 
-pub use piecewise::{fit_piecewise, ContinuityDefect, PiecewiseFit, PiecewisePoly, MAX_INTERVAL_ORDER};
+pub use piecewise::{
+    fit_piecewise, ContinuityDefect, PiecewiseFit, PiecewisePoly, MAX_INTERVAL_ORDER,
+};
 
 use serde::{Deserialize, Serialize};
 
@@ -125,7 +127,9 @@ pub enum ProfileError {
         index: usize,
     },
     /// Positions are not on a uniform grid (relative tolerance 1e-6 of the mean step).
-    #[error("position grid is not uniform at index {index}: step {step_m} m, mean step {expected_m} m")]
+    #[error(
+        "position grid is not uniform at index {index}: step {step_m} m, mean step {expected_m} m"
+    )]
     NonUniformGrid {
         /// Index of the first offending sample.
         index: usize,
@@ -258,7 +262,7 @@ fn prepare(s: &StrokeFriction<'_>) -> Result<Prepared, ProfileError> {
     check_finite("position_m", s.position_m)?;
     check_finite("friction_n", s.friction_n)?;
     let step = (s.position_m[n - 1] - s.position_m[0]) / (n - 1) as f64;
-    if !(step.abs() > 0.0) {
+    if step.is_nan() || step == 0.0 {
         return Err(ProfileError::NotMonotonic { index: 1 });
     }
     if let Some(i) = (1..n).find(|&i| (s.position_m[i] - s.position_m[i - 1]) * step <= 0.0) {
@@ -340,7 +344,13 @@ impl Default for ProfileParams {
 
 impl ProfileParams {
     fn validate(&self) -> Result<(), ProfileError> {
-        let bad = |name, value: f64, reason| Err(ProfileError::InvalidParameter { name, value, reason });
+        let bad = |name, value: f64, reason| {
+            Err(ProfileError::InvalidParameter {
+                name,
+                value,
+                reason,
+            })
+        };
         if self.max_order > MAX_INTERVAL_ORDER {
             return bad("max_order", self.max_order as f64, "must be <= 20");
         }
@@ -351,10 +361,18 @@ impl ProfileParams {
             return bad("leads_per_order", self.leads_per_order, "must be > 0");
         }
         if self.candidate_cells == 0 || self.candidate_cells > 10_000 {
-            return bad("candidate_cells", self.candidate_cells as f64, "must be in 1..=10000");
+            return bad(
+                "candidate_cells",
+                self.candidate_cells as f64,
+                "must be in 1..=10000",
+            );
         }
         if !(self.fluctuation_min_order.is_finite() && self.fluctuation_min_order > 0.0) {
-            return bad("fluctuation_min_order", self.fluctuation_min_order, "must be > 0");
+            return bad(
+                "fluctuation_min_order",
+                self.fluctuation_min_order,
+                "must be > 0",
+            );
         }
         Ok(())
     }
@@ -386,7 +404,10 @@ pub struct OrderScan {
 /// # Errors
 /// The input errors of [`fit_iafv`]; [`ProfileError::InvalidParameter`] for `max_order` 0 or
 /// above 20.
-pub fn order_scan(stroke: &StrokeFriction<'_>, max_order: usize) -> Result<OrderScan, ProfileError> {
+pub fn order_scan(
+    stroke: &StrokeFriction<'_>,
+    max_order: usize,
+) -> Result<OrderScan, ProfileError> {
     if max_order == 0 || max_order > MAX_INTERVAL_ORDER {
         return Err(ProfileError::InvalidParameter {
             name: "max_order",
@@ -444,7 +465,11 @@ fn linear_trend(p: &Prepared) -> (LinearTrend, f64, f64) {
     }
     let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
     let a = ym - b * um;
-    let rss: f64 = p.u.iter().zip(&p.y).map(|(u, y)| (y - a - b * u).powi(2)).sum();
+    let rss: f64 =
+        p.u.iter()
+            .zip(&p.y)
+            .map(|(u, y)| (y - a - b * u).powi(2))
+            .sum();
     let uend = p.u[p.u.len() - 1];
     (
         LinearTrend {
@@ -615,9 +640,16 @@ pub fn fit_iafv(
             (breaks, s.orders, sel)
         }
         (bk, ord) => {
-            let interior: Vec<f64> = bk.as_deref().unwrap_or(&[]).iter().map(|&m| p.to_u(m)).collect();
+            let interior: Vec<f64> = bk
+                .as_deref()
+                .unwrap_or(&[])
+                .iter()
+                .map(|&m| p.to_u(m))
+                .collect();
             let user_orders = ord.clone();
-            let provisional: Vec<usize> = user_orders.clone().unwrap_or_else(|| vec![0; interior.len() + 1]);
+            let provisional: Vec<usize> = user_orders
+                .clone()
+                .unwrap_or_else(|| vec![0; interior.len() + 1]);
             let breaks = validate_layout(&p.u, &interior, &provisional, |u| p.to_mm(u))?;
             match user_orders {
                 Some(o) => (
@@ -639,9 +671,26 @@ pub fn fit_iafv(
                     for win in breaks.windows(2) {
                         let lo = uc.partition_point(|&v| v < win[0]);
                         let hi = uc.partition_point(|&v| v < win[1]).max(lo);
-                        let s = select(&uc[lo..hi], &r[lo..hi], &w[lo..hi], win[0], win[1], n, &SelectParams { cells: 1, ..sp.clone() });
+                        let s = select(
+                            &uc[lo..hi],
+                            &r[lo..hi],
+                            &w[lo..hi],
+                            win[0],
+                            win[1],
+                            n,
+                            &SelectParams {
+                                cells: 1,
+                                ..sp.clone()
+                            },
+                        );
                         sigma = s.sigma;
-                        orders.push(s.orders.first().copied().unwrap_or(0).min(order_cap(win[1] - win[0], &sp)));
+                        orders.push(
+                            s.orders
+                                .first()
+                                .copied()
+                                .unwrap_or(0)
+                                .min(order_cap(win[1] - win[0], &sp)),
+                        );
                     }
                     (
                         breaks,
@@ -700,7 +749,12 @@ pub fn fit_iafv(
 /// IAFV and FFS (friction − IAFV) at every sample of the stroke, aligned with its positions.
 pub fn iafv_and_ffs(stroke: &StrokeFriction<'_>, fit: &IafvFit) -> (Vec<f64>, Vec<f64>) {
     let iafv = fit.evaluate(stroke.position_m);
-    let ffs = stroke.friction_n.iter().zip(&iafv).map(|(f, m)| f - m).collect();
+    let ffs = stroke
+        .friction_n
+        .iter()
+        .zip(&iafv)
+        .map(|(f, m)| f - m)
+        .collect();
     (iafv, ffs)
 }
 
@@ -745,12 +799,23 @@ pub fn analyze_stroke(
     params: &AnalysisParams,
     analyzer: &mut SpectrumAnalyzer,
 ) -> Result<StrokeAnalysis, ProfileError> {
-    let scan_max = if params.scan_max_order == 0 { 8 } else { params.scan_max_order };
+    let scan_max = if params.scan_max_order == 0 {
+        8
+    } else {
+        params.scan_max_order
+    };
     let order_scan = order_scan(stroke, scan_max)?;
     let iafv = fit_iafv(stroke, &params.profile, analyzer)?;
     let (iafv_n, ffs_n) = iafv_and_ffs(stroke, &iafv);
     let kin = kinematic_orders(axis);
-    let fluctuation = analyze_fluctuation(analyzer, stroke, &ffs_n, &iafv.poly.breaks_mm, &kin, &params.spectrum)?;
+    let fluctuation = analyze_fluctuation(
+        analyzer,
+        stroke,
+        &ffs_n,
+        &iafv.poly.breaks_mm,
+        &kin,
+        &params.spectrum,
+    )?;
     Ok(StrokeAnalysis {
         direction: stroke.direction,
         order_scan,

@@ -301,7 +301,9 @@ pub(crate) fn solve(
     for (zc, zz) in z.iter().zip(&r.x[..q]) {
         coef.iter_mut().zip(zc).for_each(|(c, v)| *c += zz * v);
     }
-    let sinusoids = (0..s).map(|i| (r.x[q + 2 * i], r.x[q + 2 * i + 1])).collect();
+    let sinusoids = (0..s)
+        .map(|i| (r.x[q + 2 * i], r.x[q + 2 * i + 1]))
+        .collect();
     Ok(Solution {
         coef,
         sinusoids,

@@ -21,15 +21,51 @@ pub(crate) struct Tone {
 /// The components of the synthetic drive: rolling mark, shaft 1-4, nut refeed 8.6 + 2x, guide
 /// refeed 9.5 + 2x, amplitudes 2-12 N.
 pub(crate) const TONES: [Tone; 9] = [
-    Tone { order: 0.6, amplitude_n: 4.0, cause: "declared: rolling-tool mark" },
-    Tone { order: 1.0, amplitude_n: 8.0, cause: "shaft 1x" },
-    Tone { order: 2.0, amplitude_n: 6.0, cause: "shaft 2x" },
-    Tone { order: 3.0, amplitude_n: 3.0, cause: "shaft 3x" },
-    Tone { order: 4.0, amplitude_n: 2.0, cause: "shaft 4x" },
-    Tone { order: 8.6, amplitude_n: 10.0, cause: "nut ball refeed 1x" },
-    Tone { order: 17.2, amplitude_n: 4.0, cause: "nut ball refeed 2x" },
-    Tone { order: 9.5, amplitude_n: 12.0, cause: "guide ball refeed 1x" },
-    Tone { order: 19.0, amplitude_n: 5.0, cause: "guide ball refeed 2x" },
+    Tone {
+        order: 0.6,
+        amplitude_n: 4.0,
+        cause: "declared: rolling-tool mark",
+    },
+    Tone {
+        order: 1.0,
+        amplitude_n: 8.0,
+        cause: "shaft 1x",
+    },
+    Tone {
+        order: 2.0,
+        amplitude_n: 6.0,
+        cause: "shaft 2x",
+    },
+    Tone {
+        order: 3.0,
+        amplitude_n: 3.0,
+        cause: "shaft 3x",
+    },
+    Tone {
+        order: 4.0,
+        amplitude_n: 2.0,
+        cause: "shaft 4x",
+    },
+    Tone {
+        order: 8.6,
+        amplitude_n: 10.0,
+        cause: "nut ball refeed 1x",
+    },
+    Tone {
+        order: 17.2,
+        amplitude_n: 4.0,
+        cause: "nut ball refeed 2x",
+    },
+    Tone {
+        order: 9.5,
+        amplitude_n: 12.0,
+        cause: "guide ball refeed 1x",
+    },
+    Tone {
+        order: 19.0,
+        amplitude_n: 5.0,
+        cause: "guide ball refeed 2x",
+    },
 ];
 
 pub(crate) fn axis(lead_mm: f64) -> AxisParams {
@@ -74,7 +110,10 @@ pub(crate) struct Synth {
 
 pub(crate) fn synth(lead_mm: f64, dir: Direction, noise_n: f64, seed: u64) -> Synth {
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    let phases: Vec<f64> = TONES.iter().map(|_| rng.random_range(0.0..2.0 * PI)).collect();
+    let phases: Vec<f64> = TONES
+        .iter()
+        .map(|_| rng.random_range(0.0..2.0 * PI))
+        .collect();
     let normal = Normal::new(0.0, noise_n.max(1e-300)).unwrap();
     let n = (400.0 / lead_mm * 1024.0).round() as usize + 1;
     let dx = lead_mm / 1024.0;
@@ -97,7 +136,11 @@ pub(crate) fn synth(lead_mm: f64, dir: Direction, noise_n: f64, seed: u64) -> Sy
             .collect::<Vec<_>>()
             .iter()
             .sum();
-        let noise = if noise_n > 0.0 { normal.sample(&mut rng) } else { 0.0 };
+        let noise = if noise_n > 0.0 {
+            normal.sample(&mut rng)
+        } else {
+            0.0
+        };
         s.position_m.push(x * 1e-3);
         s.mean_n.push(mean);
         s.tones_n.push(tones);
@@ -106,7 +149,12 @@ pub(crate) fn synth(lead_mm: f64, dir: Direction, noise_n: f64, seed: u64) -> Sy
     s
 }
 
-pub(crate) fn stroke<'a>(s: &'a Synth, dir: Direction, lead_mm: f64, trusted: f64) -> StrokeFriction<'a> {
+pub(crate) fn stroke<'a>(
+    s: &'a Synth,
+    dir: Direction,
+    lead_mm: f64,
+    trusted: f64,
+) -> StrokeFriction<'a> {
     StrokeFriction {
         direction: dir,
         position_m: &s.position_m,
@@ -134,18 +182,22 @@ const CASES: [(f64, Direction, u64); 4] = [
 ];
 
 /// IAFV error relative to the fluctuation RMS, ≥ 10 mm from the ends.
-fn iafv_error_ratio(lead: f64, dir: Direction, seed: u64, params: &ProfileParams) -> (f64, IafvFit) {
+fn iafv_error_ratio(
+    lead: f64,
+    dir: Direction,
+    seed: u64,
+    params: &ProfileParams,
+) -> (f64, IafvFit) {
     let s = synth(lead, dir, 3.0, seed);
     let st = stroke(&s, dir, lead, 60.0);
     let fit = fit_iafv(&st, params, &mut SpectrumAnalyzer::new()).unwrap();
     let iafv = fit.evaluate(&s.position_m);
-    let err = rms(
-        s.position_m
-            .iter()
-            .zip(iafv.iter().zip(&s.mean_n))
-            .filter(|(x, _)| **x >= 0.010 && **x <= 0.390)
-            .map(|(_, (a, b))| a - b),
-    );
+    let err = rms(s
+        .position_m
+        .iter()
+        .zip(iafv.iter().zip(&s.mean_n))
+        .filter(|(x, _)| **x >= 0.010 && **x <= 0.390)
+        .map(|(_, (a, b))| a - b));
     let fluct = rms(s.tones_n.iter().copied());
     (err / fluct, fit)
 }
@@ -267,9 +319,18 @@ fn piecewise_polynomial_of_fitted_orders_is_reproduced_exactly() {
     let fq = fit_piecewise(&x, &q, &[120.0, 260.0], &[4, 4, 6]).unwrap();
     for (i, &p) in x.iter().enumerate().step_by(97) {
         // Rounding: ~1e-13 relative per operation, amplified modestly by the QR.
-        assert!((fit.poly.value_n(p) - y[i]).abs() < 1e-9 * scale, "plain at {p}");
-        assert!((iafv.poly.value_n(p) - y[i]).abs() < 1e-9 * scale, "iafv at {p}");
-        assert!((fq.poly.value_n(p) - q[i]).abs() < 1e-9 * 50.0, "quartic at {p}");
+        assert!(
+            (fit.poly.value_n(p) - y[i]).abs() < 1e-9 * scale,
+            "plain at {p}"
+        );
+        assert!(
+            (iafv.poly.value_n(p) - y[i]).abs() < 1e-9 * scale,
+            "iafv at {p}"
+        );
+        assert!(
+            (fq.poly.value_n(p) - q[i]).abs() < 1e-9 * 50.0,
+            "quartic at {p}"
+        );
     }
 }
 
@@ -293,11 +354,23 @@ fn order_scan_matches_dense_qr_and_table2_shape() {
         }
         let r = lstsq(a, s.friction_n.clone()).unwrap();
         let sd = (r.rss / (n - m - 1) as f64).sqrt();
-        assert!((sd - row.residual_std_n).abs() < 1e-9 * sd, "order {m}: {sd} vs {}", row.residual_std_n);
+        assert!(
+            (sd - row.residual_std_n).abs() < 1e-9 * sd,
+            "order {m}: {sd} vs {}",
+            row.residual_std_n
+        );
     }
     // The residual std never exceeds the line's and the minimum is reported.
-    let best = scan.rows.iter().map(|r| r.residual_std_n).fold(f64::INFINITY, f64::min);
-    let at_best = scan.rows.iter().find(|r| r.order == scan.best_order).unwrap();
+    let best = scan
+        .rows
+        .iter()
+        .map(|r| r.residual_std_n)
+        .fold(f64::INFINITY, f64::min);
+    let at_best = scan
+        .rows
+        .iter()
+        .find(|r| r.order == scan.best_order)
+        .unwrap();
     assert!((at_best.residual_std_n - best).abs() < 1e-15 * best.max(1.0));
     let json = serde_json::to_string(&scan).unwrap();
     assert!(json.contains("\"residual_std_n\""));
@@ -336,31 +409,72 @@ fn bad_input_is_an_error_not_a_panic() {
         feed_mm_min: None,
     };
     let p = ProfileParams::default();
-    let err = |st: StrokeFriction<'_>, p: &ProfileParams, a: &mut SpectrumAnalyzer| fit_iafv(&st, p, a).unwrap_err();
+    let err = |st: StrokeFriction<'_>, p: &ProfileParams, a: &mut SpectrumAnalyzer| {
+        fit_iafv(&st, p, a).unwrap_err()
+    };
     assert!(matches!(
-        err(StrokeFriction { position_m: &x[..10], friction_n: &y[..10], ..base }, &p, &mut a),
+        err(
+            StrokeFriction {
+                position_m: &x[..10],
+                friction_n: &y[..10],
+                ..base
+            },
+            &p,
+            &mut a
+        ),
         ProfileError::TooFewPoints { got: 10, .. }
     ));
     assert!(matches!(
-        err(StrokeFriction { friction_n: &y[..99], ..base }, &p, &mut a),
+        err(
+            StrokeFriction {
+                friction_n: &y[..99],
+                ..base
+            },
+            &p,
+            &mut a
+        ),
         ProfileError::LengthMismatch { .. }
     ));
     let mut yn = y.clone();
     yn[42] = f64::NAN;
     assert!(matches!(
-        err(StrokeFriction { friction_n: &yn, ..base }, &p, &mut a),
-        ProfileError::NonFinite { channel: "friction_n", index: 42 }
+        err(
+            StrokeFriction {
+                friction_n: &yn,
+                ..base
+            },
+            &p,
+            &mut a
+        ),
+        ProfileError::NonFinite {
+            channel: "friction_n",
+            index: 42
+        }
     ));
     let mut xb = x.clone();
     xb[50] += 3e-4;
     assert!(matches!(
-        err(StrokeFriction { position_m: &xb, ..base }, &p, &mut a),
+        err(
+            StrokeFriction {
+                position_m: &xb,
+                ..base
+            },
+            &p,
+            &mut a
+        ),
         ProfileError::NonUniformGrid { index: 50, .. }
     ));
     let mut xs = x.clone();
     xs.swap(10, 11);
     assert!(matches!(
-        err(StrokeFriction { position_m: &xs, ..base }, &p, &mut a),
+        err(
+            StrokeFriction {
+                position_m: &xs,
+                ..base
+            },
+            &p,
+            &mut a
+        ),
         ProfileError::NotMonotonic { .. }
     ));
     let with = |b: Vec<f64>, o: Vec<usize>| ProfileParams {
@@ -368,18 +482,42 @@ fn bad_input_is_an_error_not_a_panic() {
         orders: Some(o),
         ..ProfileParams::default()
     };
-    assert!(matches!(err(base, &with(vec![120.0], vec![1, 1]), &mut a), ProfileError::BreakpointOutsideStroke { .. }));
-    assert!(matches!(err(base, &with(vec![60.0, 30.0], vec![1, 1, 1]), &mut a), ProfileError::BreakpointsUnsorted { .. }));
-    assert!(matches!(err(base, &with(vec![30.0], vec![1]), &mut a), ProfileError::OrdersMismatch { .. }));
+    assert!(matches!(
+        err(base, &with(vec![120.0], vec![1, 1]), &mut a),
+        ProfileError::BreakpointOutsideStroke { .. }
+    ));
+    assert!(matches!(
+        err(base, &with(vec![60.0, 30.0], vec![1, 1, 1]), &mut a),
+        ProfileError::BreakpointsUnsorted { .. }
+    ));
+    assert!(matches!(
+        err(base, &with(vec![30.0], vec![1]), &mut a),
+        ProfileError::OrdersMismatch { .. }
+    ));
     assert!(matches!(
         err(base, &with(vec![3.0], vec![5, 1]), &mut a),
-        ProfileError::OrderTooHigh { interval: 0, order: 5, points: 3, .. }
+        ProfileError::OrderTooHigh {
+            interval: 0,
+            order: 5,
+            points: 3,
+            ..
+        }
     ));
     assert!(matches!(
-        err(StrokeFriction { lead_m: -1.0, ..base }, &p, &mut a),
+        err(
+            StrokeFriction {
+                lead_m: -1.0,
+                ..base
+            },
+            &p,
+            &mut a
+        ),
         ProfileError::InvalidParameter { name: "lead_m", .. }
     ));
-    assert!(matches!(order_scan(&base, 0), Err(ProfileError::InvalidParameter { .. })));
+    assert!(matches!(
+        order_scan(&base, 0),
+        Err(ProfileError::InvalidParameter { .. })
+    ));
 }
 
 /// Dense KKT oracle for min ‖A c − y‖ s.t. C c = 0 (nalgebra SVD solve of the square system).
@@ -415,7 +553,10 @@ fn kkt_fit(x_mm: &[f64], y: &[f64], breaks: &[f64], orders: &[usize]) -> Vec<f64
     rhs.rows_mut(0, nc).copy_from(&(a.transpose() * yv));
     let sol = kkt.svd(true, true).solve(&rhs, 1e-13).unwrap();
     let coef = sol.rows(0, nc).iter().copied().collect::<Vec<_>>();
-    (&a * nalgebra::DVector::from_vec(coef)).iter().copied().collect()
+    (&a * nalgebra::DVector::from_vec(coef))
+        .iter()
+        .copied()
+        .collect()
 }
 
 proptest! {
@@ -481,7 +622,13 @@ proptest! {
 fn analysis(lead: f64, dir: Direction, seed: u64, trusted: f64) -> (StrokeAnalysis, Synth) {
     let s = synth(lead, dir, 3.0, seed);
     let st = stroke(&s, dir, lead, trusted);
-    let a = analyze_stroke(&st, &axis(lead), &AnalysisParams::default(), &mut SpectrumAnalyzer::new()).unwrap();
+    let a = analyze_stroke(
+        &st,
+        &axis(lead),
+        &AnalysisParams::default(),
+        &mut SpectrumAnalyzer::new(),
+    )
+    .unwrap();
     (a, s)
 }
 
@@ -489,14 +636,22 @@ fn analysis(lead: f64, dir: Direction, seed: u64, trusted: f64) -> (StrokeAnalys
 fn whole_stroke_spectrum_finds_and_classifies_every_component() {
     for (lead, dir, seed) in CASES {
         let (a, _) = analysis(lead, dir, seed, 60.0);
-        let all: Vec<_> = a.fluctuation.components.iter().filter(|c| c.segment == "all").collect();
+        let all: Vec<_> = a
+            .fluctuation
+            .components
+            .iter()
+            .filter(|c| c.segment == "all")
+            .collect();
         for t in TONES {
             let found = all
                 .iter()
                 .filter(|c| (c.order - t.order).abs() <= 0.02)
                 .max_by(|x, y| x.amplitude_n.total_cmp(&y.amplitude_n));
             let Some(c) = found else {
-                panic!("lead {lead} {dir:?}: component {} not found in {all:#?}", t.order)
+                panic!(
+                    "lead {lead} {dir:?}: component {} not found in {all:#?}",
+                    t.order
+                )
             };
             let rel = (c.amplitude_n - t.amplitude_n).abs() / t.amplitude_n;
             eprintln!(
@@ -508,16 +663,27 @@ fn whole_stroke_spectrum_finds_and_classifies_every_component() {
                 100.0 * (c.amplitude_n - t.amplitude_n) / t.amplitude_n,
                 c.cause
             );
-            assert!(rel < 0.10, "order {}: amplitude {} vs {}", t.order, c.amplitude_n, t.amplitude_n);
+            assert!(
+                rel < 0.10,
+                "order {}: amplitude {} vs {}",
+                t.order,
+                c.amplitude_n,
+                t.amplitude_n
+            );
             assert_eq!(c.cause, t.cause);
             assert!(c.trusted);
         }
         // Spurious: significant components ≥ 1 N not within 0.02 orders of a true one.
         let spurious: Vec<_> = all
             .iter()
-            .filter(|c| c.amplitude_n >= 1.0 && TONES.iter().all(|t| (c.order - t.order).abs() > 0.02))
+            .filter(|c| {
+                c.amplitude_n >= 1.0 && TONES.iter().all(|t| (c.order - t.order).abs() > 0.02)
+            })
             .collect();
-        assert!(spurious.is_empty(), "lead {lead} {dir:?}: spurious {spurious:#?}");
+        assert!(
+            spurious.is_empty(),
+            "lead {lead} {dir:?}: spurious {spurious:#?}"
+        );
         // Per segment at most one spurious significant component (any amplitude): a component
         // is explained by a true tone within max(resolution, 3 %) of its order.
         for sp in a.fluctuation.spectra.iter().filter(|s| s.segment != "all") {
@@ -527,12 +693,22 @@ fn whole_stroke_spectrum_finds_and_classifies_every_component() {
                 .iter()
                 .filter(|c| c.segment == sp.segment)
                 .filter(|c| {
-                    TONES.iter().all(|t| (c.order - t.order).abs() > sp.order_resolution.max(0.03 * t.order))
+                    TONES.iter().all(|t| {
+                        (c.order - t.order).abs() > sp.order_resolution.max(0.03 * t.order)
+                    })
                 })
                 .collect();
-            assert!(bad.len() <= 1, "lead {lead} {dir:?} segment {}: {bad:#?}", sp.segment);
+            assert!(
+                bad.len() <= 1,
+                "lead {lead} {dir:?} segment {}: {bad:#?}",
+                sp.segment
+            );
         }
-        assert!(a.fluctuation.warnings.is_empty(), "{:?}", a.fluctuation.warnings);
+        assert!(
+            a.fluctuation.warnings.is_empty(),
+            "{:?}",
+            a.fluctuation.warnings
+        );
         assert!(a.fluctuation.spectra.len() >= 4);
     }
 }
@@ -544,11 +720,19 @@ fn aliasing_guard_flags_untrusted_orders_and_gives_the_feed() {
     // 200 mm/min / 2.375 = 84.2 mm/min.
     let (a, _) = analysis(10.0, Direction::Forward, 1, 12.0);
     let comps = &a.fluctuation.components;
-    assert!(comps.iter().filter(|c| c.segment == "all" && c.order > 12.0).all(|c| !c.trusted));
-    assert!(comps.iter().any(|c| c.segment == "all" && (c.order - 19.0).abs() < 0.02 && !c.trusted));
+    assert!(comps
+        .iter()
+        .filter(|c| c.segment == "all" && c.order > 12.0)
+        .all(|c| !c.trusted));
+    assert!(comps
+        .iter()
+        .any(|c| c.segment == "all" && (c.order - 19.0).abs() < 0.02 && !c.trusted));
     assert!(comps.iter().filter(|c| c.order <= 12.0).all(|c| c.trusted));
     let w = a.fluctuation.warnings.join("\n");
-    assert!(w.contains("28.50") && w.contains("84.2 mm/min") && w.contains("2.38 x faster"), "{w}");
+    assert!(
+        w.contains("28.50") && w.contains("84.2 mm/min") && w.contains("2.38 x faster"),
+        "{w}"
+    );
     assert!(w.contains("trusted = false"), "{w}");
 }
 
@@ -556,7 +740,13 @@ fn aliasing_guard_flags_untrusted_orders_and_gives_the_feed() {
 fn analysis_serialises_with_unit_named_fields() {
     let (a, _) = analysis(16.0, Direction::Forward, 3, 60.0);
     let json = serde_json::to_string(&a.fluctuation.components[0]).unwrap();
-    for key in ["\"order\"", "\"amplitude_n\"", "\"position_mm\"", "\"cause\"", "\"trusted\""] {
+    for key in [
+        "\"order\"",
+        "\"amplitude_n\"",
+        "\"position_mm\"",
+        "\"cause\"",
+        "\"trusted\"",
+    ] {
         assert!(json.contains(key), "{json}");
     }
     let json = serde_json::to_string(&a.iafv).unwrap();
