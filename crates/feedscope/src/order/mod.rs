@@ -243,8 +243,9 @@ fn dtft(samples: &[f64], w: &[f64], f: f64) -> Complex<f64> {
 /// Rule for significant components of an amplitude spectrum.
 ///
 /// A bin is a candidate when it is a local maximum at order ≥ `min_order` (and bin ≥ 2). Its
-/// noise floor is the median amplitude over ±max(`floor_min_bins`, `floor_half_width_orders` /
-/// resolution) bins. It is significant when its refined amplitude is ≥ `noise_floor_factor` ×
+/// noise floor is 1.55 × the lower quartile of the amplitudes over ±max(`floor_min_bins`,
+/// `floor_half_width_orders` / resolution) bins (the median for pure noise, whose amplitudes are
+/// Rayleigh distributed, but robust while up to 3/4 of the window holds peaks). It is significant when its refined amplitude is ≥ `noise_floor_factor` ×
 /// floor and ≥ `min_amplitude_n`, and it is not a window sidelobe of a stronger peak (Hann:
 /// within 4 bins and below 5 % of it). Order and amplitude are refined off-bin by the window's
 /// closed-form bin interpolation followed by an exact windowed DTFT at the refined order.
@@ -304,6 +305,9 @@ impl PeakParams {
     }
 }
 
+/// Median / lower quartile of a Rayleigh distribution: sqrt(ln 2 / ln(4/3)).
+const RAYLEIGH_MEDIAN_OVER_QUARTILE: f64 = 1.552_281_9;
+
 /// A refined spectral peak (internal form, with phase).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct RawPeak {
@@ -348,8 +352,12 @@ pub(crate) fn find_peaks(
         let (lo, hi) = (k.saturating_sub(half), (k + half + 1).min(nb));
         buf.clear();
         buf.extend_from_slice(&amplitude[lo..hi]);
-        let mid = buf.len() / 2;
-        let floor = *buf.select_nth_unstable_by(mid, |x, y| x.total_cmp(y)).1;
+        // Robust local floor: 1.55 × lower quartile. For noise alone (Rayleigh amplitudes) this
+        // equals the median, but it stays at the noise level while up to 3/4 of the window is
+        // occupied by peaks (the crowded shaft orders 0.5-4 in a short segment).
+        let q = buf.len() / 4;
+        let floor =
+            RAYLEIGH_MEDIAN_OVER_QUARTILE * *buf.select_nth_unstable_by(q, |x, y| x.total_cmp(y)).1;
         let (left, right) = (amplitude[k - 1], amplitude[k + 1]);
         let delta = if right >= left {
             window.bin_offset(right / a)
@@ -791,8 +799,9 @@ pub fn analyze_fluctuation(
         kinematic_orders: kinematic.to_vec(),
         max_trusted_order: stroke.max_trusted_order,
         noise_floor_rule: format!(
-            "local maximum at order >= {} with refined amplitude >= {} x median amplitude over \
-             +-max({} bins, {} orders) and >= {} N; window sidelobes of stronger peaks rejected",
+            "local maximum at order >= {} with refined amplitude >= {} x floor (1.55 x lower \
+             quartile of the amplitudes over +-max({} bins, {} orders), the median for pure \
+             noise) and >= {} N; window sidelobes of stronger peaks rejected",
             params.peaks.min_order,
             params.peaks.noise_floor_factor,
             params.peaks.floor_min_bins,
