@@ -497,6 +497,9 @@ impl Default for SegmentSpec {
     }
 }
 
+/// Most segments [`segment_bounds`] returns per interval (and for `count`).
+pub const MAX_SEGMENTS: usize = 1000;
+
 /// Segment bounds (mm) for `spec` over [start_mm, end_mm] with IAFV interval ends `breaks_mm`
 /// (including both stroke ends).
 ///
@@ -520,11 +523,11 @@ pub fn segment_bounds(
     };
     match spec {
         SegmentSpec::Count { count } => {
-            if *count == 0 {
+            if *count == 0 || *count > MAX_SEGMENTS {
                 return Err(OrderError::InvalidParameter {
                     name: "segments.count",
-                    value: 0.0,
-                    reason: "must be at least 1",
+                    value: *count as f64,
+                    reason: "must be in 1..=1000",
                 });
             }
             Ok(split(start, end, *count))
@@ -537,7 +540,7 @@ pub fn segment_bounds(
                     reason: "must be > 0",
                 });
             }
-            let n = ((end - start) / length_mm).round().max(1.0) as usize;
+            let n = (((end - start) / length_mm).round().max(1.0) as usize).min(MAX_SEGMENTS);
             Ok(split(start, end, n))
         }
         SegmentSpec::Auto {
@@ -562,7 +565,9 @@ pub fn segment_bounds(
                 if len >= 2.0 * min_leads {
                     n = n.max(2);
                 }
-                n = n.min((len / min_leads).floor().max(1.0) as usize);
+                n = n
+                    .min((len / min_leads).floor().max(1.0) as usize)
+                    .min(MAX_SEGMENTS);
                 out.extend(split(w[0], w[1], n));
             }
             Ok(out)
@@ -739,18 +744,23 @@ pub fn analyze_fluctuation(
     };
     let mut segs: Vec<(String, usize, usize)> = vec![("all".to_string(), 0, n)];
     let mut warnings = Vec::new();
+    let mut skipped = Vec::new();
     for (i, (a, b)) in bounds.iter().enumerate() {
         let lo = (((a - x0_mm) / dx_mm).round().max(0.0) as usize).min(n);
         let hi = (((b - x0_mm) / dx_mm).round().max(0.0) as usize + 1).min(n);
         if hi.saturating_sub(lo) < 16 {
-            warnings.push(format!(
-                "segment {} ({a:.1}-{b:.1} mm) has fewer than 16 samples and was skipped",
-                i + 1
-            ));
+            skipped.push((i + 1).to_string());
             continue;
         }
         // Adjacent segments share their boundary sample at most.
         segs.push(((i + 1).to_string(), lo, hi));
+    }
+    if !skipped.is_empty() {
+        warnings.push(format!(
+            "{} segment(s) with fewer than 16 samples skipped (first: {})",
+            skipped.len(),
+            skipped[0]
+        ));
     }
     let mut spectra = Vec::new();
     let mut components = Vec::new();

@@ -84,6 +84,52 @@ impl PiecewisePoly {
         })
     }
 
+    /// Coefficients a_0..a_m of interval `k` in the paper's power form (Eq. 6) in the local
+    /// variable s = x − b_k (mm): F(x) = Σ_j a_j s^j, a_j in N/mm^j. Informative only: the power
+    /// basis is ill-conditioned for high orders, evaluate with [`Self::value_n`].
+    /// `None` if `k` is out of range.
+    pub fn power_coefficients(&self, k: usize) -> Option<Vec<f64>> {
+        let c = self.coeffs_n.get(k)?;
+        let h = self.breaks_mm[k + 1] - self.breaks_mm[k];
+        let m = c.len();
+        // Legendre polynomials in the power basis of t.
+        let mut p_t = vec![0.0; m];
+        let mut prev: Vec<f64> = vec![1.0];
+        let mut cur: Vec<f64> = vec![0.0, 1.0];
+        for (j, cj) in c.iter().enumerate() {
+            let lj: &[f64] = if j == 0 { &prev } else { &cur };
+            for (i, v) in lj.iter().enumerate() {
+                p_t[i] += cj * v;
+            }
+            if j >= 1 {
+                let jf = j as f64;
+                let mut next = vec![0.0; j + 2];
+                for (i, v) in cur.iter().enumerate() {
+                    next[i + 1] += (2.0 * jf + 1.0) * v / (jf + 1.0);
+                }
+                for (i, v) in prev.iter().enumerate() {
+                    next[i] -= jf * v / (jf + 1.0);
+                }
+                prev = std::mem::replace(&mut cur, next);
+            }
+        }
+        // Substitute t = (2/h)·s − 1 by Horner's scheme on polynomials.
+        let alpha = 2.0 / h;
+        let mut out = vec![0.0; m];
+        for &pi in p_t.iter().rev() {
+            let mut next = vec![0.0; m];
+            for (i, v) in out.iter().enumerate() {
+                if i + 1 < m {
+                    next[i + 1] += alpha * v;
+                }
+                next[i] -= v;
+            }
+            next[0] += pi;
+            out = next;
+        }
+        Some(out)
+    }
+
     /// Relative jumps of value and slope at every interior breakpoint:
     /// |F_k(b) − F_{k+1}(b)| / max(|F_k(b)|, |F_{k+1}(b)|, tiny), the same for the slope.
     pub fn continuity_defects(&self) -> Vec<ContinuityDefect> {
