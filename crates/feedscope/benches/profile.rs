@@ -1,5 +1,5 @@
 //! Full issue-3 analysis of one 400 mm stroke on the grid lead/1024 (40 961 samples at a 10 mm
-//! lead): order scan, automatic breakpoints, C¹ piecewise fit with joint sinusoids, FFS,
+//! lead; also 81 921 samples at a 5 mm lead): order scan, automatic breakpoints, C¹ piecewise fit with joint sinusoids, FFS,
 //! whole-stroke and segment spectra, peaks and classification.
 //!
 //! Run: `cargo bench -p feedscope --bench profile`
@@ -60,26 +60,28 @@ fn stroke_data(lead_mm: f64) -> (Vec<f64>, Vec<f64>) {
 }
 
 fn bench(c: &mut Criterion) {
-    let lead_mm = 10.0;
-    let (x, y) = stroke_data(lead_mm);
-    let ax = axis(lead_mm);
-    let params = AnalysisParams::default();
-    let mut analyzer = SpectrumAnalyzer::new();
-    let stroke = StrokeFriction {
-        direction: Direction::Forward,
-        position_m: &x,
-        friction_n: &y,
-        lead_m: lead_mm * 1e-3,
-        max_trusted_order: 60.0,
-        feed_mm_min: Some(200.0),
-    };
     let mut g = c.benchmark_group("profile");
     g.sample_size(20)
         .warm_up_time(std::time::Duration::from_secs(1))
         .measurement_time(std::time::Duration::from_secs(4));
-    g.bench_function("analyze_stroke_400mm_lead10_m1024", |b| {
-        b.iter(|| analyze_stroke(&stroke, &ax, &params, &mut analyzer).expect("analysis"))
-    });
+    let params = AnalysisParams::default();
+    let mut analyzer = SpectrumAnalyzer::new();
+    for lead_mm in [10.0, 5.0] {
+        let (x, y) = stroke_data(lead_mm);
+        let ax = axis(lead_mm);
+        let stroke = StrokeFriction {
+            direction: Direction::Forward,
+            position_m: &x,
+            friction_n: &y,
+            lead_m: lead_mm * 1e-3,
+            max_trusted_order: 60.0,
+            feed_mm_min: Some(200.0),
+        };
+        let name = format!("analyze_stroke_400mm_lead{lead_mm}_m1024_n{}", x.len());
+        g.bench_function(&name, |b| {
+            b.iter(|| analyze_stroke(&stroke, &ax, &params, &mut analyzer).expect("analysis"))
+        });
+    }
     g.finish();
 }
 

@@ -829,3 +829,47 @@ fn power_coefficients_evaluate_like_the_legendre_form() {
     }
     assert!(truth.power_coefficients(3).is_none());
 }
+
+#[test]
+fn partial_overrides_use_the_given_part() {
+    let s = synth(10.0, Direction::Forward, 3.0, 9);
+    let st = stroke(&s, Direction::Forward, 10.0, 60.0);
+    let mut an = SpectrumAnalyzer::new();
+    // One global quartic (the paper's Table 2 choice).
+    let p = ProfileParams {
+        orders: Some(vec![4]),
+        ..ProfileParams::default()
+    };
+    let f = fit_iafv(&st, &p, &mut an).unwrap();
+    assert_eq!(f.poly.orders, vec![4]);
+    assert_eq!(f.poly.breaks_mm.len(), 2);
+    assert!(!f.selection.automatic);
+    // Breakpoints given, orders by BIC within the cap ⌊len_leads / 2⌋.
+    let p = ProfileParams {
+        breaks_mm: Some(vec![85.0, 150.0]),
+        ..ProfileParams::default()
+    };
+    let f = fit_iafv(&st, &p, &mut an).unwrap();
+    assert_eq!(f.poly.breaks_mm, vec![0.0, 85.0, 150.0, 400.0]);
+    assert_eq!(f.poly.orders.len(), 3);
+    assert!(f.poly.orders[1] <= 3 && f.poly.orders[0] <= 4 && f.poly.orders[2] <= 8);
+    assert!(f.selection.automatic && f.selection.noise_sigma_n.is_some());
+    // The bump at 120 mm needs curvature in the first two intervals.
+    assert!(
+        f.poly.orders[0] >= 2 || f.poly.orders[1] >= 2,
+        "{:?}",
+        f.poly.orders
+    );
+    // Two orders for one interval is a mismatch.
+    let p = ProfileParams {
+        orders: Some(vec![4, 4]),
+        ..ProfileParams::default()
+    };
+    assert!(matches!(
+        fit_iafv(&st, &p, &mut an),
+        Err(ProfileError::OrdersMismatch {
+            orders: 2,
+            intervals: 1
+        })
+    ));
+}
