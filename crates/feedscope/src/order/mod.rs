@@ -114,6 +114,15 @@ impl Window {
         d.clamp(0.0, 0.5)
     }
 
+    /// Smallest on-peak gain of a tone between bins relative to on-bin (Hann 0.849 at ½ bin,
+    /// rectangular 0.637), slightly rounded down.
+    fn worst_scalloping(self) -> f64 {
+        match self {
+            Self::Hann => 0.84,
+            Self::Rectangular => 0.63,
+        }
+    }
+
     /// (bins, ratio): a candidate within `bins` of a stronger peak and weaker than `ratio` times
     /// it is taken for a sidelobe (Hann sidelobes ≤ 2.7 %, rectangular ≤ 22 %).
     fn sidelobe_mask(self) -> (f64, f64) {
@@ -358,6 +367,11 @@ pub(crate) fn find_peaks(
         let q = buf.len() / 4;
         let floor =
             RAYLEIGH_MEDIAN_OVER_QUARTILE * *buf.select_nth_unstable_by(q, |x, y| x.total_cmp(y)).1;
+        // Cheap pre-test on the bin amplitude (worst-case scalloping loss of the window) so the
+        // O(N) DTFT runs only for plausible peaks, even in very noisy spectra.
+        if a < window.worst_scalloping() * params.noise_floor_factor * floor {
+            continue;
+        }
         let (left, right) = (amplitude[k - 1], amplitude[k + 1]);
         let delta = if right >= left {
             window.bin_offset(right / a)

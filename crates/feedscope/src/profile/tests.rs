@@ -873,3 +873,30 @@ fn partial_overrides_use_the_given_part() {
         })
     ));
 }
+
+#[test]
+fn heavy_noise_stays_fast_and_finds_the_strong_tones() {
+    // σ = 30 N per sample: thousands of noise maxima above 0.5 N; only the pre-tested ones get a
+    // DTFT. The strong tones (≥ 8 N) must still be found in the whole-stroke spectrum.
+    let s = synth(10.0, Direction::Forward, 30.0, 21);
+    let st = stroke(&s, Direction::Forward, 10.0, 60.0);
+    let t0 = std::time::Instant::now();
+    let a = analyze_stroke(
+        &st,
+        &axis(10.0),
+        &AnalysisParams::default(),
+        &mut SpectrumAnalyzer::new(),
+    )
+    .unwrap();
+    eprintln!("heavy noise analysis: {:?}", t0.elapsed());
+    for t in TONES.iter().filter(|t| t.amplitude_n >= 8.0) {
+        assert!(
+            a.fluctuation
+                .components
+                .iter()
+                .any(|c| c.segment == "all" && (c.order - t.order).abs() < 0.02),
+            "{}",
+            t.order
+        );
+    }
+}
