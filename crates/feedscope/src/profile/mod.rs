@@ -436,6 +436,83 @@ pub fn order_scan(
     })
 }
 
+/// One row of [`OrderScanTable`]: mean residual standard deviation per direction.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OrderScanTableRow {
+    /// Polynomial order m of Eq. 6.
+    pub order: usize,
+    /// Mean over the forward strokes (N), `None` without forward strokes.
+    pub forward_std_n: Option<f64>,
+    /// Mean over the backward strokes (N), `None` without backward strokes.
+    pub backward_std_n: Option<f64>,
+}
+
+/// The paper's Table 2: average residual standard deviation of single polynomials of orders
+/// 1..=max per feed direction.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OrderScanTable {
+    /// One row per order.
+    pub rows: Vec<OrderScanTableRow>,
+    /// Forward strokes averaged.
+    pub forward_strokes: usize,
+    /// Backward strokes averaged.
+    pub backward_strokes: usize,
+    /// Order of the lowest forward mean, if any.
+    pub best_order_forward: Option<usize>,
+    /// Order of the lowest backward mean, if any.
+    pub best_order_backward: Option<usize>,
+}
+
+/// Table 2 over several strokes: [`order_scan`] of each, averaged per direction.
+///
+/// # Errors
+/// The first error of [`order_scan`] on any stroke.
+pub fn order_scan_table(
+    strokes: &[StrokeFriction<'_>],
+    max_order: usize,
+) -> Result<OrderScanTable, ProfileError> {
+    let scans = strokes
+        .iter()
+        .map(|s| order_scan(s, max_order))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mean = |dir: Direction, order: usize| -> Option<f64> {
+        let v: Vec<f64> = scans
+            .iter()
+            .filter(|s| s.direction == dir)
+            .filter_map(|s| s.rows.iter().find(|r| r.order == order))
+            .map(|r| r.residual_std_n)
+            .collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    let rows: Vec<OrderScanTableRow> = (1..=max_order)
+        .map(|m| OrderScanTableRow {
+            order: m,
+            forward_std_n: mean(Direction::Forward, m),
+            backward_std_n: mean(Direction::Backward, m),
+        })
+        .filter(|r| r.forward_std_n.is_some() || r.backward_std_n.is_some())
+        .collect();
+    let best = |f: fn(&OrderScanTableRow) -> Option<f64>| {
+        rows.iter()
+            .filter_map(|r| f(r).map(|v| (v, r.order)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, o)| o)
+    };
+    Ok(OrderScanTable {
+        best_order_forward: best(|r| r.forward_std_n),
+        best_order_backward: best(|r| r.backward_std_n),
+        forward_strokes: scans
+            .iter()
+            .filter(|s| s.direction == Direction::Forward)
+            .count(),
+        backward_strokes: scans
+            .iter()
+            .filter(|s| s.direction == Direction::Backward)
+            .count(),
+        rows,
+    })
+}
+
 /// Straight-line least-squares fit over the stroke: the paper's linear IAFV trend (Fig. 7,
 /// dashed), attributed to the torsional stiffness of the screw segment between motor and nut.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

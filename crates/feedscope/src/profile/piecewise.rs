@@ -21,7 +21,8 @@ pub const MAX_INTERVAL_ORDER: usize = 20;
 ///
 /// In interval k, F(x) = Σ_j `coeffs_n[k][j]` · P_j(t) with t = 2(x − b_k)/(b_{k+1} − b_k) − 1,
 /// P_j the Legendre polynomials and b = `breaks_mm`. Outside the first/last interval the end
-/// polynomials are extrapolated.
+/// polynomials are extrapolated. A poly whose field lengths disagree (built or deserialized by
+/// hand) evaluates to NaN rather than panicking; coefficients beyond order 20 are ignored.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PiecewisePoly {
     /// Interval boundaries in mm (machine coordinates), K + 1 strictly increasing values; the
@@ -37,22 +38,25 @@ impl PiecewisePoly {
     /// Index of the interval holding `position_mm` (clamped to the first/last interval).
     pub fn interval_of(&self, position_mm: f64) -> usize {
         let k = self.orders.len();
-        if k <= 1 {
-            return 0;
-        }
         // breaks_mm[1..k] are the interior breakpoints.
-        self.breaks_mm[1..k].partition_point(|&b| b <= position_mm)
+        match self.breaks_mm.get(1..k) {
+            Some(interior) if k > 1 => interior.partition_point(|&b| b <= position_mm),
+            _ => 0,
+        }
     }
 
-    fn local(&self, k: usize, position_mm: f64) -> (f64, f64) {
-        let (a, b) = (self.breaks_mm[k], self.breaks_mm[k + 1]);
-        let h = b - a;
-        (2.0 * (position_mm - a) / h - 1.0, h)
-    }
-
+    /// (value, slope per mm); NaN for a malformed poly (e.g. edited or deserialized fields
+    /// whose lengths disagree) instead of a panic.
     fn eval_interval(&self, k: usize, position_mm: f64) -> (f64, f64) {
-        let (t, h) = self.local(k, position_mm);
-        let c = &self.coeffs_n[k];
+        let (Some(&a), Some(&b), Some(c)) = (
+            self.breaks_mm.get(k),
+            self.breaks_mm.get(k + 1),
+            self.coeffs_n.get(k),
+        ) else {
+            return (f64::NAN, f64::NAN);
+        };
+        let h = b - a;
+        let t = 2.0 * (position_mm - a) / h - 1.0;
         let mut p = [0.0; MAX_INTERVAL_ORDER + 1];
         let mut d = [0.0; MAX_INTERVAL_ORDER + 1];
         let m = c.len().min(MAX_INTERVAL_ORDER + 1);
@@ -90,7 +94,7 @@ impl PiecewisePoly {
     /// `None` if `k` is out of range.
     pub fn power_coefficients(&self, k: usize) -> Option<Vec<f64>> {
         let c = self.coeffs_n.get(k)?;
-        let h = self.breaks_mm[k + 1] - self.breaks_mm[k];
+        let h = self.breaks_mm.get(k + 1)? - self.breaks_mm.get(k)?;
         let m = c.len();
         // Legendre polynomials in the power basis of t.
         let mut p_t = vec![0.0; m];
@@ -135,7 +139,7 @@ impl PiecewisePoly {
     pub fn continuity_defects(&self) -> Vec<ContinuityDefect> {
         (1..self.orders.len())
             .map(|k| {
-                let b = self.breaks_mm[k];
+                let b = self.breaks_mm.get(k).copied().unwrap_or(f64::NAN);
                 let (v0, s0) = self.eval_interval(k - 1, b);
                 let (v1, s1) = self.eval_interval(k, b);
                 let rel = |a: f64, c: f64| (a - c).abs() / a.abs().max(c.abs()).max(1e-300);

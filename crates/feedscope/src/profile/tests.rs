@@ -900,3 +900,39 @@ fn heavy_noise_stays_fast_and_finds_the_strong_tones() {
         );
     }
 }
+
+#[test]
+fn order_scan_table_averages_per_direction() {
+    let f1 = synth(10.0, Direction::Forward, 3.0, 1);
+    let f2 = synth(10.0, Direction::Forward, 3.0, 2);
+    let b1 = synth(10.0, Direction::Backward, 3.0, 3);
+    let strokes = [
+        stroke(&f1, Direction::Forward, 10.0, 60.0),
+        stroke(&f2, Direction::Forward, 10.0, 60.0),
+        stroke(&b1, Direction::Backward, 10.0, 60.0),
+    ];
+    let t = order_scan_table(&strokes, 8).unwrap();
+    assert_eq!((t.forward_strokes, t.backward_strokes), (2, 1));
+    assert_eq!(t.rows.len(), 8);
+    let s1 = order_scan(&strokes[0], 8).unwrap();
+    let s2 = order_scan(&strokes[1], 8).unwrap();
+    let sb = order_scan(&strokes[2], 8).unwrap();
+    for (i, r) in t.rows.iter().enumerate() {
+        let want = 0.5 * (s1.rows[i].residual_std_n + s2.rows[i].residual_std_n);
+        assert!((r.forward_std_n.unwrap() - want).abs() < 1e-12 * want);
+        assert!((r.backward_std_n.unwrap() - sb.rows[i].residual_std_n).abs() < 1e-12 * want);
+    }
+    assert!(t.best_order_forward.is_some() && t.best_order_backward.is_some());
+}
+
+#[test]
+fn malformed_poly_evaluates_to_nan_not_panic() {
+    let p = PiecewisePoly {
+        breaks_mm: vec![0.0],
+        orders: vec![2, 3],
+        coeffs_n: vec![vec![1.0]],
+    };
+    assert!(p.value_n(0.1).is_nan());
+    assert!(p.power_coefficients(1).is_none());
+    let _ = p.continuity_defects();
+}
