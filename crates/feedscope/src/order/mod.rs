@@ -428,6 +428,23 @@ pub struct KinematicOrder {
 ///
 /// # Reference
 /// Paper 000, Eq. 7 and section 4.1.2 (groups 1-4 of significant components).
+///
+/// # Example
+/// ```
+/// use feedscope::axis::{AxisParams, ConfigFormat};
+/// use feedscope::order::kinematic_orders;
+/// let axis = AxisParams::parse(
+///     "lead_mm = 10\ntable_mass_kg = 425\ninertia_kgm2 = 0.004\n\
+///      damping_nms_per_rad = 0.002\ntorque_constant_nm_per_a = 1.82\n\
+///      guide_balls_per_raceway = 19\n",
+///     ConfigFormat::Toml,
+///     "axis.toml",
+/// )
+/// .unwrap();
+/// let k = kinematic_orders(&axis);
+/// let g2 = k.iter().find(|k| k.cause == "guide ball refeed 2x").unwrap();
+/// assert!((g2.order - 19.0).abs() < 1e-12); // z/2 · 2 with z = 19 (Eq. 7, d → ∞)
+/// ```
 pub fn kinematic_orders(axis: &AxisParams) -> Vec<KinematicOrder> {
     let mut out: Vec<KinematicOrder> = (1..=4)
         .map(|h| KinematicOrder {

@@ -868,8 +868,42 @@ pub struct StrokeAnalysis {
 /// FFS, segment spectra in screw orders, significant components classified against the axis'
 /// kinematic orders (Eq. 7), aliasing guard.
 ///
+/// # Reference
+/// Paper 000, section 4.1 (Eq. 6-7, Table 2, Figs 6-10).
+///
 /// # Errors
 /// As [`fit_iafv`] and [`analyze_fluctuation`].
+///
+/// # Example
+/// ```
+/// use feedscope::axis::{AxisParams, ConfigFormat};
+/// use feedscope::order::SpectrumAnalyzer;
+/// use feedscope::profile::{analyze_stroke, AnalysisParams, Direction, StrokeFriction};
+/// let axis = AxisParams::parse(
+///     "lead_mm = 10\ntable_mass_kg = 425\ninertia_kgm2 = 0.004\n\
+///      damping_nms_per_rad = 0.002\ntorque_constant_nm_per_a = 1.82\n",
+///     ConfigFormat::Toml,
+///     "axis.toml",
+/// )
+/// .unwrap();
+/// // 200 mm at 256 samples per lead: mean 70 N + a 5 N shaft-1x ripple.
+/// let x: Vec<f64> = (0..=20 * 256).map(|i| i as f64 * 0.01 / 256.0).collect();
+/// let f: Vec<f64> =
+///     x.iter().map(|&p| 70.0 + 5.0 * (2.0 * std::f64::consts::PI * p / 0.01).cos()).collect();
+/// let stroke = StrokeFriction {
+///     direction: Direction::Forward,
+///     position_m: &x,
+///     friction_n: &f,
+///     lead_m: 0.01,
+///     max_trusted_order: 20.0,
+///     feed_mm_min: Some(100.0),
+/// };
+/// let a = analyze_stroke(&stroke, &axis, &AnalysisParams::default(), &mut SpectrumAnalyzer::new())
+///     .unwrap();
+/// let c = a.fluctuation.components.iter().find(|c| c.segment == "all").unwrap();
+/// assert_eq!(c.cause, "shaft 1x");
+/// assert!((c.amplitude_n - 5.0).abs() < 0.05);
+/// ```
 pub fn analyze_stroke(
     stroke: &StrokeFriction<'_>,
     axis: &AxisParams,
