@@ -485,3 +485,37 @@ pub fn fit_piecewise(
         condition_estimate: sol.condition_estimate,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn block_means_reproduce_data_in_the_model_span_exactly() {
+        // y = C¹ piecewise cubic/quartic + 3 cos(2π 8.6 u) + 2 sin(2π 0.6 u) on a uniform grid of
+        // 1/1024 lead, fitted on blocks of 21 samples (partial last block): the exact block
+        // means of every column make the fit exact (to rounding), sinusoids included.
+        let n = 12 * 1024 + 7;
+        let u: Vec<f64> = (0..n).map(|i| i as f64 / 1024.0).collect();
+        let layout = Layout::new(vec![0.0, 5.0, u[n - 1]], vec![3, 4]);
+        // A feasible coefficient vector: project arbitrary data on the C¹ set.
+        let rough: Vec<f64> = u.iter().map(|v| (v * 0.7).sin() * 30.0 + v * v).collect();
+        let truth = solve(&layout, &u, &rough, 1, &[]).unwrap().coef;
+        let poly = layout.to_poly(&truth, |v| v);
+        let y: Vec<f64> = u
+            .iter()
+            .map(|&v| {
+                poly.value_n(v * 1e-3)
+                    + 3.0 * (2.0 * std::f64::consts::PI * 8.6 * v).cos()
+                    + 2.0 * (2.0 * std::f64::consts::PI * 0.6 * v).sin()
+            })
+            .collect();
+        let sol = solve(&layout, &u, &y, 21, &[8.6, 0.6]).unwrap();
+        for (a, b) in sol.coef.iter().zip(&truth) {
+            assert!((a - b).abs() < 1e-9 * (1.0 + b.abs()), "{a} vs {b}");
+        }
+        assert!((sol.sinusoids[0].0 - 3.0).abs() < 1e-9 && sol.sinusoids[0].1.abs() < 1e-9);
+        assert!(sol.sinusoids[1].0.abs() < 1e-9 && (sol.sinusoids[1].1 - 2.0).abs() < 1e-9);
+        assert!(sol.rss < 1e-16 * n as f64);
+    }
+}
