@@ -118,7 +118,37 @@ fn plot_err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
 /// # Errors
 /// When no series holds a finite point, or plotters fails.
 pub fn line_chart_svg(chart: &LineChart) -> Result<String> {
+    stacked_svg(std::slice::from_ref(chart))
+}
+
+/// Render charts stacked vertically (e.g. forward above backward) into one SVG.
+///
+/// # Errors
+/// When a chart holds no finite point, or plotters fails.
+pub fn stacked_svg(charts: &[LineChart]) -> Result<String> {
     register_font();
+    let n = charts.len().max(1) as u32;
+    let height = if n == 1 { HEIGHT } else { 380 * n };
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let areas = root.split_evenly((n as usize, 1));
+        for (chart, area) in charts.iter().zip(areas.iter()) {
+            draw_line_chart(chart, area)?;
+        }
+        root.present().map_err(plot_err)?;
+    }
+    Ok(svg)
+}
+
+fn draw_line_chart<DB: DrawingBackend>(
+    chart: &LineChart,
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
     let (x0, x1) = extent(
         chart
             .series
@@ -131,60 +161,56 @@ pub fn line_chart_svg(chart: &LineChart) -> Result<String> {
             .iter()
             .flat_map(|s| s.points.iter().map(|p| p.1)),
     )?;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
-        root.fill(&WHITE).map_err(plot_err)?;
-        let mut ctx = ChartBuilder::on(&root)
-            .caption(chart.title, ("sans-serif", 22))
-            .margin(12)
-            .x_label_area_size(48)
-            .y_label_area_size(72)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(plot_err)?;
-        ctx.configure_mesh()
-            .x_desc(chart.x_label)
-            .y_desc(chart.y_label)
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 16))
-            .light_line_style(RGBColor(235, 235, 235))
+    // Headroom above the data for the legend.
+    let y1 = y1 + 0.18 * (y1 - y0);
+    let mut ctx = ChartBuilder::on(area)
+        .caption(chart.title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(72)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(plot_err)?;
+    ctx.configure_mesh()
+        .x_desc(chart.x_label)
+        .y_desc(chart.y_label)
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(plot_err)?;
+    for (k, s) in chart.series.iter().enumerate() {
+        let colour = PALETTE[k % PALETTE.len()];
+        let pts = s
+            .points
+            .iter()
+            .copied()
+            .filter(|(x, y)| x.is_finite() && y.is_finite());
+        let legend_colour = colour;
+        let anno = match s.style {
+            Style::Line => ctx
+                .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                .map_err(plot_err)?,
+            Style::Dashed => ctx
+                .draw_series(DashedLineSeries::new(pts, 8, 5, colour.stroke_width(2)))
+                .map_err(plot_err)?,
+            Style::Points => ctx
+                .draw_series(pts.map(|p| Circle::new(p, 1, colour.mix(0.5).filled())))
+                .map_err(plot_err)?,
+        };
+        anno.label(s.name.as_str()).legend(move |(x, y)| {
+            PathElement::new(vec![(x, y), (x + 18, y)], legend_colour.stroke_width(3))
+        });
+    }
+    if chart.series.len() > 1 || chart.series.iter().any(|s| !s.name.is_empty()) {
+        ctx.configure_series_labels()
+            .label_font(("sans-serif", 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(180, 180, 180))
+            .position(SeriesLabelPosition::UpperRight)
             .draw()
             .map_err(plot_err)?;
-        for (k, s) in chart.series.iter().enumerate() {
-            let colour = PALETTE[k % PALETTE.len()];
-            let pts = s
-                .points
-                .iter()
-                .copied()
-                .filter(|(x, y)| x.is_finite() && y.is_finite());
-            let legend_colour = colour;
-            let anno = match s.style {
-                Style::Line => ctx
-                    .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
-                    .map_err(plot_err)?,
-                Style::Dashed => ctx
-                    .draw_series(DashedLineSeries::new(pts, 8, 5, colour.stroke_width(2)))
-                    .map_err(plot_err)?,
-                Style::Points => ctx
-                    .draw_series(pts.map(|p| Circle::new(p, 1, colour.mix(0.5).filled())))
-                    .map_err(plot_err)?,
-            };
-            anno.label(s.name.as_str()).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 18, y)], legend_colour.stroke_width(3))
-            });
-        }
-        if chart.series.len() > 1 || chart.series.iter().any(|s| !s.name.is_empty()) {
-            ctx.configure_series_labels()
-                .label_font(("sans-serif", 14))
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(180, 180, 180))
-                .position(SeriesLabelPosition::UpperRight)
-                .draw()
-                .map_err(plot_err)?;
-        }
-        root.present().map_err(plot_err)?;
     }
-    Ok(svg)
+    Ok(())
 }
 
 /// Render a heat map to SVG text, with a colour bar labelled `z_label`.

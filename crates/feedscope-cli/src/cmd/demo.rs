@@ -55,15 +55,18 @@ pub fn run(args: Args) -> Result<()> {
     )?;
     // The truth beside the estimate, at the estimate's own positions.
     let model = &sim.truth.friction;
-    let mut truth_series = Vec::new();
-    for (dir, strokes) in [
+    let mut truth_series: [Vec<Series>; 2] = [Vec::new(), Vec::new()];
+    for (k, (dir, strokes)) in [
         (Direction::Forward, &outcome.plot.forward),
         (Direction::Backward, &outcome.plot.backward),
-    ] {
+    ]
+    .into_iter()
+    .enumerate()
+    {
         if let Some(pts) = strokes.first() {
             let v = dir.sign() * cfg.motion.strokes[0].feed_mm_min / 60e3;
-            truth_series.push(Series {
-                name: format!("{} truth", dir.as_str()),
+            truth_series[k].push(Series {
+                name: format!("{} (true)", dir.as_str()),
                 points: pts
                     .iter()
                     .map(|&(z_mm, _)| (z_mm, model.friction_n(z_mm * 1e-3, v)))
@@ -72,10 +75,10 @@ pub fn run(args: Args) -> Result<()> {
             });
         }
     }
-    let svg = outcome.plot.svg(
-        "Demo lathe Z: estimated (solid) and true (dashed) friction",
-        truth_series,
-    )?;
+    let [truth_fwd, truth_bwd] = truth_series;
+    let svg = outcome
+        .plot
+        .svg("Demo lathe Z, estimated vs true", truth_fwd, truth_bwd)?;
     let json = serde_json::to_string_pretty(&outcome.summary)?;
     outcome.csv.commit()?;
     write_atomic(&args.out.join("friction.json"), json.as_bytes())?;

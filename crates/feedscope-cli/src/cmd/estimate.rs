@@ -145,29 +145,53 @@ impl PlotData {
         );
     }
 
-    /// Friction vs position, both directions, optional extra series (e.g. the truth).
-    pub fn svg(&self, title: &str, extra: Vec<plot::Series>) -> Result<String> {
-        let mut series = Vec::new();
-        for (label, strokes) in [("forward", &self.forward), ("backward", &self.backward)] {
-            for (k, pts) in strokes.iter().enumerate() {
-                series.push(plot::Series {
+    /// Friction vs position: one panel per direction, with optional extra series (e.g. the
+    /// truth) per direction.
+    pub fn svg(
+        &self,
+        title: &str,
+        mut extra_forward: Vec<plot::Series>,
+        mut extra_backward: Vec<plot::Series>,
+    ) -> Result<String> {
+        let mut charts_series = Vec::new();
+        for (label, strokes, extra) in [
+            ("forward", &self.forward, &mut extra_forward),
+            ("backward", &self.backward, &mut extra_backward),
+        ] {
+            if strokes.is_empty() {
+                continue;
+            }
+            let mut series: Vec<plot::Series> = strokes
+                .iter()
+                .enumerate()
+                .map(|(k, pts)| plot::Series {
                     name: if strokes.len() > 1 {
                         format!("{label} stroke {}", k + 1)
                     } else {
-                        label.to_string()
+                        format!("{label} (estimated)")
                     },
                     points: pts.clone(),
                     style: plot::Style::Line,
-                });
-            }
+                })
+                .collect();
+            series.append(extra);
+            charts_series.push((label, series));
         }
-        series.extend(extra);
-        plot::line_chart_svg(&plot::LineChart {
-            title,
-            x_label: "position (mm)",
-            y_label: "friction force F_f (N), signed as Eq. 5",
-            series,
-        })
+        let titles: Vec<String> = charts_series
+            .iter()
+            .map(|(label, _)| format!("{title}: {label}"))
+            .collect();
+        let charts: Vec<plot::LineChart> = charts_series
+            .into_iter()
+            .zip(&titles)
+            .map(|((_, series), t)| plot::LineChart {
+                title: t,
+                x_label: "position (mm)",
+                y_label: "friction F_f (N, signed as Eq. 5)",
+                series,
+            })
+            .collect();
+        plot::stacked_svg(&charts)
     }
 }
 
@@ -380,7 +404,8 @@ pub fn run(args: Args) -> Result<()> {
         Some(_) => {
             let name = axis.name.as_deref().unwrap_or("axis");
             Some(outcome.plot.svg(
-                &format!("Estimated friction along the travel ({name})"),
+                &format!("Friction along the travel ({name})"),
+                vec![],
                 vec![],
             )?)
         }
