@@ -4,6 +4,7 @@
 //! input or usage (unreadable or malformed files, invalid parameters).
 use clap::{Parser, Subcommand};
 
+mod analyze;
 mod demo;
 mod dynamics;
 mod estimate;
@@ -24,6 +25,7 @@ pub struct Cli {
 pub enum Command {
     // Help text from the doc comment of each `Args`.
     Demo(demo::Args),
+    Analyze(analyze::Args),
     Estimate(estimate::Args),
     // Help text from the doc comment of `simulate::Args`.
     Simulate(simulate::Args),
@@ -45,6 +47,7 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
             || c.is::<AxisError>()
             || c.is::<EstimateError>()
             || c.is::<feedscope::sim::SimError>()
+            || c.is::<feedscope::profile::ProfileError>()
             || c.is::<toml::de::Error>()
             || c.is::<serde_json::Error>()
             || c.downcast_ref::<std::io::Error>()
@@ -68,6 +71,7 @@ fn is_broken_pipe(err: &anyhow::Error) -> bool {
 pub fn run(cli: Cli) -> std::process::ExitCode {
     let result = match cli.command {
         Command::Demo(a) => demo::run(a),
+        Command::Analyze(a) => analyze::run(a),
         Command::Estimate(a) => estimate::run(a),
         // Prints its own errors and chooses its exit code (2 bad input, 1 otherwise).
         Command::Simulate(a) => return simulate::run(a),

@@ -1,4 +1,5 @@
 //! End-to-end tests of the `feedscope` binary, each in a temporary directory.
+mod analyze;
 mod dynamics;
 mod estimate;
 mod simulate;

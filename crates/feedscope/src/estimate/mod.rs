@@ -171,8 +171,9 @@ pub struct StrokeSummary {
     pub points: usize,
     /// Raw samples per lead: the smaller of the position and the effort channel.
     pub raw_samples_per_lead: f64,
-    /// Highest order (cycles per lead) resolvable without aliasing: half the raw samples per
-    /// lead.
+    /// Highest order (cycles per lead) that can be trusted: raw samples per lead / 2.5.
+    /// Nyquist is samples per lead / 2, but the interpolating spline's response falls off and
+    /// images fold back in the top fifth of that band, so 0.8 × Nyquist is kept as the limit.
     pub max_order: f64,
     /// Cut-off order of the position smoothing, when it was applied.
     pub position_cutoff_order: Option<f64>,
@@ -493,12 +494,12 @@ pub fn estimate_stroke(
     sm.mean_friction_n = mean;
     sm.friction_std_n = var.sqrt();
     sm.raw_samples_per_lead = spl;
-    sm.max_order = 0.5 * spl;
+    sm.max_order = spl / 2.5;
     if spl < 8.0 {
         warnings.push(format!(
-            "only {spl:.1} raw samples per lead: fluctuation above order {:.1} aliases; \
-             sample faster or feed slower (below {:.0} mm/min for 8 samples per lead)",
-            0.5 * spl,
+            "only {spl:.1} raw samples per lead: fluctuation above order {:.1} cannot be \
+             trusted; sample faster or feed slower (below {:.0} mm/min for 8 samples per lead)",
+            spl / 2.5,
             span.plateau_speed_m_s * 60e3 * spl / 8.0
         ));
     }

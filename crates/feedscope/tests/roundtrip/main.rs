@@ -1,4 +1,5 @@
 //! Round trips through the digital twin: simulate a drive with known friction, estimate it,
 //! compare with the truth.
 mod estimate;
+mod profile;
 mod util;

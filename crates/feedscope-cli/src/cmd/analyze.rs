@@ -1,0 +1,686 @@
+//! `feedscope analyze`: where along the travel friction changes, and which part does it.
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use feedscope::axis::AxisParams;
+use feedscope::estimate::{estimate, Direction, EstimateParams, StrokeFriction, StrokeSummary};
+use feedscope::order::{SegmentSpec, SpectrumAnalyzer};
+use feedscope::profile::{
+    analyze_stroke, fit_piecewise, order_scan_table, AnalysisParams, StrokeAnalysis,
+    StrokeFriction as StrokeView,
+};
+use feedscope::trace::{read_trace_file, ReadOptions};
+use serde::Serialize;
+
+use super::estimate::{load_axis, params_from, Args as EstimateArgs};
+use super::BadInput;
+use crate::output::{push_fixed, write_atomic, AtomicFile};
+use crate::plot::{self, Heatmap, LineChart, Series, Style};
+
+/// Analyse friction along the travel (paper 000, section 4.1).
+///
+/// Estimates friction from a trace (or reads the CSV written by `feedscope estimate`), fits the
+/// instantaneous average friction value (IAFV) as piecewise polynomials with value and slope
+/// continuity (breakpoints and orders chosen by BIC unless given), separates the friction
+/// fluctuating signal (FFS = friction − IAFV), computes its amplitude spectra in screw orders
+/// (cycles per lead) for the whole stroke and for segments of the travel, finds the significant
+/// components and names their likely cause from the axis geometry (shaft orders 1-4, ball
+/// refeeding in the nut and the guides by Eq. 7, declared orders).
+///
+/// Writes into DIR: analysis.json, friction.csv (with iafv_n and ffs_n), components.csv,
+/// order_scan.csv (Table 2) and SVG plots.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Trace CSV (as for `estimate`), or the friction CSV written by `feedscope estimate`
+    /// (its JSON summary beside it supplies the aliasing limits).
+    pub input: PathBuf,
+    /// Axis parameters (TOML or JSON); the geometry keys name the kinematic orders.
+    #[arg(long)]
+    pub axis: PathBuf,
+    /// Output folder (created if missing).
+    #[arg(long, default_value = "feedscope-analysis")]
+    pub out: PathBuf,
+    /// IAFV interior breakpoints (mm), e.g. `85,150`; automatic (BIC) when absent.
+    #[arg(long, value_delimiter = ',', requires = "orders")]
+    pub breaks: Option<Vec<f64>>,
+    /// Polynomial order of each IAFV interval, e.g. `4,5,4` (one more than breakpoints).
+    #[arg(long, value_delimiter = ',')]
+    pub orders: Option<Vec<usize>>,
+    /// Number of equal segments for the spectra [default: automatic, about 5 leads each
+    /// within each IAFV interval, like the paper].
+    #[arg(long, conflicts_with = "segment_length_mm")]
+    pub segments: Option<usize>,
+    /// Segment length for the spectra (mm).
+    #[arg(long)]
+    pub segment_length_mm: Option<f64>,
+    /// Segment whose spectrum gets its own plot (1-based).
+    #[arg(long, default_value_t = 1)]
+    pub segment: usize,
+    /// Resampling points per lead when estimating from a trace.
+    #[arg(long, default_value_t = 1024)]
+    pub samples_per_lead: u32,
+    /// What to print on stdout.
+    #[arg(long, value_enum, default_value_t = super::estimate::Format::Text)]
+    pub format: super::estimate::Format,
+}
+
+/// One stroke in `analysis.json` (the per-point arrays are in friction.csv).
+#[derive(Debug, Serialize)]
+struct StrokeReport<'a> {
+    stroke: usize,
+    direction: Direction,
+    feed_mm_min: f64,
+    start_mm: f64,
+    end_mm: f64,
+    max_trusted_order: f64,
+    order_scan: &'a feedscope::profile::OrderScan,
+    iafv: &'a feedscope::profile::IafvFit,
+    single_polynomial_order: usize,
+    single_polynomial_std_n: f64,
+    fluctuation: &'a feedscope::order::FluctuationAnalysis,
+}
+
+#[derive(Debug, Serialize)]
+struct Report<'a> {
+    source: String,
+    axis: &'a AxisParams,
+    params: &'a AnalysisParams,
+    order_scan_table: feedscope::profile::OrderScanTable,
+    strokes: Vec<StrokeReport<'a>>,
+    conventions: Conventions,
+}
+
+#[derive(Debug, Serialize)]
+struct Conventions {
+    order: &'static str,
+    friction_sign: &'static str,
+    amplitude: &'static str,
+}
+
+/// Strokes read back from a friction CSV of `feedscope estimate`.
+fn strokes_from_estimate_csv(path: &Path, text: &str, lead_m: f64) -> Result<Vec<StrokeFriction>> {
+    let summary_path = path.with_extension("json");
+    let (summaries, m): (Vec<StrokeSummary>, f64) = match std::fs::read_to_string(&summary_path) {
+        Ok(j) => {
+            let v: serde_json::Value = serde_json::from_str(&j)
+                .with_context(|| format!("reading {}", summary_path.display()))?;
+            let strokes = serde_json::from_value(v["strokes"].clone())
+                .with_context(|| format!("{}: no `strokes` list", summary_path.display()))?;
+            let m = v["params"]["samples_per_lead"].as_f64().unwrap_or(1024.0);
+            (strokes, m)
+        }
+        Err(_) => (Vec::new(), 1024.0),
+    };
+    // The CSV rounds positions to 1 nm; put them back on the exact grid k·p/m.
+    let step = lead_m / m;
+    let mut by_stroke: BTreeMap<usize, StrokeFriction> = BTreeMap::new();
+    let name = path.display().to_string();
+    for (k, line) in text.lines().enumerate().skip(1) {
+        let lineno = k + 1;
+        if line.trim().is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != 8 {
+            return Err(BadInput(format!(
+                "{name}:{lineno}: expected 8 fields, found {}",
+                f.len()
+            ))
+            .into());
+        }
+        let num = |i: usize, col: &str| -> Result<f64> {
+            let v: f64 = f[i].trim().parse().map_err(|_| {
+                BadInput(format!(
+                    "{name}:{lineno}: column `{col}`: `{}` is not a number",
+                    f[i]
+                ))
+            })?;
+            if !v.is_finite() {
+                return Err(
+                    BadInput(format!("{name}:{lineno}: column `{col}` is not finite")).into(),
+                );
+            }
+            Ok(v)
+        };
+        let stroke: usize = f[0]
+            .trim()
+            .parse()
+            .map_err(|_| BadInput(format!("{name}:{lineno}: bad stroke number `{}`", f[0])))?;
+        let direction = match f[1].trim() {
+            "forward" => Direction::Forward,
+            "backward" => Direction::Backward,
+            other => {
+                return Err(BadInput(format!("{name}:{lineno}: bad direction `{other}`")).into())
+            }
+        };
+        let s = by_stroke.entry(stroke).or_insert_with(|| StrokeFriction {
+            summary: summaries
+                .iter()
+                .find(|x| x.stroke == stroke)
+                .cloned()
+                .unwrap_or(StrokeSummary {
+                    stroke,
+                    direction,
+                    feed_mm_min: f64::NAN,
+                    start_mm: 0.0,
+                    end_mm: 0.0,
+                    length_mm: 0.0,
+                    start_time_s: 0.0,
+                    end_time_s: 0.0,
+                    mean_friction_n: 0.0,
+                    friction_std_n: 0.0,
+                    position_samples: 0,
+                    effort_samples: 0,
+                    points: 0,
+                    raw_samples_per_lead: f64::INFINITY,
+                    max_order: f64::INFINITY,
+                    position_cutoff_order: None,
+                    warnings: vec![format!(
+                        "no summary {} found: the aliasing limit is unknown",
+                        summary_path.display()
+                    )],
+                }),
+            position_m: Vec::new(),
+            time_s: Vec::new(),
+            velocity_m_s: Vec::new(),
+            accel_m_s2: Vec::new(),
+            effort: Vec::new(),
+            friction_n: Vec::new(),
+        });
+        s.position_m
+            .push((num(2, "position_mm")? * 1e-3 / step).round() * step);
+        s.time_s.push(num(3, "time_s")?);
+        s.velocity_m_s.push(num(4, "velocity_mm_s")? * 1e-3);
+        s.accel_m_s2.push(num(5, "accel_mm_s2")? * 1e-3);
+        s.effort.push(num(6, "effort")?);
+        s.friction_n.push(num(7, "friction_n")?);
+    }
+    if by_stroke.is_empty() {
+        return Err(BadInput(format!("{name}: no friction rows")).into());
+    }
+    Ok(by_stroke.into_values().collect())
+}
+
+fn load_strokes(args: &Args, axis: &AxisParams) -> Result<(Vec<StrokeFriction>, String)> {
+    let source = args.input.display().to_string();
+    let head = {
+        let mut f = std::fs::File::open(&args.input)
+            .with_context(|| format!("opening {}", args.input.display()))?;
+        let mut buf = vec![0u8; 256];
+        let n = std::io::Read::read(&mut f, &mut buf)?;
+        buf.truncate(n);
+        buf
+    };
+    if head.starts_with(b"stroke,direction,position_mm,") {
+        let text = std::fs::read_to_string(&args.input)
+            .with_context(|| format!("reading {}", args.input.display()))?;
+        return Ok((
+            strokes_from_estimate_csv(&args.input, &text, axis.lead_m())?,
+            source,
+        ));
+    }
+    let (trace, _) = read_trace_file(&args.input, &ReadOptions::default())?;
+    let est_args = EstimateArgs {
+        trace: args.input.clone(),
+        axis: args.axis.clone(),
+        output: PathBuf::new(),
+        summary: None,
+        plot: None,
+        no_plot: true,
+        samples_per_lead: args.samples_per_lead,
+        end_condition: super::estimate::EndArg::NotAKnot,
+        time_of_position: super::estimate::TimeArg::Invert,
+        effort: None,
+        format: super::estimate::Format::Text,
+    };
+    let params: EstimateParams = params_from(&est_args);
+    let est = estimate(&trace, axis, &params)?;
+    Ok((est.strokes, source))
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let axis = load_axis(&args.axis)?;
+    let mut params = AnalysisParams::default();
+    if let (Some(b), Some(o)) = (&args.breaks, &args.orders) {
+        if o.len() != b.len() + 1 {
+            return Err(BadInput(format!(
+                "--orders needs one order per interval: {} breakpoints make {} intervals, \
+                 {} orders given",
+                b.len(),
+                b.len() + 1,
+                o.len()
+            ))
+            .into());
+        }
+        params.profile.breaks_mm = Some(b.clone());
+        params.profile.orders = Some(o.clone());
+    } else if let Some(o) = &args.orders {
+        if o.len() != 1 {
+            return Err(BadInput("--orders without --breaks takes one order".into()).into());
+        }
+        params.profile.breaks_mm = Some(Vec::new());
+        params.profile.orders = Some(o.clone());
+    }
+    if let Some(n) = args.segments {
+        if n == 0 {
+            return Err(BadInput("--segments must be at least 1".into()).into());
+        }
+        params.spectrum.segments = SegmentSpec::Count { count: n };
+    }
+    if let Some(l) = args.segment_length_mm {
+        if !(l.is_finite() && l > 0.0) {
+            return Err(BadInput("--segment-length-mm must be a positive length".into()).into());
+        }
+        params.spectrum.segments = SegmentSpec::LengthMm { length_mm: l };
+    }
+    let (strokes, source) = load_strokes(&args, &axis)?;
+    let lead = axis.lead_m();
+    let views: Vec<StrokeView> = strokes
+        .iter()
+        .map(|s| StrokeView::from_estimate(s, lead))
+        .collect();
+    let pb = crate::output::bar(views.len() as u64, "analyze");
+    let mut analyzer = SpectrumAnalyzer::new();
+    let mut analyses: Vec<StrokeAnalysis> = Vec::with_capacity(views.len());
+    let mut singles = Vec::with_capacity(views.len());
+    for (s, v) in strokes.iter().zip(&views) {
+        let a = analyze_stroke(v, &axis, &params, &mut analyzer).with_context(|| {
+            format!(
+                "stroke {} ({}, {:.1} to {:.1} mm)",
+                s.summary.stroke,
+                s.summary.direction.as_str(),
+                s.summary.start_mm,
+                s.summary.end_mm
+            )
+        })?;
+        // The single polynomial of the best order in the Table 2 scan (paper's dotted line).
+        let single = fit_piecewise(v.position_m, v.friction_n, &[], &[a.order_scan.best_order])
+            .context("single-polynomial fit")?;
+        singles.push(single);
+        analyses.push(a);
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let table = order_scan_table(&views, params.scan_max_order.max(8))?;
+
+    // Render everything before anything is written.
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let report = Report {
+        source,
+        axis: &axis,
+        params: &params,
+        order_scan_table: table.clone(),
+        strokes: strokes
+            .iter()
+            .zip(&analyses)
+            .zip(&singles)
+            .map(|((s, a), single)| StrokeReport {
+                stroke: s.summary.stroke,
+                direction: s.summary.direction,
+                feed_mm_min: s.summary.feed_mm_min,
+                start_mm: s.summary.start_mm,
+                end_mm: s.summary.end_mm,
+                max_trusted_order: s.summary.max_order,
+                order_scan: &a.order_scan,
+                iafv: &a.iafv,
+                single_polynomial_order: a.order_scan.best_order,
+                single_polynomial_std_n: single.residual_std_n,
+                fluctuation: &a.fluctuation,
+            })
+            .collect(),
+        conventions: Conventions {
+            order: "cycles per screw revolution = cycles per lead of table travel",
+            friction_sign: "as paper 000 Eq. 5: positive moving forward, negative backward",
+            amplitude: "single-sided amplitude spectrum in newtons; the window's coherent gain \
+                        is corrected (factor amplitude_correction = 2/sum(w)), so a sinusoid \
+                        of amplitude A reads A on its bin",
+        },
+    };
+    let json = serde_json::to_string_pretty(&report)?;
+    let svgs = plots(&strokes, &analyses, &singles, &views, args.segment)?;
+
+    let mut fcsv = AtomicFile::create(&args.out.join("friction.csv"))?;
+    {
+        let w = fcsv.writer();
+        writeln!(w, "stroke,direction,position_mm,friction_n,iafv_n,ffs_n")?;
+        let mut b = Vec::with_capacity(1 << 16);
+        for (s, a) in strokes.iter().zip(&analyses) {
+            let dir = s.summary.direction.as_str();
+            for j in 0..s.position_m.len() {
+                b.clear();
+                b.extend_from_slice(format!("{},{dir},", s.summary.stroke).as_bytes());
+                push_fixed(&mut b, s.position_m[j] * 1e3, 6);
+                b.push(b',');
+                push_fixed(&mut b, s.friction_n[j], 4);
+                b.push(b',');
+                push_fixed(&mut b, a.iafv_n[j], 4);
+                b.push(b',');
+                push_fixed(&mut b, a.ffs_n[j], 4);
+                b.push(b'\n');
+                w.write_all(&b)?;
+            }
+        }
+    }
+    let mut comp = String::from(
+        "stroke,direction,segment,start_mm,end_mm,order,amplitude_n,floor_n,cause,trusted\n",
+    );
+    for (s, a) in strokes.iter().zip(&analyses) {
+        for c in &a.fluctuation.components {
+            let sp = a
+                .fluctuation
+                .spectra
+                .iter()
+                .find(|x| x.segment == c.segment);
+            let (lo, hi) = sp.map_or((f64::NAN, f64::NAN), |x| (x.start_mm, x.end_mm));
+            comp.push_str(&format!(
+                "{},{},{},{:.3},{:.3},{:.4},{:.4},{:.4},{},{}\n",
+                s.summary.stroke,
+                s.summary.direction.as_str(),
+                c.segment,
+                lo,
+                hi,
+                c.order,
+                c.amplitude_n,
+                c.floor_n,
+                c.cause,
+                c.trusted
+            ));
+        }
+    }
+    let mut scan = String::from("order,forward_std_n,backward_std_n\n");
+    for r in &table.rows {
+        let f = |v: Option<f64>| v.map(|x| format!("{x:.4}")).unwrap_or_default();
+        scan.push_str(&format!(
+            "{},{},{}\n",
+            r.order,
+            f(r.forward_std_n),
+            f(r.backward_std_n)
+        ));
+    }
+    fcsv.commit()?;
+    write_atomic(&args.out.join("analysis.json"), json.as_bytes())?;
+    write_atomic(&args.out.join("components.csv"), comp.as_bytes())?;
+    write_atomic(&args.out.join("order_scan.csv"), scan.as_bytes())?;
+    for (name, svg) in &svgs {
+        write_atomic(&args.out.join(name), svg.as_bytes())?;
+    }
+
+    match args.format {
+        super::estimate::Format::Json => println!("{json}"),
+        super::estimate::Format::Text => {
+            print_summary(&strokes, &analyses, &table);
+            eprintln!("wrote analysis.json, friction.csv, components.csv, order_scan.csv and");
+            eprintln!("  {} plots to {}", svgs.len(), args.out.display());
+        }
+    }
+    Ok(())
+}
+
+fn print_summary(
+    strokes: &[StrokeFriction],
+    analyses: &[StrokeAnalysis],
+    table: &feedscope::profile::OrderScanTable,
+) {
+    println!("Residual standard deviation of single polynomials (N), paper 000 Table 2:");
+    println!("{:>6}  {:>10}  {:>10}", "order", "forward", "backward");
+    for r in &table.rows {
+        let f = |v: Option<f64>| v.map(|x| format!("{x:.2}")).unwrap_or("-".into());
+        println!(
+            "{:>6}  {:>10}  {:>10}",
+            r.order,
+            f(r.forward_std_n),
+            f(r.backward_std_n)
+        );
+    }
+    for (s, a) in strokes.iter().zip(analyses) {
+        let p = &a.iafv.poly;
+        println!(
+            "\nstroke {} ({}, {:.0} mm/min): IAFV intervals {} with orders {:?}; linear trend \
+             {:+.3} N/mm",
+            s.summary.stroke,
+            s.summary.direction.as_str(),
+            s.summary.feed_mm_min,
+            p.breaks_mm
+                .windows(2)
+                .map(|w| format!("{:.0}-{:.0}", w[0], w[1]))
+                .collect::<Vec<_>>()
+                .join(", "),
+            p.orders,
+            a.iafv.linear.slope_n_per_mm
+        );
+        println!("  significant components over the whole stroke:");
+        println!("  {:>8}  {:>12}  cause", "order", "amplitude (N)");
+        for c in a
+            .fluctuation
+            .components
+            .iter()
+            .filter(|c| c.segment == "all")
+        {
+            println!(
+                "  {:>8.3}  {:>12.2}  {}{}",
+                c.order,
+                c.amplitude_n,
+                c.cause,
+                if c.trusted {
+                    ""
+                } else {
+                    " (beyond the aliasing limit)"
+                }
+            );
+        }
+        for w in &a.fluctuation.warnings {
+            eprintln!("warning: stroke {}: {w}", s.summary.stroke);
+        }
+    }
+}
+
+/// All SVG plots: (file name, content).
+fn plots(
+    strokes: &[StrokeFriction],
+    analyses: &[StrokeAnalysis],
+    singles: &[feedscope::profile::PiecewiseFit],
+    views: &[StrokeView],
+    segment: usize,
+) -> Result<Vec<(String, String)>> {
+    let mut out = Vec::new();
+    // First stroke of each direction.
+    let pick = |d: Direction| strokes.iter().position(|s| s.summary.direction == d);
+    let chosen: Vec<usize> = [Direction::Forward, Direction::Backward]
+        .into_iter()
+        .filter_map(pick)
+        .collect();
+    if chosen.is_empty() {
+        bail!("no stroke to plot");
+    }
+    let decim = |n: usize| n.div_ceil(3000).max(1);
+    // 1. Friction with IAFV (piecewise and single polynomial) and the linear trend.
+    let titles: Vec<String> = chosen
+        .iter()
+        .map(|&k| {
+            format!(
+                "Friction and IAFV, {} at {:.0} mm/min",
+                strokes[k].summary.direction.as_str(),
+                strokes[k].summary.feed_mm_min
+            )
+        })
+        .collect();
+    let charts: Vec<LineChart> = chosen
+        .iter()
+        .zip(&titles)
+        .map(|(&k, title)| {
+            let s = &strokes[k];
+            let a = &analyses[k];
+            let st = decim(s.position_m.len());
+            let zmm: Vec<f64> = s.position_m.iter().map(|z| z * 1e3).collect();
+            let pts = |v: &[f64]| -> Vec<(f64, f64)> {
+                zmm.iter()
+                    .zip(v)
+                    .step_by(st)
+                    .map(|(a, b)| (*a, *b))
+                    .collect()
+            };
+            let single: Vec<f64> = s
+                .position_m
+                .iter()
+                .map(|&z| singles[k].poly.value_n(z))
+                .collect();
+            let lin = &a.iafv.linear;
+            LineChart {
+                title,
+                x_label: "position (mm)",
+                y_label: "friction F_f (N)",
+                series: vec![
+                    Series {
+                        name: "estimated friction".into(),
+                        points: pts(&s.friction_n),
+                        style: Style::Line,
+                    },
+                    Series {
+                        name: format!("IAFV, piecewise orders {:?}", a.iafv.poly.orders),
+                        points: pts(&a.iafv_n),
+                        style: Style::Line,
+                    },
+                    Series {
+                        name: format!("single polynomial, order {}", a.order_scan.best_order),
+                        points: pts(&single),
+                        style: Style::Dashed,
+                    },
+                    Series {
+                        name: format!("linear trend {:+.3} N/mm", lin.slope_n_per_mm),
+                        points: vec![
+                            (lin.start_mm, lin.value_at_start_n),
+                            (lin.end_mm, lin.value_at_end_n),
+                        ],
+                        style: Style::Dashed,
+                    },
+                ],
+            }
+        })
+        .collect();
+    out.push(("friction_iafv.svg".to_string(), plot::stacked_svg(&charts)?));
+
+    for &k in &chosen {
+        let s = &strokes[k];
+        let a = &analyses[k];
+        let dir = s.summary.direction.as_str();
+        let fl = &a.fluctuation;
+        let max_order = fl
+            .spectra
+            .iter()
+            .map(|sp| sp.order(sp.amplitude_n.len().saturating_sub(1)))
+            .fold(0.0f64, f64::max)
+            .min(fl.max_trusted_order.max(4.0))
+            .min(40.0);
+        // 2. Heat map of segment spectra: amplitude over order and position.
+        let segs: Vec<&feedscope::order::Spectrum> =
+            fl.spectra.iter().filter(|sp| sp.segment != "all").collect();
+        if !segs.is_empty() {
+            let step = segs
+                .iter()
+                .map(|sp| sp.order_resolution)
+                .fold(f64::INFINITY, f64::min)
+                .max(max_order / 800.0);
+            let nx = (max_order / step).floor() as usize + 1;
+            let x: Vec<f64> = (0..nx).map(|i| i as f64 * step).collect();
+            let mut rows: Vec<(f64, Vec<f64>)> = segs
+                .iter()
+                .map(|sp| {
+                    let row = x
+                        .iter()
+                        .map(|&o| {
+                            let b = (o / sp.order_resolution).round() as usize;
+                            sp.amplitude_n.get(b).copied().unwrap_or(f64::NAN)
+                        })
+                        .collect();
+                    (0.5 * (sp.start_mm + sp.end_mm), row)
+                })
+                .collect();
+            rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let title = format!("FFS spectra along the travel, {dir}");
+            let svg = plot::heatmap_svg(&Heatmap {
+                title: &title,
+                x_label: "order (cycles per lead)",
+                y_label: "segment centre position (mm)",
+                z_label: "amplitude (N)",
+                x,
+                y: rows.iter().map(|r| r.0).collect(),
+                z: rows.into_iter().map(|r| r.1).collect(),
+            })?;
+            out.push((format!("spectra_heatmap_{dir}.svg"), svg));
+        }
+        // 3. Spectrum of the whole stroke and of the chosen segment.
+        let mut series = Vec::new();
+        for sp in fl
+            .spectra
+            .iter()
+            .filter(|sp| sp.segment == "all" || sp.segment == segment.to_string())
+        {
+            series.push(Series {
+                name: if sp.segment == "all" {
+                    "whole stroke".into()
+                } else {
+                    format!(
+                        "segment {} ({:.0}-{:.0} mm)",
+                        sp.segment, sp.start_mm, sp.end_mm
+                    )
+                },
+                points: (0..sp.amplitude_n.len())
+                    .map(|b| (sp.order(b), sp.amplitude_n[b]))
+                    .filter(|p| p.0 <= max_order)
+                    .collect(),
+                style: Style::Line,
+            });
+        }
+        let title = format!("Amplitude spectrum of the FFS, {dir}");
+        out.push((
+            format!("spectrum_{dir}.svg"),
+            plot::line_chart_svg(&LineChart {
+                title: &title,
+                x_label: "order (cycles per lead)",
+                y_label: "amplitude (N)",
+                series,
+            })?,
+        ));
+        // 4. Amplitude of each significant component along the travel (paper Fig. 9d).
+        let mut by_cause: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+        for c in fl.components.iter().filter(|c| c.segment != "all") {
+            let label = if c.cause == "unexplained" {
+                continue;
+            } else {
+                format!("{} ({:.2})", c.cause, c.kinematic_order.unwrap_or(c.order))
+            };
+            by_cause
+                .entry(label)
+                .or_default()
+                .push((c.position_mm, c.amplitude_n));
+        }
+        if !by_cause.is_empty() {
+            let series = by_cause
+                .into_iter()
+                .map(|(name, mut pts)| {
+                    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    Series {
+                        name,
+                        points: pts,
+                        style: Style::Line,
+                    }
+                })
+                .collect();
+            let title = format!("Significant components along the travel, {dir}");
+            out.push((
+                format!("components_{dir}.svg"),
+                plot::line_chart_svg(&LineChart {
+                    title: &title,
+                    x_label: "segment centre position (mm)",
+                    y_label: "amplitude (N)",
+                    series,
+                })?,
+            ));
+        }
+    }
+    let _ = views;
+    Ok(out)
+}
