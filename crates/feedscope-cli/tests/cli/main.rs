@@ -1,5 +1,7 @@
 //! End-to-end tests of the `feedscope` binary, each in a temporary directory.
 mod dynamics;
 mod estimate;
+mod identify;
+mod plan;
 mod simulate;
 mod util;

@@ -509,7 +509,7 @@ pub fn triangle_program(p: &TriangleParams, limits: &Limits) -> Result<TestProgr
         let v = f / 60.0;
         let need = v * p.min_cruise_s + v * v / a;
         let gamma = (need / (2.0 * half)).min(1.0);
-        let amp = ((gamma * half * 1e3).floor() / 1e3).max(0.001);
+        let amp = ((gamma * half * 1e3).ceil() / 1e3).clamp(0.001, half);
         if v * v / a > 2.0 * amp {
             return Err(PlanError::FeedNotReachable {
                 feed_mm_min: f,
