@@ -20,9 +20,11 @@ const AXIS: &str = "name = \"ident Z\"\nlead_mm = 12\ntable_mass_kg = 180\n\
 /// Truth: F_c 180 N, F_s 250 N, v_s 90 mm/min, σ 3500 N·s/m, no ripple; 1 kHz synchronous
 /// torque, 10 nm position quantum.
 fn cfg(sync: bool) -> SimConfig {
-    let mut c = SimConfig::default();
-    c.axis =
-        feedscope::axis::AxisParams::parse(AXIS, feedscope::axis::ConfigFormat::Toml, "a").unwrap();
+    let mut c = SimConfig {
+        axis: feedscope::axis::AxisParams::parse(AXIS, feedscope::axis::ConfigFormat::Toml, "a")
+            .unwrap(),
+        ..SimConfig::default()
+    };
     c.axis.travel_min_mm = Some(0.0);
     c.axis.travel_max_mm = Some(450.0);
     let level = MeanLevel {

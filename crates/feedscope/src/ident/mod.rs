@@ -381,13 +381,19 @@ fn check_params(p: &IdentParams) -> Result<(), IdentError> {
     Ok(())
 }
 
-/// Smoothed values, first and second derivative at the knots of one channel.
+/// Smoothed values and their first and second derivatives at the knots of one channel.
+struct Smoothed {
+    value: Vec<f64>,
+    d1: Vec<f64>,
+    d2: Vec<f64>,
+}
+
 fn smooth(
     t: &[f64],
     y: &[f64],
     cutoff_hz: f64,
     channel: &'static str,
-) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>), IdentError> {
+) -> Result<Smoothed, IdentError> {
     let h = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
     // At or above ~0.4·f_sample the smoother would not smooth: interpolate.
     let alpha = if cutoff_hz * h >= 0.4 {
@@ -410,7 +416,11 @@ fn smooth(
         v.push(d1);
         a.push(d2);
     }
-    Ok((val, v, a, g.clone()))
+    Ok(Smoothed {
+        value: val,
+        d1: v,
+        d2: a,
+    })
 }
 
 /// Identify J, T_c, T_s, v_s, σ (and T_0) from one trace of position and torque or current.
@@ -446,7 +456,9 @@ pub fn identify(
     let guard = params.reversal_guard_s.unwrap_or(1.5 / cutoff);
 
     // Step 1: velocity and acceleration from the smoothed position.
-    let (_, vel, acc, _) = smooth(tp, &trace.position_m.value, cutoff, "position")?;
+    let Smoothed {
+        d1: vel, d2: acc, ..
+    } = smooth(tp, &trace.position_m.value, cutoff, "position")?;
     // Step 2: the torque through the same smoother.
     let ke = match trace.effort_kind {
         EffortKind::CurrentA => axis.torque_constant_nm_per_a,
@@ -454,7 +466,7 @@ pub fn identify(
     };
     let te = &trace.effort.time_s;
     let torque_raw: Vec<f64> = trace.effort.value.iter().map(|e| e * ke).collect();
-    let (torque_s, _, _, _) = smooth(te, &torque_raw, cutoff, "torque")?;
+    let torque_s = smooth(te, &torque_raw, cutoff, "torque")?.value;
     let synchronous = te == tp;
     let mut torque = vec![f64::NAN; n];
     if synchronous {

@@ -18,8 +18,10 @@ const VS_MM_MIN: f64 = 90.0;
 const SIGMA_N_S_PER_M: f64 = 3500.0;
 
 fn cfg(mode: DynamicsMode) -> SimConfig {
-    let mut c = SimConfig::default();
-    c.seed = 7;
+    let mut c = SimConfig {
+        seed: 7,
+        ..SimConfig::default()
+    };
     c.axis.lead_mm = 12.0;
     c.axis.table_mass_kg = 180.0;
     c.axis.inertia_kgm2 = 0.0025;
