@@ -245,3 +245,13 @@ fn bad_parameter_is_exit_2() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("delta"), "{}", stderr(&o));
 }
+
+#[test]
+fn identify_help() {
+    let d = tempfile::tempdir().unwrap();
+    let mut c = feedscope(d.path());
+    c.args(["identify", "--help"]);
+    let o = run(c);
+    assert!(o.status.success());
+    insta::assert_snapshot!("identify_help", stdout(&o));
+}

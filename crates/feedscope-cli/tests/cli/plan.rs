@@ -143,3 +143,15 @@ fn triangle_window_outside_travel_names_the_limit() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("travel_min_mm"), "{}", stderr(&o));
 }
+
+#[test]
+fn plan_help() {
+    for sub in ["strokes", "triangle"] {
+        let d = tempfile::tempdir().unwrap();
+        let mut c = feedscope(d.path());
+        c.args(["plan", sub, "--help"]);
+        let o = run(c);
+        assert!(o.status.success());
+        insta::assert_snapshot!(format!("plan_{sub}_help"), stdout(&o));
+    }
+}

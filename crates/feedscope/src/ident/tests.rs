@@ -307,3 +307,63 @@ fn constant_speed_groups_fit_the_same_curve() {
     assert!(rel(g.fit.tc_nm, tc) < 0.05);
     assert!(rel(g.fit.sigma_nm_s_per_m, sigma) < 0.05);
 }
+
+/// Robustness: the default position-dependent ripple of the simulator (orders 0.56-19 of
+/// paper 000, up to 18 N) is not in paper 002's model; it averages out over the strokes.
+/// Measured: J −0.07 %, T_c −1.5 %, T_s −2.7 %, σ +0.7 %, v_s +3.3 %.
+#[test]
+fn round_trip_with_friction_ripple() {
+    let mut c = cfg(DynamicsMode::Servo);
+    c.friction.as_mut().unwrap().components = FrictionParams::default_for(&c.axis).components;
+    let out = simulate_profile(&c, &triangle(), &mut |_| {}).unwrap();
+    let id = identify(&out.trace, &c.axis, &IdentParams::default()).unwrap();
+    check(&id, &c, "ripple");
+}
+
+/// Paper 002 sampled at 83.33 Hz: the smoothing falls back to f_s/8 ≈ 10 Hz and the test
+/// still identifies the parameters (measured: J +3.5 %, T_c +1.4 %, T_s +0.1 %, σ −1.0 %,
+/// v_s −5.5 %).
+#[test]
+fn round_trip_at_paper_002_sampling_rate() {
+    let mut c = cfg(DynamicsMode::Servo);
+    c.sampling.synchronous_rate_hz = 83.33;
+    let out = simulate_profile(&c, &triangle(), &mut |_| {}).unwrap();
+    let id = identify(&out.trace, &c.axis, &IdentParams::default()).unwrap();
+    assert!((id.cutoff_hz - 83.33 / 8.0).abs() < 0.1);
+    check(&id, &c, "83 Hz");
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+    /// Exact data from random parameters (speeds log-spaced over 1-10 000 mm/min, both
+    /// directions, accelerations independent of the speed) are fitted to 1e-6: the separable
+    /// search finds the global minimum, not a neighbour on the grid.
+    #[test]
+    fn fit_recovers_random_parameters(
+        j in 1e-3f64..1e-2,
+        tc in 0.1f64..1.0,
+        ds in 0.05f64..0.5,
+        vs_mm_min in 20.0f64..500.0,
+        sigma in 1.0f64..50.0,
+        t0 in -0.1f64..0.1,
+    ) {
+        let vs = vs_mm_min / 60_000.0;
+        let mut r = Regressors::default();
+        for k in 0..600 {
+            let speed = 10f64.powf(4.0 * (k / 2) as f64 / 300.0) / 60_000.0;
+            let v = if k % 2 == 0 { speed } else { -speed };
+            let a = 300.0 * ((k as f64) * 0.731).sin();
+            let y = j * a
+                + sign(v) * (tc + ds * (-(v.abs() / vs).powi(2)).exp())
+                + sigma * v
+                + t0;
+            r.push(v, a, y);
+        }
+        let f = fit_torque(&r, &IdentParams::default()).unwrap();
+        proptest::prop_assert!(rel(f.j_total_kgm2, j) < 1e-6);
+        proptest::prop_assert!(rel(f.tc_nm, tc) < 1e-6);
+        proptest::prop_assert!(rel(f.ts_nm, tc + ds) < 1e-6);
+        proptest::prop_assert!(rel(f.sigma_nm_s_per_m, sigma) < 1e-6);
+        proptest::prop_assert!(rel(f.vs_mm_min, vs_mm_min) < 1e-5);
+    }
+}
