@@ -100,7 +100,15 @@ fn check(id: &Identification, c: &SimConfig, label: &str) {
         ("sigma", rel(f.sigma_nm_s_per_m, sigma), 0.05),
         ("vs", rel(f.vs_mm_min, VS_MM_MIN), 0.10),
     ];
-    eprintln!("{label}: {f:#?}\nrelative errors {errs:?}");
+    let signed = |a: f64, b: f64| 100.0 * (a / b - 1.0);
+    eprintln!(
+        "{label}: J {:+.2} %, Tc {:+.2} %, Ts {:+.2} %, sigma {:+.2} %, vs {:+.2} %",
+        signed(f.j_total_kgm2, j),
+        signed(f.tc_nm, tc),
+        signed(f.ts_nm, ts),
+        signed(f.sigma_nm_s_per_m, sigma),
+        signed(f.vs_mm_min, VS_MM_MIN)
+    );
     for (name, e, tol) in errs {
         assert!(e < tol, "{label}: {name} off by {:.2} %", 100.0 * e);
     }
