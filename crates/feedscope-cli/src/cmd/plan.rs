@@ -81,6 +81,9 @@ pub struct Common {
     /// FANUC program number (O number, 1-9999).
     #[arg(long, default_value_t = 1000)]
     pub program_number: u32,
+    /// Feed of the first move to the start position (mm/min) [default: the highest feed].
+    #[arg(long)]
+    pub approach_feed: Option<f64>,
     /// Acceleration the control uses for the axis (mm/s²), for run time and planning.
     #[arg(long, default_value_t = 1000.0)]
     pub accel_mm_s2: f64,
@@ -200,7 +203,7 @@ fn options(c: &Common) -> Result<GcodeOptions> {
         axis_letter: c.axis_letter,
         program_number: c.program_number,
         sample_interval_s: interval_s,
-        approach_feed_mm_min: None,
+        approach_feed_mm_min: c.approach_feed,
     })
 }
 
@@ -250,6 +253,12 @@ pub fn run(args: Args) -> Result<()> {
         }
     };
     let opts = options(common)?;
+    if let Some(f) = common.approach_feed {
+        if !(f.is_finite() && f > 0.0) {
+            return Err(bad(format!("--approach-feed {f}: must be > 0")));
+        }
+        limits(common)?.check_feed(f).map_err(bad)?;
+    }
     let text = write_gcode(&prog, &opts).map_err(bad)?;
     crate::output::write_atomic(&common.output, text.as_bytes())
         .with_context(|| format!("writing {}", common.output.display()))?;

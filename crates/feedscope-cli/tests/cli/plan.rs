@@ -155,3 +155,15 @@ fn plan_help() {
         insta::assert_snapshot!(format!("plan_{sub}_help"), stdout(&o));
     }
 }
+
+#[test]
+fn approach_feed_is_used_and_limited() {
+    let mut a = STROKES.to_vec();
+    a.extend(["--approach-feed", "500"]);
+    assert!(gcode(&a).contains("\nG01 Z0.000 F500.0\nG04 P1000\n"));
+    let d = tempfile::tempdir().unwrap();
+    a.extend(["--feed-limit", "100"]);
+    let o = plan(d.path(), &a);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("feed limit"), "{}", stderr(&o));
+}

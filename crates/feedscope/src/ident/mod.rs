@@ -538,7 +538,7 @@ pub fn identify(
             reg.torque_nm[k],
         );
     }
-    check_excitation(&sub, params, true)?;
+    check_excitation(&sub, params, guard, true)?;
 
     // Step 4-5.
     let mut fit = fit_torque(&sub, params)?;
@@ -564,6 +564,14 @@ pub fn identify(
         .map(|k| fit.torque_nm(reg.velocity_m_s[k], reg.angular_accel_rad_s2[k]))
         .collect();
     let mut warnings = fit_warnings(&fit);
+    if cutoff < 5.0 {
+        warnings.push(format!(
+            "the smoothing cut-off is {cutoff:.2} Hz (sampling {:.1} Hz): acceleration phases \
+             shorter than the {guard:.2} s guard are excluded or smeared, so J is unreliable; \
+             sample at 80 Hz or more for J",
+            1.0 / h
+        ));
+    }
     if !synchronous {
         warnings.push(
             "position and effort have different timestamps: the torque was interpolated to the \
@@ -615,14 +623,16 @@ fn fit_warnings(fit: &TorqueFit) -> Vec<String> {
 fn check_excitation(
     r: &Regressors,
     params: &IdentParams,
+    guard_s: f64,
     need_accel: bool,
 ) -> Result<(), IdentError> {
     let not = |reason: String| Err(IdentError::NotIdentifiable { reason });
     let n = r.len();
     if n < 20 {
         return not(format!(
-            "only {n} samples remain after excluding speeds below {} mm/min and the guard \
-             around reversals; the trace needs sustained motion",
+            "only {n} samples remain after excluding speeds below {} mm/min and {guard_s:.3} s \
+             around every slow sample (reversals, starts, stops); the strokes must cruise well \
+             over {guard_s:.3} s: plan a longer --cruise-s, sample faster, or shorten the guard",
             params.min_speed_mm_min
         ));
     }
