@@ -522,7 +522,8 @@ pub fn identify(
     // A sign change between two samples without a slow sample (fast reversal at coarse
     // sampling) is guarded too.
     for k in 1..n {
-        if sign(vel[k]) * sign(vel[k - 1]) < 0.0 {
+        // (Slow samples are guarded already; skipping them keeps a noisy standstill cheap.)
+        if !slow[k] && !slow[k - 1] && sign(vel[k]) * sign(vel[k - 1]) < 0.0 {
             let tr = 0.5 * (tp[k] + tp[k - 1]);
             let lo = tp.partition_point(|&t| t < tr - guard);
             let hi = tp.partition_point(|&t| t <= tr + guard);
