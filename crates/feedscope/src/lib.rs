@@ -8,7 +8,9 @@
 pub mod axis;
 pub mod dynamics;
 pub mod estimate;
+pub mod ident;
 pub mod order;
+pub mod plan;
 pub mod profile;
 pub mod sim;
 pub mod spline;

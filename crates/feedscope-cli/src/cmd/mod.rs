@@ -8,6 +8,8 @@ mod analyze;
 mod demo;
 mod dynamics;
 mod estimate;
+mod identify;
+mod plan;
 mod simulate;
 
 /// feedscope: how are the ball-screw feed drives of this machine doing?
@@ -31,6 +33,10 @@ pub enum Command {
     Simulate(simulate::Args),
     /// Natural frequency vs feed rate and position; torque-ripple resonance risks.
     Dynamics(dynamics::Args),
+    // Help text from the doc comment of `identify::Args`.
+    Identify(identify::Args),
+    // Help text from the doc comment of `plan::Args`.
+    Plan(plan::Args),
 }
 
 /// Marks an error as the user's input being wrong (exit code 2).
@@ -76,6 +82,8 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         // Prints its own errors and chooses its exit code (2 bad input, 1 otherwise).
         Command::Simulate(a) => return simulate::run(a),
         Command::Dynamics(a) => dynamics::run(a),
+        Command::Identify(a) => identify::run(a),
+        Command::Plan(a) => plan::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

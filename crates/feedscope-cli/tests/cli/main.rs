@@ -2,5 +2,7 @@
 mod analyze;
 mod dynamics;
 mod estimate;
+mod identify;
+mod plan;
 mod simulate;
 mod util;

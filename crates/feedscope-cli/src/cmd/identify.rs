@@ -1,0 +1,421 @@
+//! `feedscope identify`: J, T_c, T_s, v_s and σ from one triangular-wave trace (paper 002).
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use feedscope::estimate::EstimateParams;
+use feedscope::ident::{
+    fit_groups, identify, ForceSide, Group, IdentParams, Identification, TorqueFit, TorqueStdError,
+};
+use feedscope::trace::{read_trace_file, EffortKind, ReadOptions};
+use serde::Serialize;
+
+use super::estimate::{load_axis, EffortArg, Format};
+use super::BadInput;
+use crate::plot;
+
+/// Identify friction and inertia from one test (paper 002): J, Tc, Ts, vs, σ.
+///
+/// Reads one trace of the variable-amplitude, variable-velocity triangular wave planned by
+/// `feedscope plan triangle` (position and motor torque or current, ideally synchronous at
+/// 1 kHz), smooths position and torque alike, differentiates the position twice and fits
+/// T = J·θ'' + sgn(v)·[Tc + (Ts − Tc)·exp(−(|v|/vs)^δ)] + σ·v + T0 by separable least
+/// squares. Samples slower than --min-speed-mm-min, and those within the guard time of them
+/// (reversals: pre-sliding), are excluded. Writes the parameters (motor side, force side via
+/// F = 2π·T/p, standard errors, residual RMS) as JSON and a plot of measured and computed
+/// torque over time. With --compare, the same model is also fitted to the mean friction of
+/// the constant-speed strokes of a second trace (the traditional test) and the two parameter
+/// sets are reported side by side.
+///
+/// Exit codes: 0 success; 2 bad input, including a trace that cannot identify the model
+/// (no reversal, one speed only, no acceleration).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Trace CSV of the triangular-wave test.
+    pub trace: PathBuf,
+    /// Axis parameters (TOML, or JSON with the same keys): lead, torque constant.
+    #[arg(long)]
+    pub axis: PathBuf,
+    /// Parameters JSON to write.
+    #[arg(short = 'o', long = "output", default_value = "ident.json")]
+    pub output: PathBuf,
+    /// SVG of measured and computed torque over time [default: OUTPUT with extension .svg].
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Do not write the plot.
+    #[arg(long)]
+    pub no_plot: bool,
+    /// Trace of constant-feed idle strokes at several feeds, fitted for comparison.
+    #[arg(long, value_name = "GROUPS_TRACE")]
+    pub compare: Option<PathBuf>,
+    /// Smoothing half-power frequency for position and torque (Hz) [default: min(30, fs/8)].
+    #[arg(long)]
+    pub cutoff_hz: Option<f64>,
+    /// Exclude samples slower than this (mm/min): standstill and pre-sliding.
+    #[arg(long, default_value_t = 1.0)]
+    pub min_speed_mm_min: f64,
+    /// Also exclude samples within this time of a slow sample (s) [default: 1.5/cutoff].
+    #[arg(long)]
+    pub guard_s: Option<f64>,
+    /// Stribeck shape exponent δ (held fixed).
+    #[arg(long, default_value_t = 2.0)]
+    pub delta: f64,
+    /// Lower bound of the Stribeck velocity search (mm/min).
+    #[arg(long, default_value_t = 0.5)]
+    pub vs_min_mm_min: f64,
+    /// Upper bound of the Stribeck velocity search (mm/min).
+    #[arg(long, default_value_t = 5000.0)]
+    pub vs_max_mm_min: f64,
+    /// Do not fit a constant torque T0 (gravity, asymmetric Coulomb level).
+    #[arg(long)]
+    pub no_offset: bool,
+    /// Which effort channel to use when the file has both current and torque.
+    #[arg(long, value_enum)]
+    pub effort: Option<EffortArg>,
+    /// What to print on stdout.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    pub format: Format,
+}
+
+/// Motor-side parameters as written in `ident.json`.
+#[derive(Debug, Serialize)]
+struct Motor {
+    j_total_kgm2: f64,
+    tc_nm: f64,
+    ts_nm: f64,
+    vs_mm_min: f64,
+    sigma_nm_s_per_m: f64,
+    offset_nm: f64,
+    delta: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct Diagnostics {
+    residual_rms_nm: f64,
+    condition_number: f64,
+    iterations: usize,
+    samples_used: usize,
+    vs_at_bound: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct ParamSet {
+    motor: Motor,
+    std_error: TorqueStdError,
+    force: ForceSide,
+    diagnostics: Diagnostics,
+}
+
+impl ParamSet {
+    fn new(f: &TorqueFit, lead_m: f64) -> Self {
+        Self {
+            motor: Motor {
+                j_total_kgm2: f.j_total_kgm2,
+                tc_nm: f.tc_nm,
+                ts_nm: f.ts_nm,
+                vs_mm_min: f.vs_mm_min,
+                sigma_nm_s_per_m: f.sigma_nm_s_per_m,
+                offset_nm: f.offset_nm,
+                delta: f.delta,
+            },
+            std_error: f.std_error.clone(),
+            force: ForceSide::from_fit(f, lead_m),
+            diagnostics: Diagnostics {
+                residual_rms_nm: f.residual_rms_nm,
+                condition_number: f.condition_number,
+                iterations: f.iterations,
+                samples_used: f.samples_used,
+                vs_at_bound: f.vs_at_bound,
+            },
+        }
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct Comparison {
+    source: String,
+    groups: Vec<Group>,
+    #[serde(flatten)]
+    set: ParamSet,
+    /// (one-test − groups)/groups in percent.
+    difference_percent: Difference,
+}
+
+#[derive(Debug, Serialize)]
+struct Difference {
+    tc: f64,
+    ts: f64,
+    vs: f64,
+    sigma: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct Output {
+    source: String,
+    effort: EffortKind,
+    lead_mm: f64,
+    #[serde(flatten)]
+    set: ParamSet,
+    samples_total: usize,
+    cutoff_hz: f64,
+    reversal_guard_s: f64,
+    sample_interval_s: f64,
+    /// J_total the axis file predicts (motor + screw + table), for comparison.
+    axis_j_total_kgm2: f64,
+    params: IdentParams,
+    warnings: Vec<String>,
+    compare: Option<Comparison>,
+}
+
+fn params_from(a: &Args) -> IdentParams {
+    IdentParams {
+        cutoff_hz: a.cutoff_hz,
+        min_speed_mm_min: a.min_speed_mm_min,
+        reversal_guard_s: a.guard_s,
+        delta: a.delta,
+        vs_min_mm_min: a.vs_min_mm_min,
+        vs_max_mm_min: a.vs_max_mm_min,
+        fit_offset: !a.no_offset,
+        ..IdentParams::default()
+    }
+}
+
+fn read(path: &std::path::Path, effort: Option<EffortArg>) -> Result<feedscope::trace::Trace> {
+    let opts = ReadOptions {
+        effort: effort.map(|e| match e {
+            EffortArg::Current => EffortKind::CurrentA,
+            EffortArg::Torque => EffortKind::TorqueNm,
+        }),
+        threads: 0,
+    };
+    Ok(read_trace_file(path, &opts)?.0)
+}
+
+/// Measured and computed torque over time, at most ~4000 points per series.
+fn svg(id: &Identification, title: &str) -> Result<String> {
+    let n = id.time_s.len();
+    let step = n.div_ceil(4000).max(1);
+    let pts = |f: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
+        (0..n)
+            .step_by(step)
+            .map(|k| (id.time_s[k], f(k)))
+            .filter(|p| p.1.is_finite())
+            .collect()
+    };
+    let used: Vec<(f64, f64)> = (0..n)
+        .step_by(step)
+        .filter(|&k| id.used[k])
+        .map(|k| (id.time_s[k], id.regressors.torque_nm[k]))
+        .collect();
+    plot::line_chart_svg(&plot::LineChart {
+        title,
+        x_label: "time (s)",
+        y_label: "torque (N·m)",
+        series: vec![
+            plot::Series {
+                name: "measured (smoothed)".to_string(),
+                points: pts(&|k| id.regressors.torque_nm[k]),
+                style: plot::Style::Line,
+            },
+            plot::Series {
+                name: "computed, J·θ'' + T_f(v)".to_string(),
+                points: pts(&|k| id.computed_torque_nm[k]),
+                style: plot::Style::Dashed,
+            },
+            plot::Series {
+                name: "used in the fit".to_string(),
+                points: used,
+                style: plot::Style::Points,
+            },
+        ],
+    })
+}
+
+fn pct(a: f64, b: f64) -> f64 {
+    100.0 * (a - b) / b
+}
+
+fn print_text(out: &Output) -> Result<()> {
+    let mut w = std::io::stdout().lock();
+    let m = &out.set.motor;
+    let s = &out.set.std_error;
+    let f = &out.set.force;
+    writeln!(w, "one-test identification (paper 002) of {}", out.source)?;
+    writeln!(
+        w,
+        "  samples {} used of {}, residual RMS {:.4} N·m, condition {:.1}, {} evaluations",
+        out.set.diagnostics.samples_used,
+        out.samples_total,
+        out.set.diagnostics.residual_rms_nm,
+        out.set.diagnostics.condition_number,
+        out.set.diagnostics.iterations
+    )?;
+    let rows: [(&str, f64, f64, &str); 6] = [
+        ("J total", m.j_total_kgm2, s.j_total_kgm2, "kg·m²"),
+        ("Tc", m.tc_nm, s.tc_nm, "N·m"),
+        ("Ts", m.ts_nm, s.ts_nm, "N·m"),
+        ("vs", m.vs_mm_min, s.vs_mm_min, "mm/min"),
+        ("sigma", m.sigma_nm_s_per_m, s.sigma_nm_s_per_m, "N·m·s/m"),
+        ("T0", m.offset_nm, s.offset_nm, "N·m"),
+    ];
+    let cmp = out.compare.as_ref();
+    match cmp {
+        Some(_) => writeln!(
+            w,
+            "  {:<8} {:>14} {:>12} {:>14} {:>12}  unit",
+            "", "one test", "± 1σ", "groups", "± 1σ"
+        )?,
+        None => writeln!(w, "  {:<8} {:>14} {:>12}  unit", "", "value", "± 1σ")?,
+    }
+    for (k, (name, v, e, unit)) in rows.iter().enumerate() {
+        match cmp {
+            Some(c) => {
+                let cm = &c.set.motor;
+                let cs = &c.set.std_error;
+                let (gv, ge) = [
+                    (cm.j_total_kgm2, cs.j_total_kgm2),
+                    (cm.tc_nm, cs.tc_nm),
+                    (cm.ts_nm, cs.ts_nm),
+                    (cm.vs_mm_min, cs.vs_mm_min),
+                    (cm.sigma_nm_s_per_m, cs.sigma_nm_s_per_m),
+                    (cm.offset_nm, cs.offset_nm),
+                ][k];
+                if k == 0 {
+                    writeln!(
+                        w,
+                        "  {name:<8} {v:>14.6} {e:>12.6} {:>14} {:>12}  {unit}",
+                        "-", "-"
+                    )?;
+                } else {
+                    writeln!(
+                        w,
+                        "  {name:<8} {v:>14.6} {e:>12.6} {gv:>14.6} {ge:>12.6}  {unit}"
+                    )?;
+                }
+            }
+            None => writeln!(w, "  {name:<8} {v:>14.6} {e:>12.6}  {unit}")?,
+        }
+    }
+    writeln!(
+        w,
+        "  force side (F = 2π·T/p): Fc {:.2} N, Fs {:.2} N, sigma {:.1} N·s/m, \
+         equivalent mass {:.1} kg",
+        f.fc_n, f.fs_n, f.sigma_n_s_per_m, f.equivalent_mass_kg
+    )?;
+    writeln!(
+        w,
+        "  the axis file predicts J total {:.6} kg·m²",
+        out.axis_j_total_kgm2
+    )?;
+    if let Some(c) = cmp {
+        let d = &c.difference_percent;
+        writeln!(
+            w,
+            "  one test vs {} groups: Tc {:+.1} %, Ts {:+.1} %, vs {:+.1} %, sigma {:+.1} %",
+            c.groups.len(),
+            d.tc,
+            d.ts,
+            d.vs,
+            d.sigma
+        )?;
+    }
+    for warn in &out.warnings {
+        writeln!(w, "  warning: {warn}")?;
+    }
+    Ok(())
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let axis = load_axis(&args.axis)?;
+    let params = params_from(&args);
+    let plot_path = (!args.no_plot).then(|| {
+        args.plot
+            .clone()
+            .unwrap_or_else(|| args.output.with_extension("svg"))
+    });
+    let trace = read(&args.trace, args.effort)?;
+    let source = args.trace.display().to_string();
+    let id = identify(&trace, &axis, &params)
+        .map_err(|e| BadInput(e.to_string()))
+        .with_context(|| format!("identifying from {source}"))?;
+    let effort_kind = trace.effort_kind;
+    drop(trace);
+    let lead_m = axis.lead_m();
+    let set = ParamSet::new(&id.fit, lead_m);
+    let mut warnings = id.warnings.clone();
+    let compare = match &args.compare {
+        Some(path) => {
+            let groups_trace = read(path, args.effort)?;
+            let g = fit_groups(&groups_trace, &axis, &params, &EstimateParams::default())
+                .map_err(|e| BadInput(e.to_string()))
+                .with_context(|| {
+                    format!("fitting the constant-speed groups of {}", path.display())
+                })?;
+            if g.fit.vs_at_bound {
+                warnings.push(
+                    "groups: the Stribeck velocity ended at a search bound (not resolved by \
+                     the feeds of the groups)"
+                        .to_string(),
+                );
+            }
+            let f = &id.fit;
+            let difference_percent = Difference {
+                tc: pct(f.tc_nm, g.fit.tc_nm),
+                ts: pct(f.ts_nm, g.fit.ts_nm),
+                vs: pct(f.vs_mm_min, g.fit.vs_mm_min),
+                sigma: pct(f.sigma_nm_s_per_m, g.fit.sigma_nm_s_per_m),
+            };
+            Some(Comparison {
+                source: path.display().to_string(),
+                set: ParamSet::new(&g.fit, lead_m),
+                groups: g.groups,
+                difference_percent,
+            })
+        }
+        None => None,
+    };
+    let out = Output {
+        source: source.clone(),
+        effort: effort_kind,
+        lead_mm: axis.lead_mm,
+        set,
+        samples_total: id.samples_total,
+        cutoff_hz: id.cutoff_hz,
+        reversal_guard_s: id.reversal_guard_s,
+        sample_interval_s: id.sample_interval_s,
+        axis_j_total_kgm2: id.axis_j_total_kgm2,
+        params,
+        warnings,
+        compare,
+    };
+    let json = serde_json::to_string_pretty(&out)?;
+    // Render everything before writing anything.
+    let svg = match &plot_path {
+        Some(_) => {
+            let name = axis.name.as_deref().unwrap_or("axis");
+            Some(svg(
+                &id,
+                &format!("Measured and computed motor torque ({name})"),
+            )?)
+        }
+        None => None,
+    };
+    crate::output::write_atomic(&args.output, json.as_bytes())?;
+    if let (Some(p), Some(svg)) = (&plot_path, svg) {
+        crate::output::write_atomic(p, svg.as_bytes())?;
+    }
+    match args.format {
+        Format::Json => writeln!(std::io::stdout().lock(), "{json}")?,
+        Format::Text => {
+            print_text(&out)?;
+            eprintln!(
+                "wrote {}{}",
+                args.output.display(),
+                plot_path
+                    .map(|p| format!(", {}", p.display()))
+                    .unwrap_or_default()
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,257 @@
+//! `feedscope identify`: a simulated triangular-wave test end to end, the comparison with
+//! constant-speed groups, and refusals with exit code 2.
+use std::f64::consts::PI;
+use std::path::Path;
+
+use feedscope::plan::{
+    strokes_program, triangle_program, Limits, StrokeTestParams, TriangleParams,
+};
+use feedscope::sim::{
+    simulate_profile, DynamicsMode, FrictionParams, MeanLevel, MotionProfile, SamplingMode,
+    SimConfig, VelocityTerm,
+};
+use feedscope::trace::{EffortKind, Layout};
+
+use crate::util::{feedscope, run, stderr, stdout};
+
+const AXIS: &str = "name = \"ident Z\"\nlead_mm = 12\ntable_mass_kg = 180\n\
+    inertia_kgm2 = 0.0025\ndamping_nms_per_rad = 0\ntorque_constant_nm_per_a = 1.2\n";
+
+/// Truth: F_c 180 N, F_s 250 N, v_s 90 mm/min, σ 3500 N·s/m, no ripple; 1 kHz synchronous
+/// torque, 10 nm position quantum.
+fn cfg(sync: bool) -> SimConfig {
+    let mut c = SimConfig {
+        axis: feedscope::axis::AxisParams::parse(AXIS, feedscope::axis::ConfigFormat::Toml, "a")
+            .unwrap(),
+        ..SimConfig::default()
+    };
+    c.axis.travel_min_mm = Some(0.0);
+    c.axis.travel_max_mm = Some(450.0);
+    let level = MeanLevel {
+        offset_n: 180.0,
+        trend_n_per_mm: 0.0,
+        bumps: vec![],
+    };
+    c.friction = Some(FrictionParams {
+        sign_smoothing_mm_s: 0.01,
+        forward: level.clone(),
+        backward: level,
+        velocity: VelocityTerm {
+            static_excess_n: 70.0,
+            stribeck_velocity_mm_min: 90.0,
+            shape_exponent: 2.0,
+            viscous_n_s_per_m: 3500.0,
+        },
+        components: vec![],
+    });
+    c.dynamics.mode = DynamicsMode::Ideal;
+    if sync {
+        c.sampling.mode = SamplingMode::Synchronous;
+        c.sampling.effort_kind = EffortKind::TorqueNm;
+    } else {
+        for s in [
+            &mut c.sampling.position.interval_ms,
+            &mut c.sampling.effort.interval_ms,
+        ] {
+            *s = 8.0;
+        }
+        c.sampling.position.jitter_ms = 0.5;
+        c.sampling.effort.jitter_ms = 0.5;
+        c.sampling.effort.start_offset_ms = 4.0;
+    }
+    c.sampling.position.quantum_mm = 1e-5;
+    c
+}
+
+fn write_trace(path: &Path, c: &SimConfig, profile: &dyn MotionProfile, layout: Layout) {
+    let out = simulate_profile(c, profile, &mut |_| {}).unwrap();
+    let f = std::fs::File::create(path).unwrap();
+    out.trace.write_csv(f, layout).unwrap();
+}
+
+fn triangle_trace(dir: &Path) {
+    let p = triangle_program(
+        &TriangleParams {
+            window_min_mm: 50.0,
+            window_max_mm: 150.0,
+            feed_max_mm_min: 6000.0,
+            levels: 8,
+            min_cruise_s: 1.0,
+            vs_guess_mm_min: 90.0,
+            ..TriangleParams::default()
+        },
+        &Limits::default(),
+    )
+    .unwrap();
+    std::fs::write(dir.join("axis.toml"), AXIS).unwrap();
+    write_trace(&dir.join("tri.csv"), &cfg(true), &p, Layout::Wide);
+}
+
+fn rel(a: &serde_json::Value, b: f64) -> f64 {
+    (a.as_f64().unwrap() - b).abs() / b
+}
+
+#[test]
+fn identify_recovers_simulated_parameters_and_writes_plot() {
+    let d = tempfile::tempdir().unwrap();
+    triangle_trace(d.path());
+    let mut c = feedscope(d.path());
+    c.args([
+        "identify",
+        "tri.csv",
+        "--axis",
+        "axis.toml",
+        "-o",
+        "ident.json",
+    ]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("J total"), "{}", stdout(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("ident.json")).unwrap())
+            .unwrap();
+    let k = 0.012 / (2.0 * PI);
+    let m = &v["motor"];
+    assert!(
+        rel(&m["j_total_kgm2"], 0.0025 + 180.0 * k * k) < 0.05,
+        "{m}"
+    );
+    assert!(rel(&m["tc_nm"], 180.0 * k) < 0.05, "{m}");
+    assert!(rel(&m["ts_nm"], 250.0 * k) < 0.05, "{m}");
+    assert!(rel(&m["sigma_nm_s_per_m"], 3500.0 * k) < 0.05, "{m}");
+    assert!(rel(&m["vs_mm_min"], 90.0) < 0.10, "{m}");
+    let f = &v["force"];
+    assert!(
+        rel(&f["fc_n"], 180.0) < 0.05 && rel(&f["fs_n"], 250.0) < 0.05,
+        "{f}"
+    );
+    assert!(rel(&f["sigma_n_s_per_m"], 3500.0) < 0.05, "{f}");
+    for key in [
+        "tc_nm",
+        "ts_nm",
+        "vs_mm_min",
+        "sigma_nm_s_per_m",
+        "j_total_kgm2",
+    ] {
+        assert!(v["std_error"][key].as_f64().unwrap() > 0.0, "{key}");
+    }
+    assert!(v["diagnostics"]["residual_rms_nm"].as_f64().unwrap() < 0.02);
+    let svg = std::fs::read_to_string(d.path().join("ident.svg")).unwrap();
+    assert!(svg.contains("torque (N·m)") && svg.contains("time (s)"));
+}
+
+#[test]
+fn identify_compare_reports_both_sets() {
+    let d = tempfile::tempdir().unwrap();
+    triangle_trace(d.path());
+    let strokes = strokes_program(
+        &StrokeTestParams {
+            from_mm: 100.0,
+            to_mm: 160.0,
+            feeds_mm_min: vec![20.0, 45.0, 90.0, 180.0, 400.0, 900.0, 2000.0, 4000.0],
+            repeats: 1,
+            dwell_s: 0.5,
+            accel_mm_s2: 1000.0,
+        },
+        &Limits::default(),
+    )
+    .unwrap();
+    write_trace(
+        &d.path().join("groups.csv"),
+        &cfg(false),
+        &strokes,
+        Layout::Long,
+    );
+    let mut c = feedscope(d.path());
+    c.args([
+        "identify",
+        "tri.csv",
+        "--axis",
+        "axis.toml",
+        "--compare",
+        "groups.csv",
+        "--no-plot",
+        "--format",
+        "json",
+    ]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let g = &v["compare"];
+    assert_eq!(g["groups"].as_array().unwrap().len(), 16);
+    let k = 0.012 / (2.0 * PI);
+    assert!(rel(&g["motor"]["tc_nm"], 180.0 * k) < 0.05, "{g}");
+    assert!(
+        rel(&g["motor"]["sigma_nm_s_per_m"], 3500.0 * k) < 0.05,
+        "{g}"
+    );
+    assert!(g["difference_percent"]["tc"].as_f64().unwrap().abs() < 5.0);
+}
+
+/// Back and forth at one feed: the trace cannot separate a Stribeck curve; exit 2 with a
+/// clear reason and no output file.
+#[test]
+fn one_speed_trace_is_not_identifiable() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::write(d.path().join("axis.toml"), AXIS).unwrap();
+    let p = strokes_program(
+        &StrokeTestParams {
+            from_mm: 10.0,
+            to_mm: 40.0,
+            feeds_mm_min: vec![600.0],
+            repeats: 2,
+            dwell_s: 0.5,
+            accel_mm_s2: 1000.0,
+        },
+        &Limits::default(),
+    )
+    .unwrap();
+    write_trace(&d.path().join("one.csv"), &cfg(true), &p, Layout::Wide);
+    let mut c = feedscope(d.path());
+    c.args(["identify", "one.csv", "--axis", "axis.toml"]);
+    let o = run(c);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("not identifiable"), "{}", stderr(&o));
+    assert!(!d.path().join("ident.json").exists());
+}
+
+/// Forward only, several feeds: no reversal; exit 2.
+#[test]
+fn trace_without_reversal_is_not_identifiable() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::write(d.path().join("axis.toml"), AXIS).unwrap();
+    let mut s = String::from("time_s,position_mm,torque_nm\n");
+    for i in 0..20_000 {
+        let t = i as f64 * 1e-3;
+        // accelerating forward from 0 to 2400 mm/min: many speeds, one direction
+        let z = 1.0 * t * t;
+        s.push_str(&format!("{t:.3},{z:.6},{:.4}\n", 0.35 + 0.01 * t));
+    }
+    std::fs::write(d.path().join("fwd.csv"), s).unwrap();
+    let mut c = feedscope(d.path());
+    c.args(["identify", "fwd.csv", "--axis", "axis.toml"]);
+    let o = run(c);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("reversal"), "{}", stderr(&o));
+}
+
+#[test]
+fn bad_parameter_is_exit_2() {
+    let d = tempfile::tempdir().unwrap();
+    triangle_trace(d.path());
+    let mut c = feedscope(d.path());
+    c.args(["identify", "tri.csv", "--axis", "axis.toml", "--delta", "0"]);
+    let o = run(c);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("delta"), "{}", stderr(&o));
+}
+
+#[test]
+fn identify_help() {
+    let d = tempfile::tempdir().unwrap();
+    let mut c = feedscope(d.path());
+    c.args(["identify", "--help"]);
+    let o = run(c);
+    assert!(o.status.success());
+    insta::assert_snapshot!("identify_help", stdout(&o));
+}
