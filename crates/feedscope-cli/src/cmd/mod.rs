@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 mod demo;
 mod dynamics;
 mod estimate;
+mod fit_stribeck;
 mod simulate;
 
 /// feedscope: how are the ball-screw feed drives of this machine doing?
@@ -29,6 +30,8 @@ pub enum Command {
     Simulate(simulate::Args),
     /// Natural frequency vs feed rate and position; torque-ripple resonance risks.
     Dynamics(dynamics::Args),
+    // Help text from the doc comment of `fit_stribeck::Args`.
+    FitStribeck(fit_stribeck::Args),
 }
 
 /// Marks an error as the user's input being wrong (exit code 2).
@@ -72,6 +75,7 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         // Prints its own errors and chooses its exit code (2 bad input, 1 otherwise).
         Command::Simulate(a) => return simulate::run(a),
         Command::Dynamics(a) => dynamics::run(a),
+        Command::FitStribeck(a) => fit_stribeck::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
