@@ -92,8 +92,7 @@ impl LuGreParams {
 
     /// Steady-state friction sgn(v)·g(v) + σ2·v (N), paper 001 Eq. 3.
     pub fn steady_state_force_n(&self, velocity_m_s: f64) -> f64 {
-        sign(velocity_m_s) * self.g_n(velocity_m_s)
-            + self.stribeck.sigma_n_s_per_m * velocity_m_s
+        sign(velocity_m_s) * self.g_n(velocity_m_s) + self.stribeck.sigma_n_s_per_m * velocity_m_s
     }
 
     /// dz/dt = v − σ0·|v|·z/g(v) (m/s).
@@ -275,8 +274,18 @@ impl LuGre {
     pub fn new(params: LuGreParams) -> Result<Self, LuGreError> {
         let s = &params.stribeck;
         let checks: [(&'static str, f64, bool, &'static str); 7] = [
-            ("fc_n", s.fc_n, s.fc_n > 0.0, "> 0 (g(v) must stay positive)"),
-            ("fs_n", s.fs_n, s.fs_n > 0.0, "> 0 (g(v) must stay positive)"),
+            (
+                "fc_n",
+                s.fc_n,
+                s.fc_n > 0.0,
+                "> 0 (g(v) must stay positive)",
+            ),
+            (
+                "fs_n",
+                s.fs_n,
+                s.fs_n > 0.0,
+                "> 0 (g(v) must stay positive)",
+            ),
             ("vs_m_s", s.vs_m_s, s.vs_m_s > 0.0, "> 0"),
             ("delta", s.delta, s.delta > 0.0, "> 0"),
             (
@@ -519,7 +528,7 @@ pub fn identify_presliding(
                     b2 += ei * fi;
                 }
                 let det = a11 * a22 - a12 * a12;
-                if !(det > 1e-12 * a11 * a22) {
+                if det.is_nan() || det <= 1e-12 * a11 * a22 {
                     return (0.0, 0.0, f64::INFINITY);
                 }
                 let g = (b1 * a22 - b2 * a12) / det;
@@ -569,7 +578,7 @@ pub fn identify_presliding(
 
     // Identifiability (module docs).
     let change_n = (g - f0).abs();
-    if !(g > 0.0) || change_n <= 3.0 * residual_rms_n {
+    if g.is_nan() || g <= 0.0 || change_n <= 3.0 * residual_rms_n {
         return Err(LuGreError::NotIdentifiable(NotIdentifiable::NoTransition {
             change_n,
             residual_rms_n,

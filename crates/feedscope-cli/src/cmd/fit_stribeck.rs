@@ -412,7 +412,14 @@ fn print_table(report: &Report) -> Result<()> {
     writeln!(
         out,
         "{:<9} {:>6}  {:>18}  {:>18}  {:>18}  {:>22}  {:>13}  {:>8}",
-        "direction", "points", "Fc (N)", "Fs (N)", "vs (mm/min)", "sigma (N·s/m)", "delta", "rms (N)"
+        "direction",
+        "points",
+        "Fc (N)",
+        "Fs (N)",
+        "vs (mm/min)",
+        "sigma (N·s/m)",
+        "delta",
+        "rms (N)"
     )?;
     for d in &report.directions {
         let u = d.uncertainty.as_ref();

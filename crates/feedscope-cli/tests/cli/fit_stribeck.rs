@@ -30,13 +30,13 @@ fn force_table(signed: bool) -> String {
 fn fit(dir: &Path, table: &str, extra: &[&str]) -> std::process::Output {
     std::fs::write(dir.join("t.csv"), table).unwrap();
     let mut c = feedscope(dir);
-    c.args(["fit-stribeck", "t.csv", "--out", "out"]).args(extra);
+    c.args(["fit-stribeck", "t.csv", "--out", "out"])
+        .args(extra);
     run(c)
 }
 
 fn json(dir: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("out/stribeck.json")).unwrap())
-        .unwrap()
+    serde_json::from_str(&std::fs::read_to_string(dir.join("out/stribeck.json")).unwrap()).unwrap()
 }
 
 #[test]
@@ -49,7 +49,14 @@ fn force_table_both_directions_writes_documented_files() {
     top.sort();
     assert_eq!(
         top,
-        ["delta", "directions", "efficiency", "input", "lead_mm", "source"]
+        [
+            "delta",
+            "directions",
+            "efficiency",
+            "input",
+            "lead_mm",
+            "source"
+        ]
     );
     assert_eq!(j["input"], "force_n");
     let dirs = j["directions"].as_array().unwrap();
@@ -76,7 +83,10 @@ fn force_table_both_directions_writes_documented_files() {
         assert!(u["std_error"].as_f64().unwrap() > 0.0);
         assert_eq!(u["ci95"].as_array().unwrap().len(), 2);
         assert_eq!(d["points"], 18);
-        assert!(d["nonconventional"]["ranges"].as_array().unwrap().is_empty());
+        assert!(d["nonconventional"]["ranges"]
+            .as_array()
+            .unwrap()
+            .is_empty());
     }
     assert_eq!(dirs[0]["direction"], "forward");
     assert_eq!(dirs[1]["direction"], "backward");
@@ -86,7 +96,10 @@ fn force_table_both_directions_writes_documented_files() {
     let text = stdout(&o);
     let header = text.lines().next().unwrap();
     insta::assert_snapshot!("fit_stribeck_table_header", header);
-    assert!(text.contains("forward") && text.contains("backward"), "{text}");
+    assert!(
+        text.contains("forward") && text.contains("backward"),
+        "{text}"
+    );
 }
 
 /// Eq. 15 with a direction column and η: the friction in the JSON is 2π·η·T/p.
@@ -139,7 +152,10 @@ fn paper_001_table_2_gives_table_3_shape() {
     let delt_n_min_per_m = p["sigma_n_s_per_m"].as_f64().unwrap() / 60.0;
     assert!((vs / 71.0 - 1.0).abs() < 0.03, "{p}");
     assert!(((fs / fc) / (815.75 / 658.89) - 1.0).abs() < 0.03, "{p}");
-    assert!(((delt_n_min_per_m / fc) / (40.17 / 658.89) - 1.0).abs() < 0.03, "{p}");
+    assert!(
+        ((delt_n_min_per_m / fc) / (40.17 / 658.89) - 1.0).abs() < 0.03,
+        "{p}"
+    );
 }
 
 #[test]
@@ -171,7 +187,10 @@ fn nonconventional_fall_is_reported() {
     assert_eq!(r.as_array().unwrap().len(), 1, "{r}");
     let from = r[0]["from_mm_min"].as_f64().unwrap();
     let to = r[0]["to_mm_min"].as_f64().unwrap();
-    assert!(from > 100.0 && from < 200.0 && to > 250.0 && to < 460.0, "{r}");
+    assert!(
+        from > 100.0 && from < 200.0 && to > 250.0 && to < 460.0,
+        "{r}"
+    );
     assert!(stdout(&o).contains("non-conventional"), "{}", stdout(&o));
 }
 
@@ -179,8 +198,16 @@ fn nonconventional_fall_is_reported() {
 #[test]
 fn malformed_tables_exit_2_with_file_and_line() {
     let cases: [(&str, &[&str], &str); 8] = [
-        ("speed,force_n\n10,100\n", &[], "t.csv:1: no `feed_mm_min` column"),
-        ("feed_mm_min,friction\n10,100\n", &[], "t.csv:1: no `torque_nm` or `force_n`"),
+        (
+            "speed,force_n\n10,100\n",
+            &[],
+            "t.csv:1: no `feed_mm_min` column",
+        ),
+        (
+            "feed_mm_min,friction\n10,100\n",
+            &[],
+            "t.csv:1: no `torque_nm` or `force_n`",
+        ),
         (
             "# c\nfeed_mm_min,force_n\n10,100\n20,abc\n",
             &[],
@@ -191,7 +218,11 @@ fn malformed_tables_exit_2_with_file_and_line() {
             &[],
             "t.csv:3: column `feed_mm_min`: NaN is not finite",
         ),
-        ("feed_mm_min,force_n\n10,100\n20\n", &[], "t.csv:3: 1 fields"),
+        (
+            "feed_mm_min,force_n\n10,100\n20\n",
+            &[],
+            "t.csv:3: 1 fields",
+        ),
         (
             "feed_mm_min,force_n\n10,100\n20,95\n40,97\n",
             &[],

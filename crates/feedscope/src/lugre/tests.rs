@@ -53,13 +53,20 @@ fn stiff_sigma0_is_stable_with_large_steps() {
     let v = |t: f64| 0.01 * (2.0 * std::f64::consts::PI * 0.5 * t).sin();
     let coarse_t = uniform_time(801, 5e-3); // 4 s, two periods
     let coarse = m
-        .simulate(&coarse_t, &coarse_t.iter().map(|&t| v(t)).collect::<Vec<_>>(), 0.0)
+        .simulate(
+            &coarse_t,
+            &coarse_t.iter().map(|&t| v(t)).collect::<Vec<_>>(),
+            0.0,
+        )
         .unwrap();
     let fine_t = uniform_time(4_000_001, 1e-6);
     let fine_v: Vec<f64> = fine_t.iter().map(|&t| v(t)).collect();
     let fine = m.simulate(&fine_t, &fine_v, 0.0).unwrap();
     for (k, (&f, &z)) in coarse.friction_n.iter().zip(&coarse.z_m).enumerate() {
-        assert!(f.is_finite() && z.abs() <= 210.0 / 1e8 * (1.0 + 1e-12), "{k}: {z}");
+        assert!(
+            f.is_finite() && z.abs() <= 210.0 / 1e8 * (1.0 + 1e-12),
+            "{k}: {z}"
+        );
         let fref = fine.friction_n[k * 5000];
         assert!((f - fref).abs() < 0.01 * 210.0, "sample {k}: {f} vs {fref}");
     }
@@ -68,7 +75,10 @@ fn stiff_sigma0_is_stable_with_large_steps() {
     for _ in 0..5 {
         z += h * m.params().z_rate_m_s(z, vv);
     }
-    assert!(z.abs() > 1e3 * 210.0 / 1e8, "Euler unexpectedly stable: {z}");
+    assert!(
+        z.abs() > 1e3 * 210.0 / 1e8,
+        "Euler unexpectedly stable: {z}"
+    );
 }
 
 /// From rest, a displacement x ≪ x_c = g/σ0 gives F ≈ σ0·x (+ (σ1 + σ2)·v). At constant v
@@ -91,7 +101,10 @@ fn presliding_slope_is_sigma0() {
             let x = r.displacement_m[k];
             let z = xc * (1.0 - (-x / xc).exp());
             let f = sigma0 * z + prm.sigma1_n_s_per_m * v * (1.0 - z / xc) + 3000.0 * v;
-            assert!((r.friction_n[k] - f).abs() < 1e-9 * f.abs().max(1e-3), "{k}");
+            assert!(
+                (r.friction_n[k] - f).abs() < 1e-9 * f.abs().max(1e-3),
+                "{k}"
+            );
         }
         let (x1, x2) = (r.displacement_m[100], r.displacement_m[1000]);
         let slope = (r.friction_n[1000] - r.friction_n[100]) / (x2 - x1);
@@ -143,7 +156,10 @@ fn identification_recovers_sigma0_from_a_reversal() {
     );
     assert!(err.abs() < 0.10, "{fit:?}");
     let se = fit.sigma0_std_error_n_per_m.unwrap();
-    assert!((fit.sigma0_n_per_m - sigma0).abs() < 3.0 * se + 0.02 * sigma0, "{se}");
+    assert!(
+        (fit.sigma0_n_per_m - sigma0).abs() < 3.0 * se + 0.02 * sigma0,
+        "{se}"
+    );
     // g ≈ g(v0) = 209.85 N, F0 ≈ −g
     assert!((fit.level_n - m.params().g_n(v0)).abs() < 2.0);
     // with g known from the Stribeck fit
@@ -151,7 +167,10 @@ fn identification_recovers_sigma0_from_a_reversal() {
         level_n: Some(m.params().g_n(v0)),
     };
     let fit2 = identify_presliding(&x, &f, &known).unwrap();
-    assert!((fit2.sigma0_n_per_m / sigma0 - 1.0).abs() < 0.10, "{fit2:?}");
+    assert!(
+        (fit2.sigma0_n_per_m / sigma0 - 1.0).abs() < 0.10,
+        "{fit2:?}"
+    );
 }
 
 #[test]
@@ -166,7 +185,10 @@ fn unidentifiable_data_say_so() {
     let f: Vec<f64> = x.iter().map(|&x| curve(x)).collect();
     let e = identify_presliding(&x, &f, &PreSlidingParams::default()).unwrap_err();
     assert!(
-        matches!(e, LuGreError::NotIdentifiable(NotIdentifiable::TooShort { .. })),
+        matches!(
+            e,
+            LuGreError::NotIdentifiable(NotIdentifiable::TooShort { .. })
+        ),
         "{e}"
     );
     assert!(e.to_string().contains("not identifiable"), "{e}");

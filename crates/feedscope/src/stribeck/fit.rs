@@ -596,9 +596,17 @@ impl StribeckFitter {
         ];
         for i in cols.iter().copied() {
             for (bound, is_lo) in [(self.lo[i], true), (self.hi[i], false)] {
-                let hit = if is_lo { th[i] <= bound } else { th[i] >= bound };
+                let hit = if is_lo {
+                    th[i] <= bound
+                } else {
+                    th[i] >= bound
+                };
                 if bound.is_finite() && hit {
-                    let b = if i == 3 { bound.exp() * v_ref } else { bound * si[i] };
+                    let b = if i == 3 {
+                        bound.exp() * v_ref
+                    } else {
+                        bound * si[i]
+                    };
                     warnings.push(FitWarning::AtBound {
                         parameter: NAMES[i].to_string(),
                         bound: b,
@@ -658,6 +666,8 @@ impl StribeckFitter {
     }
 
     /// Projected Levenberg–Marquardt from `th` (step 3 of the module docs).
+    // Index loops over the 5×5 normal equations read like the formulas.
+    #[allow(clippy::needless_range_loop)]
     fn levenberg_marquardt(&self, y: &[f64], mut th: [f64; 5], free: [bool; 5]) -> LmResult {
         let n = y.len();
         let mut ssr = self.ssr(&th, y);
@@ -732,8 +742,8 @@ impl StribeckFitter {
             let Some((trial, s_new)) = accepted else {
                 break Termination::NoFurtherDecrease;
             };
-            let small_step = (0..5)
-                .all(|i| (trial[i] - th[i]).abs() <= 1e-10 * (th[i].abs() + 1e-10));
+            let small_step =
+                (0..5).all(|i| (trial[i] - th[i]).abs() <= 1e-10 * (th[i].abs() + 1e-10));
             let small_red = ssr - s_new <= 1e-12 * ssr;
             th = trial;
             ssr = s_new;
@@ -785,16 +795,14 @@ fn model(th: &[f64; 5], u: f64) -> (f64, [f64; 5]) {
     };
     let ex = th[1] - th[0];
     let f = th[0] * (1.0 - e) + th[1] * e + th[2] * u;
-    (
-        f,
-        [1.0 - e, e, u, ex * e * th[4] * w, -ex * e * w * lnr],
-    )
+    (f, [1.0 - e, e, u, ex * e * th[4] * w, -ex * e * w * lnr])
 }
 
 /// Non-negative least squares of y ≈ c0·(1 − e) + c1·e + c2·u, exactly, by trying every
 /// active set of the 3 variables (the optimum is the unconstrained solution on its support,
 /// and every feasible candidate is admissible, so the feasible candidate of least residual is
 /// the optimum). Returns (c, SSR).
+#[allow(clippy::needless_range_loop)] // 3×3 Gram matrix, indexed as in the formulas
 fn nnls3(u: &[f64], e: &[f64], y: &[f64]) -> ([f64; 3], f64) {
     let mut g = [[0.0; 3]; 3];
     let mut b = [0.0; 3];
@@ -844,6 +852,7 @@ fn nnls3(u: &[f64], e: &[f64], y: &[f64]) -> ([f64; 3], f64) {
 
 /// Solve G[idx,idx]·x = b[idx] by Cholesky; `None` when a pivot falls below 1e-12 of its
 /// diagonal (a column that the data cannot see, e.g. e ≡ 0).
+#[allow(clippy::needless_range_loop)] // Cholesky indexed as in the formulas
 fn small_spd_solve(g: &[[f64; 3]; 3], b: &[f64; 3], idx: &[usize]) -> Option<Vec<f64>> {
     let k = idx.len();
     let mut l = [[0.0; 3]; 3];
@@ -892,7 +901,7 @@ fn scaled_inverse(js: &DMatrix<f64>, norms: &[f64]) -> (Option<f64>, Option<DMat
     let s = &svd.singular_values;
     let smax = s.max();
     let smin = s.min();
-    if !(smin > 1e-15 * smax) {
+    if smin.is_nan() || smin <= 1e-15 * smax {
         return (None, None);
     }
     let vt = svd.v_t.expect("requested V");
@@ -913,9 +922,9 @@ fn scaled_inverse(js: &DMatrix<f64>, norms: &[f64]) -> (Option<f64>, Option<DMat
 /// (error < 1e-4 at ν = 31).
 pub fn t_quantile_975(dof: usize) -> f64 {
     const T: [f64; 30] = [
-        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
-        2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064,
-        2.060, 2.056, 2.052, 2.048, 2.045, 2.042,
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+        2.052, 2.048, 2.045, 2.042,
     ];
     if dof == 0 {
         return f64::INFINITY;

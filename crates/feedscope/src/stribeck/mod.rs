@@ -152,7 +152,6 @@ pub fn friction_from_torque_n(
     Ok(2.0 * std::f64::consts::PI * efficiency * torque_nm / lead_m)
 }
 
-
 /// Parameters of the Stribeck curve, SI units.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct StribeckParams {

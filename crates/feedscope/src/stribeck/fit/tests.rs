@@ -127,7 +127,11 @@ fn noisy_round_trip_set_a_delta_fixed() {
     assert!(fit.warnings.is_empty(), "{:?}", fit.warnings);
     assert_eq!(fit.dof, 14);
     // the residual RMS estimates the noise (1.73 N) within the spread of 18 samples
-    assert!((fit.residual_rms_n / 1.73 - 1.0).abs() < 0.5, "{}", fit.residual_rms_n);
+    assert!(
+        (fit.residual_rms_n / 1.73 - 1.0).abs() < 0.5,
+        "{}",
+        fit.residual_rms_n
+    );
 }
 
 #[test]
@@ -168,9 +172,12 @@ fn standard_errors_cover_the_truth() {
     for (name, t) in [("A", set_a()), ("B", set_b())] {
         let (mut within3, mut covered, mut total) = (0, 0, 0);
         for seed in 100..140 {
-            let fit =
-                fit_stribeck(&v, &synth(&t, &v, 0.01, seed), &StribeckFitParams::default())
-                    .unwrap();
+            let fit = fit_stribeck(
+                &v,
+                &synth(&t, &v, 0.01, seed),
+                &StribeckFitParams::default(),
+            )
+            .unwrap();
             let u = fit.uncertainty.expect("uncertainty with 14 dof");
             for (e, truth) in [
                 (u.fc_n, t.fc_n),
@@ -185,8 +192,14 @@ fn standard_errors_cover_the_truth() {
             }
         }
         eprintln!("set {name}: within 3 SE {within3}/{total}, 95 % CI covers {covered}/{total}");
-        assert!(within3 as f64 >= 0.95 * total as f64, "{name}: {within3}/{total}");
-        assert!(covered as f64 >= 0.85 * total as f64, "{name}: {covered}/{total}");
+        assert!(
+            within3 as f64 >= 0.95 * total as f64,
+            "{name}: {within3}/{total}"
+        );
+        assert!(
+            covered as f64 >= 0.85 * total as f64,
+            "{name}: {covered}/{total}"
+        );
     }
 }
 
@@ -199,8 +212,12 @@ fn all_feeds_far_above_vs_warns_and_stays_finite() {
     };
     let v = feeds_m_s();
     for seed in [1, 2, 3] {
-        let fit = fit_stribeck(&v, &synth(&t, &v, 0.01, seed), &StribeckFitParams::default())
-            .unwrap();
+        let fit = fit_stribeck(
+            &v,
+            &synth(&t, &v, 0.01, seed),
+            &StribeckFitParams::default(),
+        )
+        .unwrap();
         let p = &fit.params;
         assert!(
             [p.fc_n, p.fs_n, p.vs_m_s, p.sigma_n_s_per_m, p.delta]
@@ -236,10 +253,13 @@ fn few_points_warn_without_standard_errors() {
     let f: Vec<f64> = v.iter().map(|&s| t.magnitude_n(s)).collect();
     let fit = fit_stribeck(&v, &f, &StribeckFitParams::default()).unwrap();
     assert!(fit.uncertainty.is_none());
-    assert!(fit
-        .warnings
-        .iter()
-        .any(|w| matches!(w, FitWarning::FewPoints { points: 4, parameters: 4 })));
+    assert!(fit.warnings.iter().any(|w| matches!(
+        w,
+        FitWarning::FewPoints {
+            points: 4,
+            parameters: 4
+        }
+    )));
     assert!(fit.params.fc_n.is_finite() && fit.residual_rms_n.is_finite());
 }
 
@@ -328,7 +348,11 @@ fn model_gradient_matches_finite_differences() {
             a[i] += h;
             b[i] -= h;
             let fd = (value(&a, u) - value(&b, u)) / (2.0 * h);
-            assert!((fd - g[i]).abs() < 1e-7, "u {u} param {i}: {fd} vs {}", g[i]);
+            assert!(
+                (fd - g[i]).abs() < 1e-7,
+                "u {u} param {i}: {fd} vs {}",
+                g[i]
+            );
         }
     }
 }
@@ -356,7 +380,10 @@ fn nnls3_satisfies_kkt() {
                 grad[k] += a[k] * r;
             }
         }
-        assert!((direct - ssr).abs() < 1e-9 * (1.0 + direct), "{direct} {ssr}");
+        assert!(
+            (direct - ssr).abs() < 1e-9 * (1.0 + direct),
+            "{direct} {ssr}"
+        );
         for k in 0..3 {
             assert!(c[k] >= 0.0);
             if c[k] > 0.0 {
@@ -372,7 +399,11 @@ fn nnls3_satisfies_kkt() {
 fn t_quantile_limits() {
     assert!((t_quantile_975(14) - 2.145).abs() < 1e-12);
     // the expansion joins the table: t(31) = 2.0395
-    assert!((t_quantile_975(31) - 2.0395).abs() < 2e-4, "{}", t_quantile_975(31));
+    assert!(
+        (t_quantile_975(31) - 2.0395).abs() < 2e-4,
+        "{}",
+        t_quantile_975(31)
+    );
     assert!((t_quantile_975(120) - 1.9799).abs() < 2e-4);
     assert!((t_quantile_975(1_000_000) - 1.96).abs() < 1e-3);
 }
