@@ -37,9 +37,14 @@
 //! [`identify_presliding`] fits (g, F_0, x_c) or, when g is known from the Stribeck fit,
 //! (F_0, x_c). The data must cover the transition: samples inside the first x_c of travel
 //! and travel up to at least 2·x_c (0.5·x_c when g is known); otherwise the answer is
-//! [`LuGreError::NotIdentifiable`]. σ1 acts only through dz/dt and is invisible in such
-//! quasi-static data; it needs dynamic pre-sliding tests (e.g. the damping of a stick-phase
-//! oscillation) and is not identified here.
+//! [`LuGreError::NotIdentifiable`].
+//!
+//! σ1 is not identified. At a constant speed v after the reversal its term is
+//! σ1·ż = σ1·v·(1 − σ0·z/g), which decays as exp(−x/x_c) exactly like the elastic term: it only
+//! changes the apparent amplitude g − F_0 by σ1·v·(1 − F_0/g) and is absorbed by the fitted
+//! F_0. Even with F_0 measured just before the reversal it would show as ≈ 2·σ1·v, a fraction
+//! of a newton at the slow speeds this method needs. σ1 needs dynamic pre-sliding tests (e.g.
+//! the decay of a stick-phase oscillation).
 //!
 //! # Reference
 //! Paper 001 Eq. 2-3; Canudas de Wit, Olsson, Åström, Lischinsky, IEEE TAC 40 (1995) 419-425.
