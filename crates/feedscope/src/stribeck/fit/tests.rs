@@ -82,6 +82,55 @@ fn assert_recovers(fit: &StribeckFit, t: &StribeckParams, what: &str) {
     assert!(e.vs < 0.10, "{what}: vs {:?}", fit.params);
 }
 
+/// Every number of a fit is finite (serde_json would silently write a NaN as `null`).
+fn assert_all_finite(fit: &StribeckFit) {
+    let p = &fit.params;
+    let mut all = vec![
+        p.fc_n,
+        p.fs_n,
+        p.vs_m_s,
+        p.sigma_n_s_per_m,
+        p.delta,
+        fit.residual_rms_n,
+        fit.min_speed_m_s,
+        fit.max_speed_m_s,
+    ];
+    all.extend(fit.condition_number);
+    if let Some(u) = &fit.uncertainty {
+        let ests = [
+            u.fc_n,
+            u.fs_n,
+            u.static_excess_n,
+            u.vs_m_s,
+            u.sigma_n_s_per_m,
+        ];
+        for e in ests.iter().chain(u.delta.iter()) {
+            all.extend([e.value, e.std_error, e.ci95_low, e.ci95_high]);
+        }
+        all.push(u.t_quantile);
+    }
+    for w in &fit.warnings {
+        match w {
+            FitWarning::NoDataBelowTwiceVs {
+                min_speed_m_s,
+                vs_m_s,
+            }
+            | FitWarning::AllSpeedsFarAboveVs {
+                min_speed_m_s,
+                vs_m_s,
+            } => all.extend([*min_speed_m_s, *vs_m_s]),
+            FitWarning::StdErrorExceedsValue {
+                value, std_error, ..
+            } => all.extend([*value, *std_error]),
+            FitWarning::IllConditioned {
+                condition_number: Some(c),
+            } => all.push(*c),
+            _ => {}
+        }
+    }
+    assert!(all.iter().all(|x| x.is_finite()), "{fit:?}");
+}
+
 #[test]
 fn exact_data_recovered_to_rounding() {
     let v = feeds_m_s();
@@ -240,9 +289,7 @@ fn all_feeds_far_above_vs_warns_and_stays_finite() {
             _ => false,
         });
         assert!(identifiability, "seed {seed}: {:?} {p:?}", fit.warnings);
-        // nothing non-finite reaches the JSON
-        let json = serde_json::to_string(&fit).unwrap();
-        assert!(!json.contains("NaN") && !json.contains("inf"), "{json}");
+        assert_all_finite(&fit);
     }
 }
 
@@ -462,6 +509,63 @@ mod props {
             let e = rel_err(&fit, &t);
             prop_assert!(e.fc < 1e-4 && e.excess < 1e-4 && e.sigma < 1e-4 && e.vs < 1e-4,
                 "{:?} {:?}", fit.params, fit.termination);
+        }
+    }
+}
+
+/// Degenerate but finite inputs never panic and never produce a non-finite number: constant
+/// friction, a single repeated speed, two speeds, zero friction, zero speeds mixed in, tiny
+/// and huge scales, δ free.
+#[test]
+fn degenerate_inputs_give_finite_results() {
+    let v = feeds_m_s();
+    let cases: Vec<(Vec<f64>, Vec<f64>)> = vec![
+        (v.clone(), vec![200.0; 18]),
+        (vec![1e-3; 10], (0..10).map(|k| 100.0 + k as f64).collect()),
+        (
+            [1e-4, 1e-2].repeat(5),
+            (0..10).map(|k| 100.0 + (k % 2) as f64 * 30.0).collect(),
+        ),
+        (v.clone(), vec![0.0; 18]),
+        (
+            [0.0, 0.0, 1e-4, 1e-3, 1e-2].to_vec(),
+            vec![300.0, 310.0, 250.0, 240.0, 260.0],
+        ),
+        (
+            v.iter().map(|x| x * 1e-6).collect(),
+            synth(&set_a(), &v, 0.01, 1),
+        ),
+        (
+            v.iter().map(|x| x * 1e3).collect(),
+            synth(&set_b(), &v, 0.01, 2)
+                .iter()
+                .map(|f| f * 1e6)
+                .collect(),
+        ),
+        (vec![1e-3], vec![50.0]),
+    ];
+    for (k, (v, f)) in cases.iter().enumerate() {
+        for delta in [DeltaMode::Fixed(2.0), DeltaMode::Free] {
+            let fit = fit_stribeck(
+                v,
+                f,
+                &StribeckFitParams {
+                    delta,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            let p = &fit.params;
+            let all = [
+                p.fc_n,
+                p.fs_n,
+                p.vs_m_s,
+                p.sigma_n_s_per_m,
+                p.delta,
+                fit.residual_rms_n,
+            ];
+            assert!(all.iter().all(|x| x.is_finite()), "case {k}: {fit:?}");
+            assert_all_finite(&fit);
         }
     }
 }
