@@ -363,14 +363,17 @@ fn direction_fit(
 fn svg(report: &Report) -> Result<String> {
     let mut series = Vec::new();
     for d in &report.directions {
+        let pts: Vec<(f64, f64)> = d
+            .data
+            .iter()
+            .map(|p| (p.feed_mm_min, p.friction_n))
+            .collect();
+        // the shared point style is a faint dot meant for dense samples; a dashed line
+        // through the (feed-sorted) points keeps a few table rows visible
         series.push(plot::Series {
             name: format!("{} data", d.direction),
-            points: d
-                .data
-                .iter()
-                .map(|p| (p.feed_mm_min, p.friction_n))
-                .collect(),
-            style: plot::Style::Points,
+            points: pts,
+            style: plot::Style::Dashed,
         });
         let p = feedscope::stribeck::StribeckParams {
             fc_n: d.params.fc_n,
@@ -379,12 +382,18 @@ fn svg(report: &Report) -> Result<String> {
             sigma_n_s_per_m: d.params.sigma_n_s_per_m,
             delta: d.params.delta,
         };
+        // linear and logarithmic spacing together: the hump sits at the low end
         let (lo, hi) = (d.feed_min_mm_min, d.feed_max_mm_min);
-        let curve = (0..=300)
-            .map(|k| {
-                let f = lo + (hi - lo) * k as f64 / 300.0;
-                (f, p.magnitude_n(f * M_S_PER_MM_MIN))
+        let mut feeds: Vec<f64> = (0..=200)
+            .flat_map(|k| {
+                let s = k as f64 / 200.0;
+                [lo + (hi - lo) * s, lo * (hi / lo).powf(s)]
             })
+            .collect();
+        feeds.sort_by(f64::total_cmp);
+        let curve = feeds
+            .into_iter()
+            .map(|f| (f, p.magnitude_n(f * M_S_PER_MM_MIN)))
             .collect();
         series.push(plot::Series {
             name: format!("{} Stribeck fit", d.direction),
@@ -400,8 +409,11 @@ fn svg(report: &Report) -> Result<String> {
     })
 }
 
+/// `value ± SE`; a standard error of 1e6 or more (an unidentifiable parameter) in
+/// scientific notation so that the table keeps its shape.
 fn pm(e: Option<&Estimate>, value: f64, prec: usize) -> String {
     match e {
+        Some(e) if e.std_error.abs() >= 1e6 => format!("{value:.prec$} ± {:.1e}", e.std_error),
         Some(e) => format!("{value:.prec$} ± {:.prec$}", e.std_error),
         None => format!("{value:.prec$}"),
     }

@@ -21,8 +21,9 @@
 //!    diagonal scaling; variables on a bound whose gradient points outwards are held), with
 //!    v_s carried as ln v_s so that it stays positive.
 //! 4. Uncertainty from the Jacobian J at the optimum: cov = s²·(JᵀJ)⁻¹ with
-//!    s² = SSR/(N − p); 95 % intervals ± t_{0.975, N−p}·SE (v_s: exp(±t·SE(ln v_s)), always
-//!    positive). The condition number is that of J with unit-norm columns.
+//!    s² = SSR/(N − p); 95 % intervals ± t_{0.975, N−p}·SE (v_s: v_s·exp(±t·SE(ln v_s)),
+//!    always positive, the exponent capped at 600 to stay finite). The condition number is
+//!    that of J with unit-norm columns.
 //!
 //! # Reference
 //! Paper 000 Eq. 9 and Section 4.2.1 (fitted with MATLAB `fminsearch` there); paper 001
@@ -515,11 +516,13 @@ impl StribeckFitter {
                         params.sigma_n_s_per_m,
                         var(2, 2).max(0.0).sqrt() * f_ref / v_ref,
                     ),
+                    // the exponent is capped at 600 so that an unidentifiable v_s still
+                    // gets a finite (absurdly wide) interval
                     vs_m_s: ParamEstimate {
                         value: params.vs_m_s,
                         std_error: params.vs_m_s * se_l,
-                        ci95_low: params.vs_m_s * (-t * se_l).exp(),
-                        ci95_high: params.vs_m_s * (t * se_l).exp(),
+                        ci95_low: params.vs_m_s * (-(t * se_l).min(600.0)).exp(),
+                        ci95_high: params.vs_m_s * (t * se_l).min(600.0).exp(),
                     },
                     delta: delta_free.then(|| lin(params.delta, var(4, 4).max(0.0).sqrt())),
                     t_quantile: t,
