@@ -137,7 +137,8 @@ fn torque_table_uses_eq15_with_efficiency() {
 /// Paper 001 Table 2 (mean torque at 17 feeds, lead 12 mm) against its Table 3 (F_c 658.89 N,
 /// F_s 815.75 N, delt 40.17, v_s 0.071 m/min): v_s, F_s/F_c and delt/F_c (delt read as
 /// N·min/m) agree within 3 %; the absolute forces depend on an efficiency the paper does not
-/// state (η ≈ 0.83 reproduces them).
+/// state (η ≈ 0.83 reproduces them). With δ free the same data leave δ, F_s and v_s
+/// unidentified, and the output says so.
 #[test]
 fn paper_001_table_2_gives_table_3_shape() {
     let d = tempfile::tempdir().unwrap();
@@ -156,6 +157,20 @@ fn paper_001_table_2_gives_table_3_shape() {
         ((delt_n_min_per_m / fc) / (40.17 / 658.89) - 1.0).abs() < 0.03,
         "{p}"
     );
+
+    // δ free: one feed below v_s cannot pin δ, F_s and v_s; the fit says so with finite
+    // (huge) standard errors instead of nulls
+    let o = fit(d.path(), table, &["--lead-mm", "12", "--delta", "free"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dir = &json(d.path())["directions"][0];
+    let u = &dir["uncertainty"];
+    for k in ["fc_n", "fs_n", "vs_mm_min", "delta"] {
+        assert!(u[k]["std_error"].as_f64().unwrap().is_finite(), "{k}: {u}");
+        assert!(u[k]["ci95"][1].as_f64().unwrap().is_finite(), "{k}: {u}");
+    }
+    let warnings = dir["warnings"].to_string();
+    assert!(warnings.contains("standard error of vs_m_s"), "{warnings}");
+    assert!(stderr(&o).contains("warning: forward"), "{}", stderr(&o));
 }
 
 #[test]
