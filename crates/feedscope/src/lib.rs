@@ -9,6 +9,7 @@ pub mod axis;
 pub mod dynamics;
 pub mod estimate;
 pub mod ident;
+pub mod lugre;
 pub mod order;
 pub mod plan;
 pub mod profile;

@@ -10,6 +10,7 @@ mod dynamics;
 mod estimate;
 mod identify;
 mod plan;
+mod fit_stribeck;
 mod simulate;
 
 /// feedscope: how are the ball-screw feed drives of this machine doing?
@@ -37,6 +38,8 @@ pub enum Command {
     Identify(identify::Args),
     // Help text from the doc comment of `plan::Args`.
     Plan(plan::Args),
+    // Help text from the doc comment of `fit_stribeck::Args`.
+    FitStribeck(fit_stribeck::Args),
 }
 
 /// Marks an error as the user's input being wrong (exit code 2).
@@ -84,6 +87,7 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Command::Dynamics(a) => dynamics::run(a),
         Command::Identify(a) => identify::run(a),
         Command::Plan(a) => plan::run(a),
+        Command::FitStribeck(a) => fit_stribeck::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

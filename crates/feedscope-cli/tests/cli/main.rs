@@ -4,5 +4,6 @@ mod dynamics;
 mod estimate;
 mod identify;
 mod plan;
+mod fit_stribeck;
 mod simulate;
 mod util;

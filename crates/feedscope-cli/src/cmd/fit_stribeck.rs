@@ -1,0 +1,542 @@
+//! `feedscope fit-stribeck`: Stribeck curves from a steady-speed torque or force table.
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use feedscope::estimate::Direction;
+use feedscope::stribeck::{
+    detect_nonconventional, friction_from_torque_n, DeltaMode, NonConventional,
+    NonConventionalParams, ParamEstimate, StribeckFit, StribeckFitParams, StribeckFitter,
+    M_S_PER_MM_MIN,
+};
+use serde::Serialize;
+
+use super::estimate::Format;
+use super::BadInput;
+use crate::plot;
+
+/// Fit Stribeck curves to a steady-speed table (paper 000 Eq. 9, paper 001 Eq. 15).
+///
+/// TABLE is a CSV with a header naming `feed_mm_min` and one of `torque_nm` (motor torque at
+/// steady speed, converted by Eq. 15: F = 2π·η·T/p) or `force_n` (friction force), and
+/// optionally `direction` (`forward`/`backward`, or `+`/`-`). Without a direction column the
+/// sign of the feed gives the direction; each direction present is fitted on its own with
+/// F(v) = Fc + (Fs − Fc)·exp(−(|v|/vs)^δ) + σ·|v| on magnitudes, bounded Fc, Fs, σ ≥ 0,
+/// vs > 0. Writes OUT/stribeck.json (per direction: parameters in user units, standard
+/// errors, 95 % intervals, warnings, residual, non-conventional falls) and OUT/stribeck.svg
+/// (points and fitted curves), and prints a table. Lines starting with `#` are comments.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Steady-speed table (CSV with header).
+    pub table: PathBuf,
+    /// Screw lead p (mm), > 0; needed for a `torque_nm` table.
+    #[arg(long)]
+    pub lead_mm: Option<f64>,
+    /// Transmission efficiency η in (0, 1]; F = 2π·η·T/p (η < 1 attributes 1 − η of the torque
+    /// to losses in the screw itself).
+    #[arg(long, default_value_t = 1.0)]
+    pub efficiency: f64,
+    /// Stribeck shape exponent δ: a positive number, or `free` to fit it.
+    #[arg(long, default_value = "2", value_parser = parse_delta)]
+    pub delta: DeltaMode,
+    /// Noise standard deviation of one friction value (N) for the non-conventional check
+    /// [default: estimated from the fit residuals].
+    #[arg(long)]
+    pub noise_n: Option<f64>,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// What to print on stdout.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    pub format: Format,
+}
+
+fn parse_delta(s: &str) -> Result<DeltaMode, String> {
+    if s.eq_ignore_ascii_case("free") {
+        return Ok(DeltaMode::Free);
+    }
+    match s.parse::<f64>() {
+        Ok(d) if d.is_finite() && d > 0.0 => Ok(DeltaMode::Fixed(d)),
+        _ => Err(format!("expected a positive number or `free`, got `{s}`")),
+    }
+}
+
+/// Which column carries the effort.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Input {
+    /// Motor torque (N·m), converted by Eq. 15.
+    TorqueNm,
+    /// Friction force (N).
+    ForceN,
+}
+
+/// One direction's points, SI.
+#[derive(Debug, Default)]
+struct Points {
+    speed_m_s: Vec<f64>,
+    friction_n: Vec<f64>,
+}
+
+fn bad(msg: String) -> anyhow::Error {
+    BadInput(msg).into()
+}
+
+/// Parse and convert the table into per-direction points (forward, backward).
+fn read_table(
+    path: &Path,
+    lead_mm: Option<f64>,
+    efficiency: f64,
+) -> Result<(Input, Points, Points)> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let name = path.display().to_string();
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    let (hline, header) = lines
+        .next()
+        .ok_or_else(|| bad(format!("{name}: empty file, expected a header line")))?;
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    let find = |c: &str| cols.iter().position(|h| *h == c);
+    let feed_col = find("feed_mm_min").ok_or_else(|| {
+        bad(format!(
+            "{name}:{hline}: no `feed_mm_min` column (header: {header})"
+        ))
+    })?;
+    let (input, eff_col) = match (find("torque_nm"), find("force_n")) {
+        (Some(c), None) => (Input::TorqueNm, c),
+        (None, Some(c)) => (Input::ForceN, c),
+        (Some(_), Some(_)) => {
+            return Err(bad(format!(
+                "{name}:{hline}: both `torque_nm` and `force_n` columns; keep one"
+            )))
+        }
+        (None, None) => {
+            return Err(bad(format!(
+                "{name}:{hline}: no `torque_nm` or `force_n` column (header: {header})"
+            )))
+        }
+    };
+    let dir_col = find("direction");
+    let lead_m = match (input, lead_mm) {
+        (Input::TorqueNm, None) => {
+            return Err(bad(format!(
+                "{name}: a `torque_nm` table needs --lead-mm (Eq. 15: F = 2π·η·T/p)"
+            )))
+        }
+        (_, Some(p)) if !(p.is_finite() && p > 0.0) => {
+            return Err(bad(format!("--lead-mm must be positive, got {p}")))
+        }
+        (_, p) => p.map(|p| p * 1e-3),
+    };
+    if !(efficiency > 0.0 && efficiency <= 1.0) {
+        return Err(bad(format!(
+            "--efficiency must be in (0, 1], got {efficiency}"
+        )));
+    }
+    let (mut fwd, mut bwd) = (Points::default(), Points::default());
+    for (line, l) in lines {
+        let fields: Vec<&str> = l.split(',').map(str::trim).collect();
+        if fields.len() != cols.len() {
+            return Err(bad(format!(
+                "{name}:{line}: {} fields, the header has {}",
+                fields.len(),
+                cols.len()
+            )));
+        }
+        let num = |c: usize| -> Result<f64> {
+            let v: f64 = fields[c].parse().map_err(|_| {
+                bad(format!(
+                    "{name}:{line}: column `{}`: `{}` is not a number",
+                    cols[c], fields[c]
+                ))
+            })?;
+            if !v.is_finite() {
+                return Err(bad(format!(
+                    "{name}:{line}: column `{}`: {v} is not finite",
+                    cols[c]
+                )));
+            }
+            Ok(v)
+        };
+        let feed = num(feed_col)?;
+        let effort = num(eff_col)?;
+        if feed == 0.0 {
+            return Err(bad(format!(
+                "{name}:{line}: feed 0 has no direction; a steady-speed table needs motion"
+            )));
+        }
+        let direction = match dir_col {
+            None => Direction::of_velocity(feed),
+            Some(c) => {
+                let d = match fields[c].to_ascii_lowercase().as_str() {
+                    "forward" | "+" => Direction::Forward,
+                    "backward" | "-" => Direction::Backward,
+                    other => {
+                        return Err(bad(format!(
+                            "{name}:{line}: direction `{other}`: expected forward or backward"
+                        )))
+                    }
+                };
+                if feed < 0.0 && d == Direction::Forward {
+                    return Err(bad(format!(
+                        "{name}:{line}: negative feed {feed} marked forward"
+                    )));
+                }
+                d
+            }
+        };
+        let friction = match (input, lead_m) {
+            (Input::TorqueNm, Some(p)) => friction_from_torque_n(effort, p, efficiency)
+                .map_err(|e| bad(format!("{name}:{line}: {e}")))?,
+            _ => effort,
+        };
+        let dst = match direction {
+            Direction::Forward => &mut fwd,
+            Direction::Backward => &mut bwd,
+        };
+        dst.speed_m_s.push(feed.abs() * M_S_PER_MM_MIN);
+        dst.friction_n.push(friction.abs());
+    }
+    Ok((input, fwd, bwd))
+}
+
+/// A parameter in user units with its uncertainty.
+#[derive(Debug, Serialize)]
+pub struct Estimate {
+    pub value: f64,
+    pub std_error: f64,
+    pub ci95: [f64; 2],
+}
+
+fn est(e: &ParamEstimate, scale: f64) -> Estimate {
+    Estimate {
+        value: e.value * scale,
+        std_error: e.std_error * scale,
+        ci95: [e.ci95_low * scale, e.ci95_high * scale],
+    }
+}
+
+#[derive(Debug, Serialize)]
+pub struct Params {
+    pub fc_n: f64,
+    pub fs_n: f64,
+    pub vs_mm_min: f64,
+    pub sigma_n_s_per_m: f64,
+    pub delta: f64,
+}
+
+#[derive(Debug, Serialize)]
+pub struct Uncertainty {
+    pub fc_n: Estimate,
+    pub fs_n: Estimate,
+    pub static_excess_n: Estimate,
+    pub vs_mm_min: Estimate,
+    pub sigma_n_s_per_m: Estimate,
+    pub delta: Option<Estimate>,
+}
+
+#[derive(Debug, Serialize)]
+pub struct Range {
+    pub from_mm_min: f64,
+    pub to_mm_min: f64,
+    pub points: usize,
+    pub drop_n: f64,
+    pub fit_change_n: f64,
+    pub excess_drop_n: f64,
+}
+
+#[derive(Debug, Serialize)]
+pub struct NonConv {
+    pub noise_n: f64,
+    pub threshold_n: f64,
+    pub rising_above_mm_min: f64,
+    pub ranges: Vec<Range>,
+}
+
+#[derive(Debug, Serialize)]
+pub struct Point {
+    pub feed_mm_min: f64,
+    pub friction_n: f64,
+    pub fitted_n: f64,
+}
+
+/// One direction in stribeck.json.
+#[derive(Debug, Serialize)]
+pub struct DirectionFit {
+    pub direction: &'static str,
+    pub points: usize,
+    pub feed_min_mm_min: f64,
+    pub feed_max_mm_min: f64,
+    pub params: Params,
+    pub uncertainty: Option<Uncertainty>,
+    pub residual_rms_n: f64,
+    pub dof: usize,
+    pub iterations: usize,
+    pub termination: feedscope::stribeck::Termination,
+    pub condition_number: Option<f64>,
+    pub warnings: Vec<String>,
+    pub nonconventional: NonConv,
+    pub data: Vec<Point>,
+}
+
+/// stribeck.json.
+#[derive(Debug, Serialize)]
+pub struct Report {
+    pub source: String,
+    pub input: Input,
+    pub lead_mm: Option<f64>,
+    pub efficiency: f64,
+    pub delta: String,
+    pub directions: Vec<DirectionFit>,
+}
+
+fn direction_fit(
+    direction: Direction,
+    pts: &Points,
+    fit: &StribeckFit,
+    nc: &NonConventional,
+) -> DirectionFit {
+    let mm = 1.0 / M_S_PER_MM_MIN;
+    let p = &fit.params;
+    let mut data: Vec<Point> = pts
+        .speed_m_s
+        .iter()
+        .zip(&pts.friction_n)
+        .map(|(&v, &f)| Point {
+            feed_mm_min: v * mm,
+            friction_n: f,
+            fitted_n: p.magnitude_n(v),
+        })
+        .collect();
+    data.sort_by(|a, b| a.feed_mm_min.total_cmp(&b.feed_mm_min));
+    DirectionFit {
+        direction: direction.as_str(),
+        points: fit.points,
+        feed_min_mm_min: fit.min_speed_m_s * mm,
+        feed_max_mm_min: fit.max_speed_m_s * mm,
+        params: Params {
+            fc_n: p.fc_n,
+            fs_n: p.fs_n,
+            vs_mm_min: p.vs_mm_min(),
+            sigma_n_s_per_m: p.sigma_n_s_per_m,
+            delta: p.delta,
+        },
+        uncertainty: fit.uncertainty.as_ref().map(|u| Uncertainty {
+            fc_n: est(&u.fc_n, 1.0),
+            fs_n: est(&u.fs_n, 1.0),
+            static_excess_n: est(&u.static_excess_n, 1.0),
+            vs_mm_min: est(&u.vs_m_s, mm),
+            sigma_n_s_per_m: est(&u.sigma_n_s_per_m, 1.0),
+            delta: u.delta.as_ref().map(|d| est(d, 1.0)),
+        }),
+        residual_rms_n: fit.residual_rms_n,
+        dof: fit.dof,
+        iterations: fit.iterations,
+        termination: fit.termination,
+        condition_number: fit.condition_number,
+        warnings: fit.warnings.iter().map(|w| w.to_string()).collect(),
+        nonconventional: NonConv {
+            noise_n: nc.noise_n,
+            threshold_n: nc.threshold_n,
+            rising_above_mm_min: nc.rising_above_m_s * mm,
+            ranges: nc
+                .ranges
+                .iter()
+                .map(|r| Range {
+                    from_mm_min: r.from_mm_min(),
+                    to_mm_min: r.to_mm_min(),
+                    points: r.points,
+                    drop_n: r.drop_n,
+                    fit_change_n: r.fit_change_n,
+                    excess_drop_n: r.excess_drop_n,
+                })
+                .collect(),
+        },
+        data,
+    }
+}
+
+fn svg(report: &Report) -> Result<String> {
+    let mut series = Vec::new();
+    for d in &report.directions {
+        let pts: Vec<(f64, f64)> = d
+            .data
+            .iter()
+            .map(|p| (p.feed_mm_min, p.friction_n))
+            .collect();
+        // the shared point style is a faint dot meant for dense samples; a dashed line
+        // through the (feed-sorted) points keeps a few table rows visible
+        series.push(plot::Series {
+            name: format!("{} data", d.direction),
+            points: pts,
+            style: plot::Style::Dashed,
+        });
+        let p = feedscope::stribeck::StribeckParams {
+            fc_n: d.params.fc_n,
+            fs_n: d.params.fs_n,
+            vs_m_s: d.params.vs_mm_min * M_S_PER_MM_MIN,
+            sigma_n_s_per_m: d.params.sigma_n_s_per_m,
+            delta: d.params.delta,
+        };
+        // linear and logarithmic spacing together: the hump sits at the low end
+        let (lo, hi) = (d.feed_min_mm_min, d.feed_max_mm_min);
+        let mut feeds: Vec<f64> = (0..=200)
+            .flat_map(|k| {
+                let s = k as f64 / 200.0;
+                [lo + (hi - lo) * s, lo * (hi / lo).powf(s)]
+            })
+            .collect();
+        feeds.sort_by(f64::total_cmp);
+        let curve = feeds
+            .into_iter()
+            .map(|f| (f, p.magnitude_n(f * M_S_PER_MM_MIN)))
+            .collect();
+        series.push(plot::Series {
+            name: format!("{} Stribeck fit", d.direction),
+            points: curve,
+            style: plot::Style::Line,
+        });
+    }
+    plot::line_chart_svg(&plot::LineChart {
+        title: "Friction against feed (steady speed) and Stribeck fit",
+        x_label: "feed (mm/min)",
+        y_label: "friction (N)",
+        series,
+    })
+}
+
+/// `value ± SE`; a standard error of 1e6 or more (an unidentifiable parameter) in
+/// scientific notation so that the table keeps its shape.
+fn pm(e: Option<&Estimate>, value: f64, prec: usize) -> String {
+    match e {
+        Some(e) if e.std_error.abs() >= 1e6 => format!("{value:.prec$} ± {:.1e}", e.std_error),
+        Some(e) => format!("{value:.prec$} ± {:.prec$}", e.std_error),
+        None => format!("{value:.prec$}"),
+    }
+}
+
+fn print_table(report: &Report) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "{:<9} {:>6}  {:>18}  {:>18}  {:>18}  {:>22}  {:>13}  {:>8}",
+        "direction",
+        "points",
+        "Fc (N)",
+        "Fs (N)",
+        "vs (mm/min)",
+        "sigma (N·s/m)",
+        "delta",
+        "rms (N)"
+    )?;
+    for d in &report.directions {
+        let u = d.uncertainty.as_ref();
+        writeln!(
+            out,
+            "{:<9} {:>6}  {:>18}  {:>18}  {:>18}  {:>22}  {:>13}  {:>8.3}",
+            d.direction,
+            d.points,
+            pm(u.map(|u| &u.fc_n), d.params.fc_n, 2),
+            pm(u.map(|u| &u.fs_n), d.params.fs_n, 2),
+            pm(u.map(|u| &u.vs_mm_min), d.params.vs_mm_min, 2),
+            pm(u.map(|u| &u.sigma_n_s_per_m), d.params.sigma_n_s_per_m, 1),
+            pm(u.and_then(|u| u.delta.as_ref()), d.params.delta, 3),
+            d.residual_rms_n
+        )?;
+    }
+    for d in &report.directions {
+        for r in &d.nonconventional.ranges {
+            writeln!(
+                out,
+                "{}: non-conventional: friction falls by {:.2} N from {:.1} to {:.1} mm/min \
+                 (fit predicts {:+.2} N)",
+                d.direction, r.drop_n, r.from_mm_min, r.to_mm_min, r.fit_change_n
+            )?;
+        }
+    }
+    for d in &report.directions {
+        for w in &d.warnings {
+            eprintln!("warning: {}: {w}", d.direction);
+        }
+    }
+    Ok(())
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if let Some(s) = args.noise_n {
+        if !(s.is_finite() && s >= 0.0) {
+            return Err(bad(format!("--noise-n must be >= 0, got {s}")));
+        }
+    }
+    let (input, fwd, bwd) = read_table(&args.table, args.lead_mm, args.efficiency)?;
+    let fit_params = StribeckFitParams {
+        delta: args.delta,
+        ..StribeckFitParams::default()
+    };
+    let n_params = match args.delta {
+        DeltaMode::Free => 5,
+        DeltaMode::Fixed(_) => 4,
+    };
+    let name = args.table.display().to_string();
+    if fwd.speed_m_s.is_empty() && bwd.speed_m_s.is_empty() {
+        return Err(bad(format!("{name}: no data rows")));
+    }
+    let nc_params = NonConventionalParams {
+        noise_n: args.noise_n,
+        ..NonConventionalParams::default()
+    };
+    let mut directions = Vec::new();
+    for (dir, pts) in [(Direction::Forward, &fwd), (Direction::Backward, &bwd)] {
+        let n = pts.speed_m_s.len();
+        if n == 0 {
+            continue;
+        }
+        if n <= n_params {
+            return Err(bad(format!(
+                "{name}: {} direction has {n} rows; fitting {n_params} parameters needs at \
+                 least {} (one more than the parameters, for standard errors)",
+                dir.as_str(),
+                n_params + 1
+            )));
+        }
+        let fitter = StribeckFitter::new(&pts.speed_m_s, &fit_params)
+            .map_err(|e| bad(format!("{name}: {} direction: {e}", dir.as_str())))?;
+        let fit = fitter
+            .fit(&pts.friction_n)
+            .map_err(|e| bad(format!("{name}: {} direction: {e}", dir.as_str())))?;
+        let nc = detect_nonconventional(&pts.speed_m_s, &pts.friction_n, &fit, &nc_params)
+            .map_err(|e| bad(format!("{name}: {} direction: {e}", dir.as_str())))?;
+        directions.push(direction_fit(dir, pts, &fit, &nc));
+    }
+    let report = Report {
+        source: name,
+        input,
+        lead_mm: args.lead_mm,
+        efficiency: args.efficiency,
+        delta: match args.delta {
+            DeltaMode::Free => "free".to_string(),
+            DeltaMode::Fixed(d) => format!("{d}"),
+        },
+        directions,
+    };
+    let json = serde_json::to_string_pretty(&report)?;
+    let svg = svg(&report)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let json_path = args.out.join("stribeck.json");
+    let svg_path = args.out.join("stribeck.svg");
+    crate::output::write_atomic(&json_path, json.as_bytes())?;
+    crate::output::write_atomic(&svg_path, svg.as_bytes())?;
+    match args.format {
+        Format::Json => writeln!(std::io::stdout().lock(), "{json}")?,
+        Format::Text => {
+            print_table(&report)?;
+            eprintln!("wrote {}, {}", json_path.display(), svg_path.display());
+        }
+    }
+    Ok(())
+}
