@@ -100,25 +100,7 @@ impl<'a> CubicSpline<'a> {
         end: EndCondition,
         scratch: &mut Vec<f64>,
     ) -> Result<Self, SplineError> {
-        let n = x.len();
-        if y.len() != n {
-            return Err(SplineError::LengthMismatch { x: n, y: y.len() });
-        }
-        if n < 2 {
-            return Err(SplineError::TooFewKnots(n));
-        }
-        for k in 0..n {
-            if !(x[k].is_finite() && y[k].is_finite()) {
-                return Err(SplineError::NonFinite { index: k });
-            }
-            if k > 0 && x[k] <= x[k - 1] {
-                return Err(SplineError::NotIncreasing {
-                    index: k,
-                    value: x[k],
-                    previous: x[k - 1],
-                });
-            }
-        }
+        validate_knots(x, y)?;
         let m = moments(x, y, end, scratch);
         Ok(Self { x, y, m })
     }
@@ -251,26 +233,8 @@ pub fn smoothing_moments(
     alpha: f64,
     g: &mut Vec<f64>,
 ) -> Result<Vec<f64>, SplineError> {
-    // Validation shared with the interpolating spline.
+    validate_knots(x, y)?;
     let n = x.len();
-    if y.len() != n {
-        return Err(SplineError::LengthMismatch { x: n, y: y.len() });
-    }
-    if n < 2 {
-        return Err(SplineError::TooFewKnots(n));
-    }
-    for k in 0..n {
-        if !(x[k].is_finite() && y[k].is_finite()) {
-            return Err(SplineError::NonFinite { index: k });
-        }
-        if k > 0 && x[k] <= x[k - 1] {
-            return Err(SplineError::NotIncreasing {
-                index: k,
-                value: x[k],
-                previous: x[k - 1],
-            });
-        }
-    }
     if !(alpha.is_finite() && alpha >= 0.0) {
         return Err(SplineError::NonFinite { index: 0 });
     }
@@ -454,6 +418,30 @@ impl Cursor<'_, '_> {
     pub fn eval(&mut self, t: f64) -> f64 {
         self.eval_all(t).0
     }
+}
+
+/// Equal lengths, at least two knots, all finite, x strictly increasing.
+fn validate_knots(x: &[f64], y: &[f64]) -> Result<(), SplineError> {
+    let n = x.len();
+    if y.len() != n {
+        return Err(SplineError::LengthMismatch { x: n, y: y.len() });
+    }
+    if n < 2 {
+        return Err(SplineError::TooFewKnots(n));
+    }
+    for k in 0..n {
+        if !(x[k].is_finite() && y[k].is_finite()) {
+            return Err(SplineError::NonFinite { index: k });
+        }
+        if k > 0 && x[k] <= x[k - 1] {
+            return Err(SplineError::NotIncreasing {
+                index: k,
+                value: x[k],
+                previous: x[k - 1],
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Solve for the second derivatives at the knots (x strictly increasing, n ≥ 2).
