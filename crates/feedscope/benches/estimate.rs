@@ -111,6 +111,18 @@ fn bench_estimate(c: &mut Criterion) {
             &trace,
             |b, tr| b.iter(|| black_box(estimate(tr, &ax, &params).unwrap())),
         );
+        if n == 1_000_000 {
+            // The paper's exact interpolation, without position smoothing.
+            let exact = EstimateParams {
+                position_cutoff_order: None,
+                ..EstimateParams::default()
+            };
+            g.bench_with_input(
+                BenchmarkId::new("samples_per_channel_no_smoothing", n),
+                &trace,
+                |b, tr| b.iter(|| black_box(estimate(tr, &ax, &exact).unwrap())),
+            );
+        }
     }
     g.finish();
 }

@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use clap::ValueEnum;
 use feedscope::axis::{AxisParams, ConfigFormat};
 use feedscope::estimate::{
-    estimate_streaming, EstimateParams, StrokeFriction, StrokeSummary, TimeOfPosition, Zone,
+    estimate_map_streaming, EstimateParams, StrokeFriction, StrokeSummary, TimeOfPosition, Zone,
 };
 use feedscope::spline::EndCondition;
 use feedscope::trace::{read_trace_file, EffortKind, ReadOptions, ReadReport, Trace};
@@ -126,23 +126,25 @@ const PLOT_POINTS_PER_STROKE: usize = 4000;
 const PLOT_STROKES_PER_DIRECTION: usize = 6;
 
 impl PlotData {
-    fn add(&mut self, s: &StrokeFriction) {
-        let dst = match s.summary.direction {
+    /// Friction vs position of one stroke, decimated for plotting ((mm, N) pairs).
+    fn points(s: &StrokeFriction) -> Vec<(f64, f64)> {
+        let stride = s.position_m.len().div_ceil(PLOT_POINTS_PER_STROKE).max(1);
+        s.position_m
+            .iter()
+            .zip(&s.friction_n)
+            .step_by(stride)
+            .map(|(z, f)| (z * 1e3, *f))
+            .collect()
+    }
+
+    fn add(&mut self, direction: feedscope::estimate::Direction, points: Vec<(f64, f64)>) {
+        let dst = match direction {
             feedscope::estimate::Direction::Forward => &mut self.forward,
             feedscope::estimate::Direction::Backward => &mut self.backward,
         };
-        if dst.len() >= PLOT_STROKES_PER_DIRECTION {
-            return;
+        if dst.len() < PLOT_STROKES_PER_DIRECTION {
+            dst.push(points);
         }
-        let stride = s.position_m.len().div_ceil(PLOT_POINTS_PER_STROKE).max(1);
-        dst.push(
-            s.position_m
-                .iter()
-                .zip(&s.friction_n)
-                .step_by(stride)
-                .map(|(z, f)| (z * 1e3, *f))
-                .collect(),
-        );
     }
 
     /// Friction vs position: one panel per direction, with optional extra series (e.g. the
@@ -235,19 +237,21 @@ pub fn estimate_to_csv(
             }
             Ok(out)
         });
-        let streamed = estimate_streaming(
+        // Each stroke is formatted (and decimated for the plot) inside the parallel section.
+        let streamed = estimate_map_streaming(
             trace,
             axis,
             params,
             2 * n_threads,
-            |s: StrokeFriction| -> Result<(), anyhow::Error> {
+            |s: StrokeFriction| (format_stroke(&s), PlotData::points(&s), s.summary),
+            |(rows, pts, summary): (Vec<u8>, Vec<(f64, f64)>, StrokeSummary)| -> Result<()> {
                 // A send fails only when the writer stopped on an error; join() reports it.
-                if tx.send(format_stroke(&s)).is_err() {
+                if tx.send(rows).is_err() {
                     return Err(anyhow::anyhow!("the CSV writer stopped"));
                 }
-                pb.inc(s.summary.position_samples as u64);
-                plot.add(&s);
-                summaries.push(s.summary);
+                pb.inc(summary.position_samples as u64);
+                plot.add(summary.direction, pts);
+                summaries.push(summary);
                 Ok(())
             },
         );

@@ -664,23 +664,42 @@ pub fn estimate_streaming<E: From<EstimateError>>(
     axis: &AxisParams,
     params: &EstimateParams,
     batch: usize,
-    mut sink: impl FnMut(StrokeFriction) -> Result<(), E>,
+    sink: impl FnMut(StrokeFriction) -> Result<(), E>,
+) -> Result<(Vec<Zone>, Vec<String>), E> {
+    estimate_map_streaming(trace, axis, params, batch, |s| s, sink)
+}
+
+/// As [`estimate_streaming`], but `map` runs on each stroke inside the parallel section (e.g.
+/// to format it for output), and `sink` receives what `map` returns, in time order.
+///
+/// # Errors
+/// As [`estimate`], or what `sink` returns.
+pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
+    trace: &Trace,
+    axis: &AxisParams,
+    params: &EstimateParams,
+    batch: usize,
+    map: impl Fn(StrokeFriction) -> T + Sync,
+    mut sink: impl FnMut(T) -> Result<(), E>,
 ) -> Result<(Vec<Zone>, Vec<String>), E> {
     let planned = plan(trace, params)?;
     let mut skipped = Vec::new();
     let mut any = false;
-    for (b, chunk) in planned.spans.chunks(batch.max(1)).enumerate() {
-        let base = b * batch.max(1);
+    let batch = batch.max(1);
+    for (b, chunk) in planned.spans.chunks(batch).enumerate() {
+        let base = b * batch;
         let results: Vec<_> = chunk
             .par_iter()
             .enumerate()
-            .map(|(k, span)| estimate_stroke(trace, axis, params, base + k, span))
+            .map(|(k, span)| {
+                estimate_stroke(trace, axis, params, base + k, span).map(|o| o.map(&map))
+            })
             .collect();
         for (k, r) in results.into_iter().enumerate() {
             match r? {
-                Some(s) => {
+                Some(t) => {
                     any = true;
-                    sink(s)?;
+                    sink(t)?;
                 }
                 None => skipped.push(format!(
                     "stroke {}: too few effort samples inside it",

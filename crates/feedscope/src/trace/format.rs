@@ -20,41 +20,16 @@ pub fn push_fixed(buf: &mut Vec<u8>, v: f64, decimals: u32) {
     let n = n as u64;
     let p = 10u64.pow(decimals);
     let (int, frac) = (n / p, n % p);
-    let mut tmp = itoa_buf(int);
-    buf.extend_from_slice(tmp.as_slice());
+    let mut digits = itoa::Buffer::new();
+    buf.extend_from_slice(digits.format(int).as_bytes());
     if decimals > 0 {
         buf.push(b'.');
-        tmp = itoa_buf(frac);
-        for _ in tmp.len..decimals as usize {
+        let f = digits.format(frac).as_bytes();
+        for _ in f.len()..decimals as usize {
             buf.push(b'0');
         }
-        buf.extend_from_slice(tmp.as_slice());
+        buf.extend_from_slice(f);
     }
-}
-
-struct Digits {
-    b: [u8; 20],
-    len: usize,
-}
-
-impl Digits {
-    fn as_slice(&self) -> &[u8] {
-        &self.b[20 - self.len..]
-    }
-}
-
-#[inline]
-fn itoa_buf(mut n: u64) -> Digits {
-    let mut d = Digits { b: [0; 20], len: 0 };
-    loop {
-        d.len += 1;
-        d.b[20 - d.len] = b'0' + (n % 10) as u8;
-        n /= 10;
-        if n == 0 {
-            break;
-        }
-    }
-    d
 }
 
 #[cfg(test)]
