@@ -105,7 +105,9 @@ fn bench_estimate(c: &mut Criterion) {
     g.sample_size(10);
     for n in [1_000_000usize, 10_000_000] {
         let trace = make_trace(n);
-        g.throughput(Throughput::Elements(n as u64));
+        // Throughput counts input samples of both channels (position + effort), like the
+        // memory target's "per input sample".
+        g.throughput(Throughput::Elements(2 * n as u64));
         g.bench_with_input(
             BenchmarkId::new("samples_per_channel", n),
             &trace,
