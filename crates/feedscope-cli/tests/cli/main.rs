@@ -2,8 +2,8 @@
 mod analyze;
 mod dynamics;
 mod estimate;
+mod fit_stribeck;
 mod identify;
 mod plan;
-mod fit_stribeck;
 mod simulate;
 mod util;
