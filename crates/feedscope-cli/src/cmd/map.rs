@@ -58,7 +58,7 @@ pub struct Args {
     pub out: PathBuf,
     /// Positions for the Stribeck fits (mm), e.g. `40,55`; default: 5 evenly spaced inside
     /// each direction's mapped span.
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     pub positions: Option<Vec<f64>>,
     /// Interior breakpoints common to every feed (mm), e.g. `30,45`; default: equal intervals.
     #[arg(long, value_delimiter = ',', requires = "orders")]
