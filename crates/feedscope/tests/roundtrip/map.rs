@@ -211,3 +211,86 @@ fn map_recovers_stribeck_parameters_and_mean_friction() {
     assert!(worst[4] < 0.04, "map");
     let _ = Direction::Forward;
 }
+
+/// Through files: an index with relative paths, one malformed trace and one missing file. The
+/// two failures are reported by name and the other runs still map; identical simulations
+/// (same seed) give repeats whose PPOCM equals each of them.
+#[test]
+fn failed_runs_are_named_and_the_rest_map_from_files() {
+    use feedscope::map::{estimate_set, TestSet};
+    use feedscope::trace::{Layout, ReadOptions};
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("traces")).unwrap();
+    let mut index = String::from("file,feed_mm_min,repeat,comment\n");
+    let mut axis = None;
+    for f in [16.0, 90.0, 505.0] {
+        // Same seed for both repeats: identical traces.
+        let out = run(&config(f, 7));
+        for r in 1..=2 {
+            let name = format!("traces/f{f}_r{r}.csv");
+            out.trace
+                .write_csv(
+                    std::fs::File::create(dir.path().join(&name)).unwrap(),
+                    Layout::Long,
+                )
+                .unwrap();
+            index.push_str(&format!("{name},{f},{r},ok\n"));
+        }
+        axis = Some(out.truth.axis);
+    }
+    std::fs::write(
+        dir.path().join("traces/broken.csv"),
+        "time_s,channel,value\n0,position_mm,1\n0.1,position_mm,oops\n",
+    )
+    .unwrap();
+    index.push_str("traces/broken.csv,90,3,malformed\ntraces/gone.csv,505,3,missing\n");
+    let index_path = dir.path().join("index.csv");
+    std::fs::write(&index_path, index).unwrap();
+    let axis = axis.unwrap();
+
+    let set = TestSet::read_index(&index_path).unwrap();
+    assert_eq!(set.runs.len(), 8);
+    let est = estimate_set(
+        &set,
+        &axis,
+        &EstimateParams::default(),
+        &ReadOptions::default(),
+        MapParams::default().stroke_feed_tolerance,
+        &|_| {},
+    );
+    let failed: Vec<&str> = est.failed.iter().map(|f| f.run.name.as_str()).collect();
+    assert_eq!(failed, ["traces/broken.csv", "traces/gone.csv"]);
+    assert!(
+        est.failed[0].error.contains("broken.csv"),
+        "{}",
+        est.failed[0].error
+    );
+    assert!(
+        est.failed[1].error.contains("gone.csv"),
+        "{}",
+        est.failed[1].error
+    );
+    assert_eq!(est.ok.len(), 6);
+    let map = build_map(&est.ok, axis.lead_m(), &MapParams::default()).unwrap();
+    for d in &map.directions {
+        assert_eq!(d.feeds.len(), 3);
+        // Three feeds: feed polynomial of order 3 − 2 = 1.
+        assert_eq!(d.feed_model.order, 1);
+        for g in &d.feeds {
+            assert_eq!(g.repeats.len(), 2);
+            for r in &g.repeats {
+                for (a, b) in r
+                    .poly
+                    .coeffs_n
+                    .iter()
+                    .flatten()
+                    .zip(g.ppocm.coeffs_n.iter().flatten())
+                {
+                    // Identical data: the mean of two equal numbers is exact to one rounding.
+                    assert!((a - b).abs() <= 1e-12 * b.abs().max(1.0));
+                }
+            }
+            assert!(g.repeatability.iter().all(|r| r.max_spread_n < 1e-9));
+        }
+    }
+}
