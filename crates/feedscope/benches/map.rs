@@ -32,8 +32,10 @@ fn test_set() -> (Vec<TestRun>, Vec<Trace>, feedscope::axis::AxisParams) {
         .par_iter()
         .enumerate()
         .map(|(k, r)| {
-            let mut c = SimConfig::default();
-            c.seed = k as u64 + 1;
+            let mut c = SimConfig {
+                seed: k as u64 + 1,
+                ..SimConfig::default()
+            };
             c.dynamics.mode = DynamicsMode::Ideal;
             c.motion.start_mm = 20.0;
             c.motion.strokes = vec![

@@ -17,8 +17,10 @@ fn setup(dir: &Path, extra: &str) {
     let mut axis = None;
     for (i, &f) in FEEDS.iter().enumerate() {
         for r in 1..=2u32 {
-            let mut c = SimConfig::default();
-            c.seed = 100 + 10 * i as u64 + r as u64;
+            let mut c = SimConfig {
+                seed: 100 + 10 * i as u64 + r as u64,
+                ..SimConfig::default()
+            };
             c.dynamics.mode = DynamicsMode::Ideal;
             c.motion.start_mm = 25.0;
             c.motion.strokes = vec![

@@ -60,7 +60,7 @@ impl FeedPolynomial {
             .map(|g| g.feed_mm_min)
             .fold(f64::INFINITY, f64::min);
         let fmax = groups.iter().map(|g| g.feed_mm_min).fold(0.0, f64::max);
-        if !(fmin > 0.0) {
+        if fmin.is_nan() || fmin <= 0.0 {
             return Err(MapError::BadParameter {
                 name: "feed_mm_min",
                 value: fmin,

@@ -101,10 +101,9 @@ impl DirectionMap {
         let m = &self.feed_model;
         // Relative slack for feeds written with rounding (e.g. 12.0 for 11.99999).
         let slack = 1e-9;
-        if !extrapolate
-            && !(feed_mm_min >= m.feed_min_mm_min * (1.0 - slack)
-                && feed_mm_min <= m.feed_max_mm_min * (1.0 + slack))
-        {
+        let inside = feed_mm_min >= m.feed_min_mm_min * (1.0 - slack)
+            && feed_mm_min <= m.feed_max_mm_min * (1.0 + slack);
+        if !(extrapolate || inside) {
             return Err(MapError::FeedOutside {
                 direction: self.direction,
                 feed_mm_min,
@@ -221,7 +220,8 @@ fn direction_map(
     let lo_m = ((lo + margin_m) / step_m - 1e-6).ceil() * step_m;
     let hi_m = ((hi - margin_m) / step_m + 1e-6).floor() * step_m;
     let (start_mm, end_mm) = (lo_m * 1e3, hi_m * 1e3);
-    if !(end_mm - start_mm >= params.min_span_mm) {
+    // NaN spans (no stroke) fail too.
+    if (end_mm - start_mm).is_nan() || end_mm - start_mm < params.min_span_mm {
         return Err(MapError::NoCommonSpan {
             direction: dir,
             lo_mm: start_mm,

@@ -59,9 +59,11 @@ fn friction() -> FrictionParams {
 
 /// One run: 25 → 55 mm and back at `feed`, sampled every 20 ms.
 fn config(feed: f64, seed: u64) -> SimConfig {
-    let mut c = SimConfig::default();
-    c.seed = seed;
-    c.friction = Some(friction());
+    let mut c = SimConfig {
+        seed,
+        friction: Some(friction()),
+        ..SimConfig::default()
+    };
     c.dynamics.mode = DynamicsMode::Ideal;
     c.motion.start_mm = 25.0;
     c.motion.lead_in_s = 0.2;
