@@ -857,21 +857,22 @@ fn write_plots(out: &Path, map: &FrictionMap, at: &[StribeckProfile], args: &Arg
         );
         for q in &p.positions {
             let mut series = vec![Series {
-                name: "PPOCM at the measured feeds".into(),
+                name: "PPOCM at the measured feeds (joined)".into(),
                 points: p
                     .feeds_mm_min
                     .iter()
-                    .copied()
+                    .map(|f| f.log10())
                     .zip(q.friction_n.iter().copied())
                     .collect(),
-                style: Style::Points,
+                // Joined: the chart draws points as 1 px dots, invisible for a few feeds.
+                style: Style::Dashed,
             }];
             if let Some(f) = &q.fit {
                 series.push(Series {
                     name: "Stribeck fit (Eq. 9)".into(),
                     points: fine
                         .iter()
-                        .map(|&x| (x, f.magnitude_n(x * M_S_PER_MM_MIN)))
+                        .map(|&x| (x.log10(), f.magnitude_n(x * M_S_PER_MM_MIN)))
                         .collect(),
                     style: Style::Line,
                 });
@@ -883,14 +884,15 @@ fn write_plots(out: &Path, map: &FrictionMap, at: &[StribeckProfile], args: &Arg
                     .filter_map(|&x| {
                         d.friction_n(q.position_mm, x, false)
                             .ok()
-                            .map(|v| (x, v.abs()))
+                            .map(|v| (x.log10(), v.abs()))
                     })
                     .collect(),
-                style: Style::Dashed,
+                style: Style::Line,
             });
             charts.push(LineChart {
                 title: t.next().expect("title"),
-                x_label: "feed (mm/min)",
+                // Feeds are log-spaced and the chart axes linear: plot log10 of the feed.
+                x_label: "log10 of feed (feed in mm/min)",
                 y_label: "friction magnitude (N)",
                 series,
             });
@@ -923,10 +925,10 @@ fn write_plots(out: &Path, map: &FrictionMap, at: &[StribeckProfile], args: &Arg
             &plot::heatmap_svg(&Heatmap {
                 title: &title,
                 x_label: "position (mm)",
-                y_label: "feed (mm/min)",
+                y_label: "log10 of feed (feed in mm/min)",
                 z_label: "friction (N)",
                 x: zs,
-                y: feeds,
+                y: feeds.iter().map(|f| f.log10()).collect(),
                 z,
             })?,
         )?;
