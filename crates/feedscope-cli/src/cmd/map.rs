@@ -294,13 +294,24 @@ fn round_mm(x: f64) -> f64 {
     (x * 1e3).round() / 1e3
 }
 
-/// Map grid positions: start, start + step, …, and the end.
+/// Map grid positions: the span's start, the multiples of `step` inside the span (round
+/// numbers a control engineer can index), and the span's end.
 fn grid(d: &DirectionMap, step: f64) -> Vec<f64> {
-    let n = ((d.end_mm - d.start_mm) / step).floor() as usize;
-    let mut g: Vec<f64> = (0..=n).map(|i| d.start_mm + step * i as f64).collect();
-    if d.end_mm - g[n] > 1e-6 {
-        g.push(d.end_mm);
+    // Multiples closer than 1 nm to an end are the end itself.
+    let tol = 1e-6;
+    let mut g = vec![d.start_mm];
+    let mut k = ((d.start_mm + tol) / step).ceil() as i64;
+    loop {
+        let z = k as f64 * step;
+        if z >= d.end_mm - tol {
+            break;
+        }
+        if z > d.start_mm + tol {
+            g.push(z);
+        }
+        k += 1;
     }
+    g.push(d.end_mm);
     g
 }
 
