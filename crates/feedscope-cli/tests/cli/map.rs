@@ -293,9 +293,15 @@ fn map_bad_input_exit_2() {
         "--table-feeds",
         "15,1000",
         "--extrapolate",
+        "--format",
+        "json",
     ]);
     let o = run(c);
     assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(summary["runs_ok"], 8);
+    // Four feeds: feed polynomial of order 4 − 2.
+    assert_eq!(summary["directions"][0]["feed_order"], 2);
     assert!(std::fs::read_to_string(d.path().join("m/compensation.csv"))
         .unwrap()
         .contains("EXTRAPOLATED"));

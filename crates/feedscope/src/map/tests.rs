@@ -383,3 +383,38 @@ fn failed_runs_are_reported_by_name_and_the_rest_estimated() {
         est.failed[1].error
     );
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(16))]
+    /// The PPOCM is the pointwise mean of the repeats' IAFV (the basis is linear in the
+    /// coefficients), for random smooth repeats and layouts.
+    #[test]
+    fn ppocm_is_the_pointwise_mean_of_the_repeats(
+        offsets in proptest::collection::vec(-30.0f64..30.0, 2..5),
+        slope in -2.0f64..2.0,
+        wave in 0.0f64..15.0,
+        two_intervals in proptest::bool::ANY,
+    ) {
+        let runs: Vec<RunFriction> = offsets
+            .iter()
+            .enumerate()
+            .map(|(k, &o)| {
+                let law = move |z: f64, _f: f64| 250.0 + o + slope * z + wave * (z * 0.15 + k as f64).sin();
+                run(60.0, k as u32 + 1, vec![stroke(Direction::Forward, 60.0, law)])
+            })
+            .collect();
+        let params = MapParams {
+            breaks_mm: two_intervals.then(|| vec![30.0]),
+            orders: two_intervals.then(|| vec![5, 5]),
+            ..MapParams::default()
+        };
+        let map = build_map(&runs, LEAD_M, &params).unwrap();
+        let g = &map.directions[0].feeds[0];
+        for i in 0..=40 {
+            let z = (12.0 + 36.0 * i as f64 / 40.0) * 1e-3;
+            let mean = g.repeats.iter().map(|r| r.poly.value_n(z)).sum::<f64>() / g.repeats.len() as f64;
+            // ~300 N values summed over ≤ 6 Legendre terms: 1e-9 N is far above rounding.
+            proptest::prop_assert!((g.ppocm.value_n(z) - mean).abs() < 1e-9);
+        }
+    }
+}
