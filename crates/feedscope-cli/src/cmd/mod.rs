@@ -8,10 +8,10 @@ mod analyze;
 mod demo;
 mod dynamics;
 mod estimate;
-mod fit_stribeck;
 mod identify;
 mod map;
 mod plan;
+mod fit_stribeck;
 mod simulate;
 
 /// feedscope: how are the ball-screw feed drives of this machine doing?

@@ -2,9 +2,9 @@
 mod analyze;
 mod dynamics;
 mod estimate;
-mod fit_stribeck;
 mod identify;
 mod map;
 mod plan;
+mod fit_stribeck;
 mod simulate;
 mod util;
