@@ -10,6 +10,7 @@ pub mod dynamics;
 pub mod estimate;
 pub mod ident;
 pub mod lugre;
+pub mod map;
 pub mod order;
 pub mod plan;
 pub mod profile;

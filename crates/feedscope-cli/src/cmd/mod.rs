@@ -10,6 +10,7 @@ mod dynamics;
 mod estimate;
 mod fit_stribeck;
 mod identify;
+mod map;
 mod plan;
 mod simulate;
 
@@ -40,6 +41,8 @@ pub enum Command {
     Plan(plan::Args),
     // Help text from the doc comment of `fit_stribeck::Args`.
     FitStribeck(fit_stribeck::Args),
+    // Help text from the doc comment of `map::Args`.
+    Map(map::Args),
 }
 
 /// Marks an error as the user's input being wrong (exit code 2).
@@ -88,6 +91,7 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Command::Identify(a) => identify::run(a),
         Command::Plan(a) => plan::run(a),
         Command::FitStribeck(a) => fit_stribeck::run(a),
+        Command::Map(a) => map::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

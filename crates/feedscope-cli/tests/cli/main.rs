@@ -4,6 +4,7 @@ mod dynamics;
 mod estimate;
 mod fit_stribeck;
 mod identify;
+mod map;
 mod plan;
 mod simulate;
 mod util;

@@ -1,5 +1,6 @@
 //! Round trips through the digital twin: simulate a drive with known friction, estimate it,
 //! compare with the truth.
 mod estimate;
+mod map;
 mod profile;
 mod util;

@@ -1,0 +1,1032 @@
+//! `feedscope map`: friction over position and feed from a test set (issue 4).
+use std::fmt::Write as _;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, Context, Result};
+use clap::ValueEnum;
+use feedscope::estimate::{Direction, EstimateParams};
+use feedscope::map::{
+    build_map, estimate_set, nonconventional_spans, stribeck_profile, DirectionMap, FeedScale,
+    FrictionMap, MapParams, NonConventionalSpan, StribeckAtPosition, StribeckProfile, TestSet,
+};
+use feedscope::stribeck::{ParamEstimate, M_S_PER_MM_MIN};
+use feedscope::trace::ReadOptions;
+use serde::Serialize;
+
+use super::estimate::{load_axis, Format};
+use super::BadInput;
+use crate::output::{bar, write_atomic, AtomicFile};
+use crate::plot::{self, Heatmap, LineChart, Series, Style};
+
+/// Friction map over position and feed from a test set (paper 000 Section 4.2).
+///
+/// INDEX is a CSV listing the runs of one axis: a header with at least `file,feed_mm_min,repeat`
+/// (more columns allowed, `#` comment lines skipped), one run per line; `file` is relative to
+/// the index's folder. Every run is estimated in parallel; a run that fails (missing or
+/// malformed file, no stroke at its feed) is reported by name on stderr and the others are
+/// mapped.
+///
+/// Per direction: every stroke is fitted with common breakpoints (given, or 1-3 equal intervals
+/// of at least 4 leads, quartic), the repeats of each feed are averaged coefficient by
+/// coefficient (PPOCM, the mean friction curve of the feed) with a repeatability figure per
+/// interval, and each mean coefficient becomes a polynomial of the feed (Eq. 8; order
+/// min(--feed-order, feeds − 2) in log-feed scaled to [−1, 1]): the friction map F(z, v).
+/// The Stribeck curve (Eq. 9, δ = 2) is fitted to the PPOCM values of every feed at the
+/// chosen positions and at every position of the map grid; falls of friction with feed where
+/// the Stribeck curve rises are reported as non-conventional.
+///
+/// Writes into OUT: stribeck.json, stribeck_profile.csv, compensation.csv (long) and
+/// compensation_forward.csv / compensation_backward.csv (matrix: rows positions, columns
+/// feeds), map.json, ppocm.csv, repeatability.csv, runs.csv and SVG plots (friction vs feed
+/// at the positions, map heat maps, repeats and their mean at one feed, mean curves of
+/// several feeds). Friction is signed: positive forward, negative backward.
+///
+/// Exit codes: 0 success, also when some runs failed (they are listed); 1 when every run
+/// failed, or when any run failed with --strict (the outputs are still written); 2 bad input
+/// (unreadable index or axis, a position outside the mapped travel, a table feed outside the
+/// measured feeds without --extrapolate, bad options).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Index CSV of the test set (`file,feed_mm_min,repeat`).
+    pub index: PathBuf,
+    /// Axis parameters (TOML or JSON).
+    #[arg(long)]
+    pub axis: PathBuf,
+    /// Output folder (created if missing).
+    #[arg(long, default_value = "feedscope-map")]
+    pub out: PathBuf,
+    /// Positions for the Stribeck fits (mm), e.g. `40,55`; default: 5 evenly spaced inside
+    /// each direction's mapped span.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub positions: Option<Vec<f64>>,
+    /// Interior breakpoints common to every feed (mm), e.g. `30,45`; default: equal intervals.
+    #[arg(long, value_delimiter = ',', requires = "orders")]
+    pub breaks: Option<Vec<f64>>,
+    /// Polynomial order of each interval, one more than breakpoints [default: 4 each].
+    #[arg(long, value_delimiter = ',')]
+    pub orders: Option<Vec<usize>>,
+    /// Highest order of the feed polynomial (Eq. 8); lowered to feeds − 2 when fewer feeds.
+    #[arg(long, default_value_t = 5)]
+    pub feed_order: usize,
+    /// Scaled feed variable of the feed polynomial.
+    #[arg(long, value_enum, default_value_t = ScaleArg::Log)]
+    pub feed_scale: ScaleArg,
+    /// Position step of the map grid, the compensation table and the Stribeck profile (mm).
+    #[arg(long, default_value_t = 1.0)]
+    pub position_step_mm: f64,
+    /// Feeds of the compensation table (mm/min) [default: the measured feeds].
+    #[arg(long, value_delimiter = ',')]
+    pub table_feeds: Option<Vec<f64>>,
+    /// Allow table feeds outside the measured feeds (the feed polynomial extrapolates).
+    #[arg(long)]
+    pub extrapolate: bool,
+    /// Trimmed from both ends of the strokes' common span (mm).
+    #[arg(long, default_value_t = 1.0)]
+    pub margin_mm: f64,
+    /// Feed whose repeats are plotted with their mean (mm/min) [default: the slowest].
+    #[arg(long)]
+    pub plot_feed: Option<f64>,
+    /// Exit with code 1 when any run failed.
+    #[arg(long)]
+    pub strict: bool,
+    /// Resampling points per lead when estimating.
+    #[arg(long, default_value_t = 1024)]
+    pub samples_per_lead: u32,
+    /// What to print on stdout.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    pub format: Format,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum ScaleArg {
+    /// u from ln(feed) (log-spaced feeds).
+    Log,
+    /// u from the feed itself (paper 000 Eq. 8).
+    Linear,
+}
+
+/// Validated settings (before any I/O).
+struct Config {
+    params: MapParams,
+}
+
+fn validate(args: &Args) -> Result<Config> {
+    let bad = |m: String| -> anyhow::Error { BadInput(m).into() };
+    if let Some(p) = &args.positions {
+        if let Some(x) = p.iter().find(|x| !x.is_finite()) {
+            return Err(bad(format!("--positions: {x} is not a finite position")));
+        }
+    }
+    if !(args.position_step_mm.is_finite() && args.position_step_mm > 0.0) {
+        return Err(bad(format!(
+            "--position-step-mm {} must be positive",
+            args.position_step_mm
+        )));
+    }
+    if let Some(f) = &args.table_feeds {
+        if let Some(x) = f.iter().find(|x| !(x.is_finite() && **x > 0.0)) {
+            return Err(bad(format!("--table-feeds: {x} is not a positive feed")));
+        }
+    }
+    if args.samples_per_lead < 16 {
+        return Err(bad("--samples-per-lead must be at least 16".into()));
+    }
+    let params = MapParams {
+        breaks_mm: args.breaks.clone(),
+        orders: args.orders.clone(),
+        margin_mm: args.margin_mm,
+        feed_order: args.feed_order,
+        feed_scale: match args.feed_scale {
+            ScaleArg::Log => FeedScale::Log,
+            ScaleArg::Linear => FeedScale::Linear,
+        },
+        ..MapParams::default()
+    };
+    if let Some(o) = &args.orders {
+        let n = args.breaks.as_ref().map_or(0, Vec::len) + 1;
+        if o.len() != n {
+            return Err(bad(format!(
+                "--orders has {} values; {n} intervals need {n}",
+                o.len()
+            )));
+        }
+    }
+    params.validate().map_err(|e| bad(e.to_string()))?;
+    Ok(Config { params })
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let cfg = validate(&args)?;
+    let axis = load_axis(&args.axis)?;
+    // A position outside the declared travel is wrong whatever the data say.
+    if let (Some(p), Some(lo), Some(hi)) = (&args.positions, axis.travel_min_mm, axis.travel_max_mm)
+    {
+        if let Some(x) = p.iter().find(|&&x| x < lo || x > hi) {
+            return Err(BadInput(format!(
+                "--positions: {x} mm is outside the axis travel [{lo}, {hi}] mm"
+            ))
+            .into());
+        }
+    }
+    let set = TestSet::read_index(&args.index).map_err(|e| BadInput(e.to_string()))?;
+    let est_params = EstimateParams {
+        samples_per_lead: args.samples_per_lead,
+        ..EstimateParams::default()
+    };
+    let pb = bar(set.runs.len() as u64, "estimate");
+    let est = estimate_set(
+        &set,
+        &axis,
+        &est_params,
+        &ReadOptions::default(),
+        cfg.params.stroke_feed_tolerance,
+        &|_| pb.inc(1),
+    );
+    pb.finish_and_clear();
+    for f in &est.failed {
+        eprintln!("run {} failed: {}", f.run.name, f.error);
+    }
+    if est.ok.is_empty() {
+        return Err(anyhow!(
+            "all {} runs of {} failed; nothing to map",
+            set.runs.len(),
+            set.source_name
+        ));
+    }
+    let map = build_map(&est.ok, axis.lead_m(), &cfg.params)
+        .map_err(|e| BadInput(format!("{}: {e}", set.source_name)))?;
+
+    // Positions for the Stribeck fits: checked against every direction's span (exit 2).
+    let chosen: Vec<(Direction, Vec<f64>)> = map
+        .directions
+        .iter()
+        .map(|d| {
+            let p = args.positions.clone().unwrap_or_else(|| {
+                (0..5)
+                    .map(|i| {
+                        round_mm(d.start_mm + (d.end_mm - d.start_mm) * (i as f64 + 0.5) / 5.0)
+                    })
+                    .collect()
+            });
+            (d.direction, p)
+        })
+        .collect();
+    for (d, p) in &chosen {
+        let dm = map.direction(*d).expect("direction of the map");
+        for &x in p {
+            dm.check_position(x)
+                .map_err(|e| BadInput(format!("--positions: {e}")))?;
+        }
+    }
+    // Table feeds (exit 2 outside the measured feeds unless --extrapolate).
+    let table_feeds =
+        |d: &DirectionMap| args.table_feeds.clone().unwrap_or_else(|| d.feeds_mm_min());
+    for d in &map.directions {
+        for f in table_feeds(d) {
+            d.poly_at(f, args.extrapolate).map_err(|e| {
+                BadInput(format!(
+                    "--table-feeds: {e}; pass --extrapolate to allow it"
+                ))
+            })?;
+        }
+    }
+
+    let mut at_positions = Vec::new();
+    let mut profiles = Vec::new();
+    for d in &map.directions {
+        let p = &chosen
+            .iter()
+            .find(|c| c.0 == d.direction)
+            .expect("chosen")
+            .1;
+        at_positions.push(stribeck_profile(d, p, &cfg.params)?);
+        profiles.push(stribeck_profile(
+            d,
+            &grid(d, args.position_step_mm),
+            &cfg.params,
+        )?);
+    }
+    let spans: Vec<NonConventionalSpan> = profiles.iter().flat_map(nonconventional_spans).collect();
+
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let out = &args.out;
+    write_atomic(
+        &out.join("stribeck.json"),
+        serde_json::to_string_pretty(&stribeck_report(&at_positions, &spans))?.as_bytes(),
+    )?;
+    write_profile_csv(&out.join("stribeck_profile.csv"), &profiles)?;
+    write_compensation(out, &map, &table_feeds, &args)?;
+    write_ppocm_csv(&out.join("ppocm.csv"), &map)?;
+    write_repeatability_csv(&out.join("repeatability.csv"), &map)?;
+    write_runs_csv(&out.join("runs.csv"), &est)?;
+    let summary = map_summary(&set, &est, &map, &spans);
+    write_atomic(
+        &out.join("map.json"),
+        serde_json::to_string_pretty(&MapJson {
+            summary: &summary,
+            map: &map,
+        })?
+        .as_bytes(),
+    )?;
+    write_plots(out, &map, &at_positions, &args)?;
+
+    let stdout = std::io::stdout();
+    let mut w = stdout.lock();
+    match args.format {
+        Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&summary)?)?,
+        Format::Text => w.write_all(text_report(&summary, &at_positions, &spans).as_bytes())?,
+    }
+    w.flush()?;
+    if args.strict && !est.failed.is_empty() {
+        return Err(anyhow!(
+            "{} of {} runs failed (--strict)",
+            est.failed.len(),
+            set.runs.len()
+        ));
+    }
+    Ok(())
+}
+
+/// Round to 1 µm so that printed default positions read back exactly.
+fn round_mm(x: f64) -> f64 {
+    (x * 1e3).round() / 1e3
+}
+
+/// Map grid positions: the span's start, the multiples of `step` inside the span (round
+/// numbers a control engineer can index), and the span's end.
+fn grid(d: &DirectionMap, step: f64) -> Vec<f64> {
+    // Multiples closer than 1 nm to an end are the end itself.
+    let tol = 1e-6;
+    let mut g = vec![d.start_mm];
+    let mut k = ((d.start_mm + tol) / step).ceil() as i64;
+    loop {
+        let z = k as f64 * step;
+        if z >= d.end_mm - tol {
+            break;
+        }
+        if z > d.start_mm + tol {
+            g.push(z);
+        }
+        k += 1;
+    }
+    g.push(d.end_mm);
+    g
+}
+
+fn dir_name(d: Direction) -> &'static str {
+    match d {
+        Direction::Forward => "forward",
+        Direction::Backward => "backward",
+    }
+}
+
+// ---------- stribeck.json ----------
+
+#[derive(Serialize)]
+struct Est {
+    value: f64,
+    std_error: Option<f64>,
+    ci95_low: Option<f64>,
+    ci95_high: Option<f64>,
+}
+
+fn est(value: f64, u: Option<&ParamEstimate>, scale: f64) -> Est {
+    Est {
+        value: value * scale,
+        std_error: u.map(|u| u.std_error * scale),
+        ci95_low: u.map(|u| u.ci95_low * scale),
+        ci95_high: u.map(|u| u.ci95_high * scale),
+    }
+}
+
+#[derive(Serialize)]
+struct Fall {
+    from_mm_min: f64,
+    to_mm_min: f64,
+    drop_n: f64,
+    excess_drop_n: f64,
+}
+
+#[derive(Serialize)]
+struct PositionFit {
+    position_mm: f64,
+    fc_n: Option<Est>,
+    fs_n: Option<Est>,
+    static_excess_n: Option<Est>,
+    vs_mm_min: Option<Est>,
+    sigma_n_s_per_m: Option<Est>,
+    residual_rms_n: Option<f64>,
+    friction_n: Vec<f64>,
+    warnings: Vec<String>,
+    nonconventional: Vec<Fall>,
+    error: Option<String>,
+}
+
+fn position_fit(p: &StribeckAtPosition) -> PositionFit {
+    let f = p.fit.as_ref();
+    let u = f.and_then(|f| f.uncertainty.as_ref());
+    let mm = 1.0 / M_S_PER_MM_MIN;
+    PositionFit {
+        position_mm: p.position_mm,
+        fc_n: f.map(|f| est(f.params.fc_n, u.map(|u| &u.fc_n), 1.0)),
+        fs_n: f.map(|f| est(f.params.fs_n, u.map(|u| &u.fs_n), 1.0)),
+        static_excess_n: f.map(|f| {
+            est(
+                f.params.static_excess_n(),
+                u.map(|u| &u.static_excess_n),
+                1.0,
+            )
+        }),
+        vs_mm_min: f.map(|f| est(f.params.vs_m_s, u.map(|u| &u.vs_m_s), mm)),
+        sigma_n_s_per_m: f
+            .map(|f| est(f.params.sigma_n_s_per_m, u.map(|u| &u.sigma_n_s_per_m), 1.0)),
+        residual_rms_n: f.map(|f| f.residual_rms_n),
+        friction_n: p.friction_n.clone(),
+        warnings: f
+            .map(|f| f.warnings.iter().map(ToString::to_string).collect())
+            .unwrap_or_default(),
+        nonconventional: p
+            .nonconventional
+            .iter()
+            .flat_map(|n| &n.ranges)
+            .map(|r| Fall {
+                from_mm_min: r.from_mm_min(),
+                to_mm_min: r.to_mm_min(),
+                drop_n: r.drop_n,
+                excess_drop_n: r.excess_drop_n,
+            })
+            .collect(),
+        error: p.error.clone(),
+    }
+}
+
+#[derive(Serialize)]
+struct DirectionStribeck {
+    direction: Direction,
+    feeds_mm_min: Vec<f64>,
+    positions: Vec<PositionFit>,
+}
+
+#[derive(Serialize)]
+struct StribeckReport<'a> {
+    model: &'static str,
+    conventions: &'static str,
+    directions: Vec<DirectionStribeck>,
+    nonconventional_spans: &'a [NonConventionalSpan],
+}
+
+fn stribeck_report<'a>(
+    at: &[StribeckProfile],
+    spans: &'a [NonConventionalSpan],
+) -> StribeckReport<'a> {
+    StribeckReport {
+        model: "F(v) = Fc + (Fs - Fc)*exp(-(v/vs)^2) + sigma*v on friction magnitudes (paper 000 Eq. 9)",
+        conventions: "data points: |PPOCM(z)| of every measured feed at the position; forces in N, \
+                      feeds and vs in mm/min, sigma in N*s/m; std_error and 95 % intervals null \
+                      when the fit has no residual degrees of freedom",
+        directions: at
+            .iter()
+            .map(|p| DirectionStribeck {
+                direction: p.direction,
+                feeds_mm_min: p.feeds_mm_min.clone(),
+                positions: p.positions.iter().map(position_fit).collect(),
+            })
+            .collect(),
+        nonconventional_spans: spans,
+    }
+}
+
+// ---------- CSV tables ----------
+
+fn csv_file(path: &Path) -> Result<AtomicFile> {
+    AtomicFile::create(path)
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map_or_else(String::new, |v| format!("{v:.6}"))
+}
+
+fn write_profile_csv(path: &Path, profiles: &[StribeckProfile]) -> Result<()> {
+    let mut f = csv_file(path)?;
+    let w = f.writer();
+    writeln!(w, "# Stribeck fit (paper 000 Eq. 9, delta = 2) at every map grid position; forces in N, vs in mm/min, sigma in N*s/m; *_se = standard error")?;
+    writeln!(w, "direction,position_mm,fc_n,fc_se_n,fs_n,fs_se_n,static_excess_n,static_excess_se_n,vs_mm_min,vs_ci95_low_mm_min,vs_ci95_high_mm_min,sigma_n_s_per_m,sigma_se_n_s_per_m,residual_rms_n,nonconventional,warnings")?;
+    let mm = 1.0 / M_S_PER_MM_MIN;
+    for p in profiles {
+        for q in &p.positions {
+            let Some(fit) = &q.fit else {
+                writeln!(
+                    w,
+                    "{},{:.6},,,,,,,,,,,,,,fit failed: {}",
+                    dir_name(p.direction),
+                    q.position_mm,
+                    q.error.clone().unwrap_or_default().replace(',', ";")
+                )?;
+                continue;
+            };
+            let u = fit.uncertainty.as_ref();
+            let nc = q.nonconventional.as_ref().map_or(0, |n| n.ranges.len());
+            let warn: Vec<String> = fit
+                .warnings
+                .iter()
+                .map(|w| w.to_string().replace(',', ";"))
+                .collect();
+            writeln!(
+                w,
+                "{},{:.6},{:.6},{},{:.6},{},{:.6},{},{:.6},{},{},{:.6},{},{:.6},{},{}",
+                dir_name(p.direction),
+                q.position_mm,
+                fit.params.fc_n,
+                opt(u.map(|u| u.fc_n.std_error)),
+                fit.params.fs_n,
+                opt(u.map(|u| u.fs_n.std_error)),
+                fit.params.static_excess_n(),
+                opt(u.map(|u| u.static_excess_n.std_error)),
+                fit.params.vs_m_s * mm,
+                opt(u.map(|u| u.vs_m_s.ci95_low * mm)),
+                opt(u.map(|u| u.vs_m_s.ci95_high * mm)),
+                fit.params.sigma_n_s_per_m,
+                opt(u.map(|u| u.sigma_n_s_per_m.std_error)),
+                fit.residual_rms_n,
+                nc,
+                warn.join(" | ")
+            )?;
+        }
+    }
+    f.commit()
+}
+
+fn table_header(
+    map: &FrictionMap,
+    feeds: &dyn Fn(&DirectionMap) -> Vec<f64>,
+    args: &Args,
+) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# feedscope friction-compensation table (paper 000 Eq. 6 and 8: PPOCM coefficients polynomial in feed)");
+    let _ = writeln!(s, "# units: position_mm = table position in mm (machine coordinates); feed_mm_min = feed in mm/min; friction_n = friction force in N");
+    let _ = writeln!(s, "# sign: friction_n is signed as paper 000 Eq. 5: positive while moving forward (position increasing), negative backward; add it to the axial force command (torque = friction_n * lead / (2*pi)) to compensate");
+    for d in &map.directions {
+        let f = feeds(d);
+        let (lo, hi) = f
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(l, h), &x| (l.min(x), h.max(x)));
+        let _ = writeln!(
+            s,
+            "# valid {}: positions {:.3} to {:.3} mm; measured feeds {} to {} mm/min; table feeds {} to {} mm/min{}",
+            dir_name(d.direction),
+            d.start_mm,
+            d.end_mm,
+            d.feed_model.feed_min_mm_min,
+            d.feed_model.feed_max_mm_min,
+            lo,
+            hi,
+            if args.extrapolate && (lo < d.feed_model.feed_min_mm_min || hi > d.feed_model.feed_max_mm_min) {
+                " (EXTRAPOLATED beyond the measured feeds: --extrapolate)"
+            } else {
+                ""
+            }
+        );
+    }
+    let _ = writeln!(s, "# no value is given outside these ranges");
+    s
+}
+
+fn write_compensation(
+    out: &Path,
+    map: &FrictionMap,
+    feeds: &dyn Fn(&DirectionMap) -> Vec<f64>,
+    args: &Args,
+) -> Result<()> {
+    let header = table_header(map, feeds, args);
+    let mut long = csv_file(&out.join("compensation.csv"))?;
+    let w = long.writer();
+    w.write_all(header.as_bytes())?;
+    writeln!(w, "direction,position_mm,feed_mm_min,friction_n")?;
+    for d in &map.directions {
+        let f = feeds(d);
+        let polys: Vec<_> = f
+            .iter()
+            .map(|&x| d.poly_at(x, args.extrapolate))
+            .collect::<Result<_, _>>()?;
+        let zs = grid(d, args.position_step_mm);
+        for (x, p) in f.iter().zip(&polys) {
+            for &z in &zs {
+                writeln!(
+                    w,
+                    "{},{:.6},{:.6},{:.6}",
+                    dir_name(d.direction),
+                    z,
+                    x,
+                    p.value_n(z * 1e-3)
+                )?;
+            }
+        }
+        let mut wide = csv_file(&out.join(format!("compensation_{}.csv", dir_name(d.direction))))?;
+        let ww = wide.writer();
+        ww.write_all(header.as_bytes())?;
+        writeln!(ww, "# matrix: one row per position; first column position_mm, then friction_n (N) at the feed (mm/min) named in the header")?;
+        write!(ww, "position_mm")?;
+        for x in &f {
+            write!(ww, ",{x:.6}")?;
+        }
+        writeln!(ww)?;
+        for &z in &zs {
+            write!(ww, "{z:.6}")?;
+            for p in &polys {
+                write!(ww, ",{:.6}", p.value_n(z * 1e-3))?;
+            }
+            writeln!(ww)?;
+        }
+        wide.commit()?;
+    }
+    long.commit()
+}
+
+fn write_ppocm_csv(path: &Path, map: &FrictionMap) -> Result<()> {
+    let mut f = csv_file(path)?;
+    let w = f.writer();
+    writeln!(w, "# PPOCM: mean Legendre coefficients (N) of the repeats' IAFV per feed; in interval [start_mm, end_mm], F = sum_k coefficient_n * P_k(t), t = 2*(z - start_mm)/(end_mm - start_mm) - 1")?;
+    writeln!(
+        w,
+        "direction,feed_mm_min,repeats,interval,start_mm,end_mm,k,coefficient_n"
+    )?;
+    for d in &map.directions {
+        for g in &d.feeds {
+            for (j, c) in g.ppocm.coeffs_n.iter().enumerate() {
+                for (k, v) in c.iter().enumerate() {
+                    writeln!(
+                        w,
+                        "{},{:.6},{},{},{:.6},{:.6},{},{:.9}",
+                        dir_name(d.direction),
+                        g.feed_mm_min,
+                        g.repeats.len(),
+                        j + 1,
+                        d.breaks_mm[j],
+                        d.breaks_mm[j + 1],
+                        k,
+                        v
+                    )?;
+                }
+            }
+        }
+    }
+    f.commit()
+}
+
+fn write_repeatability_csv(path: &Path, map: &FrictionMap) -> Result<()> {
+    let mut f = csv_file(path)?;
+    let w = f.writer();
+    writeln!(w, "# repeatability per interval: std_n = RMS over the interval of the pointwise sample std of the repeats' IAFV (N); max_spread_n = largest pointwise max - min (N); mean_n = mean of the PPOCM (N, signed)")?;
+    writeln!(
+        w,
+        "direction,feed_mm_min,repeats,interval,start_mm,end_mm,mean_n,std_n,max_spread_n"
+    )?;
+    for d in &map.directions {
+        for g in &d.feeds {
+            for (j, r) in g.repeatability.iter().enumerate() {
+                writeln!(
+                    w,
+                    "{},{:.6},{},{},{:.6},{:.6},{:.6},{},{:.6}",
+                    dir_name(d.direction),
+                    g.feed_mm_min,
+                    g.repeats.len(),
+                    j + 1,
+                    r.start_mm,
+                    r.end_mm,
+                    r.mean_n,
+                    opt(r.std_n),
+                    r.max_spread_n
+                )?;
+            }
+        }
+    }
+    f.commit()
+}
+
+fn write_runs_csv(path: &Path, est: &feedscope::map::SetEstimate) -> Result<()> {
+    let mut f = csv_file(path)?;
+    let w = f.writer();
+    writeln!(w, "file,feed_mm_min,repeat,status,strokes,message")?;
+    let clean = |s: &str| s.replace([',', '\n'], ";");
+    for r in &est.ok {
+        writeln!(
+            w,
+            "{},{},{},ok,{},{}",
+            r.run.name,
+            r.run.feed_mm_min,
+            r.run.repeat,
+            r.strokes.len(),
+            clean(&r.warnings.join(" | "))
+        )?;
+    }
+    for r in &est.failed {
+        writeln!(
+            w,
+            "{},{},{},failed,0,{}",
+            r.run.name,
+            r.run.feed_mm_min,
+            r.run.repeat,
+            clean(&r.error)
+        )?;
+    }
+    f.commit()
+}
+
+// ---------- summary ----------
+
+#[derive(Serialize)]
+struct DirSummary {
+    direction: Direction,
+    start_mm: f64,
+    end_mm: f64,
+    breaks_mm: Vec<f64>,
+    orders: Vec<usize>,
+    feeds_mm_min: Vec<f64>,
+    repeats: Vec<usize>,
+    feed_order: usize,
+    feed_scale: FeedScale,
+    feed_misfit_rms_n: f64,
+    feed_misfit_max_n: f64,
+    worst_repeatability_std_n: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Summary {
+    index: String,
+    runs: usize,
+    runs_ok: usize,
+    failed: Vec<FailedRun>,
+    directions: Vec<DirSummary>,
+    nonconventional_spans: usize,
+}
+
+#[derive(Serialize)]
+struct FailedRun {
+    file: String,
+    error: String,
+}
+
+#[derive(Serialize)]
+struct MapJson<'a> {
+    summary: &'a Summary,
+    map: &'a FrictionMap,
+}
+
+fn map_summary(
+    set: &TestSet,
+    est: &feedscope::map::SetEstimate,
+    map: &FrictionMap,
+    spans: &[NonConventionalSpan],
+) -> Summary {
+    Summary {
+        index: set.source_name.clone(),
+        runs: set.runs.len(),
+        runs_ok: est.ok.len(),
+        failed: est
+            .failed
+            .iter()
+            .map(|f| FailedRun {
+                file: f.run.name.clone(),
+                error: f.error.clone(),
+            })
+            .collect(),
+        directions: map
+            .directions
+            .iter()
+            .map(|d| DirSummary {
+                direction: d.direction,
+                start_mm: d.start_mm,
+                end_mm: d.end_mm,
+                breaks_mm: d.breaks_mm.clone(),
+                orders: d.orders.clone(),
+                feeds_mm_min: d.feeds_mm_min(),
+                repeats: d.feeds.iter().map(|g| g.repeats.len()).collect(),
+                feed_order: d.feed_model.order,
+                feed_scale: d.feed_model.scale,
+                feed_misfit_rms_n: d.feed_model.rms_misfit_n,
+                feed_misfit_max_n: d.feed_model.max_misfit_n,
+                worst_repeatability_std_n: d
+                    .feeds
+                    .iter()
+                    .flat_map(|g| g.repeatability.iter().filter_map(|r| r.std_n))
+                    .reduce(f64::max),
+            })
+            .collect(),
+        nonconventional_spans: spans.len(),
+    }
+}
+
+fn text_report(s: &Summary, at: &[StribeckProfile], spans: &[NonConventionalSpan]) -> String {
+    let mut o = String::new();
+    let _ = writeln!(o, "{}: {} of {} runs mapped", s.index, s.runs_ok, s.runs);
+    for f in &s.failed {
+        let _ = writeln!(o, "  failed: {} ({})", f.file, f.error);
+    }
+    for d in &s.directions {
+        let _ = writeln!(
+            o,
+            "{:?}: {:.3}-{:.3} mm, {} intervals, {} feeds {:.4}-{:.4} mm/min, feed polynomial order {} (misfit RMS {:.3} N, max {:.3} N), worst repeatability std {}",
+            d.direction,
+            d.start_mm,
+            d.end_mm,
+            d.orders.len(),
+            d.feeds_mm_min.len(),
+            d.feeds_mm_min.first().copied().unwrap_or(f64::NAN),
+            d.feeds_mm_min.last().copied().unwrap_or(f64::NAN),
+            d.feed_order,
+            d.feed_misfit_rms_n,
+            d.feed_misfit_max_n,
+            d.worst_repeatability_std_n
+                .map_or("n/a (one repeat)".to_string(), |v| format!("{v:.3} N"))
+        );
+    }
+    let _ = writeln!(o, "Stribeck fits (Eq. 9):");
+    let _ = writeln!(
+        o,
+        "  direction  position_mm       Fc_N    Fs-Fc_N   vs_mm_min   sigma_Ns/m  rms_N  warnings"
+    );
+    for p in at {
+        for q in &p.positions {
+            match &q.fit {
+                Some(f) => {
+                    let _ = writeln!(
+                        o,
+                        "  {:9}  {:11.3}  {:9.2}  {:9.2}  {:10.2}  {:11.1}  {:5.2}  {}",
+                        dir_name(p.direction),
+                        q.position_mm,
+                        f.params.fc_n,
+                        f.params.static_excess_n(),
+                        f.vs_mm_min(),
+                        f.params.sigma_n_s_per_m,
+                        f.residual_rms_n,
+                        f.warnings.len()
+                    );
+                }
+                None => {
+                    let _ = writeln!(
+                        o,
+                        "  {:9}  {:11.3}  fit failed: {}",
+                        dir_name(p.direction),
+                        q.position_mm,
+                        q.error.clone().unwrap_or_default()
+                    );
+                }
+            }
+        }
+    }
+    if spans.is_empty() {
+        let _ = writeln!(
+            o,
+            "no non-conventional behaviour (friction falling with feed where Stribeck rises)"
+        );
+    }
+    for s in spans {
+        let _ = writeln!(
+            o,
+            "non-conventional {}: positions {:.3}-{:.3} mm, friction falls between {:.3} and {:.3} mm/min (excess drop up to {:.2} N)",
+            dir_name(s.direction),
+            s.from_position_mm,
+            s.to_position_mm,
+            s.from_feed_mm_min,
+            s.to_feed_mm_min,
+            s.max_excess_drop_n
+        );
+    }
+    o
+}
+
+// ---------- plots ----------
+
+fn log_feeds(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
+        .collect()
+}
+
+fn write_plots(out: &Path, map: &FrictionMap, at: &[StribeckProfile], args: &Args) -> Result<()> {
+    // Friction vs feed at the chosen positions: PPOCM points, Stribeck fit, map section (Fig. 14).
+    let mut titles = Vec::new();
+    for p in at {
+        for q in &p.positions {
+            titles.push(format!(
+                "{} at {:.3} mm: friction vs feed",
+                dir_name(p.direction),
+                q.position_mm
+            ));
+        }
+    }
+    let mut charts = Vec::new();
+    let mut t = titles.iter();
+    for p in at {
+        let d = map.direction(p.direction).expect("direction");
+        let fine = log_feeds(
+            d.feed_model.feed_min_mm_min,
+            d.feed_model.feed_max_mm_min,
+            120,
+        );
+        for q in &p.positions {
+            let mut series = vec![Series {
+                name: "PPOCM at the measured feeds (joined)".into(),
+                points: p
+                    .feeds_mm_min
+                    .iter()
+                    .map(|f| f.log10())
+                    .zip(q.friction_n.iter().copied())
+                    .collect(),
+                // Joined: the chart draws points as 1 px dots, invisible for a few feeds.
+                style: Style::Dashed,
+            }];
+            if let Some(f) = &q.fit {
+                series.push(Series {
+                    name: "Stribeck fit (Eq. 9)".into(),
+                    points: fine
+                        .iter()
+                        .map(|&x| (x.log10(), f.magnitude_n(x * M_S_PER_MM_MIN)))
+                        .collect(),
+                    style: Style::Line,
+                });
+            }
+            series.push(Series {
+                name: "map section (Eq. 8)".into(),
+                points: fine
+                    .iter()
+                    .filter_map(|&x| {
+                        d.friction_n(q.position_mm, x, false)
+                            .ok()
+                            .map(|v| (x.log10(), v.abs()))
+                    })
+                    .collect(),
+                style: Style::Line,
+            });
+            charts.push(LineChart {
+                title: t.next().expect("title"),
+                // Feeds are log-spaced and the chart axes linear: plot log10 of the feed.
+                x_label: "log10 of feed (feed in mm/min)",
+                y_label: "friction magnitude (N)",
+                series,
+            });
+        }
+    }
+    plot::write_svg(
+        &out.join("friction_vs_feed.svg"),
+        &plot::stacked_svg(&charts)?,
+    )?;
+
+    for d in &map.directions {
+        let zs = grid(d, args.position_step_mm);
+        let feeds = log_feeds(
+            d.feed_model.feed_min_mm_min,
+            d.feed_model
+                .feed_max_mm_min
+                .max(d.feed_model.feed_min_mm_min * 1.0001),
+            40,
+        );
+        let z: Vec<Vec<f64>> = feeds
+            .iter()
+            .map(|&f| {
+                let p = d.poly_at(f, false).expect("feed in range");
+                zs.iter().map(|&x| p.value_n(x * 1e-3)).collect()
+            })
+            .collect();
+        let title = format!("friction map F(z, v), {} (signed)", dir_name(d.direction));
+        plot::write_svg(
+            &out.join(format!("map_{}.svg", dir_name(d.direction))),
+            &plot::heatmap_svg(&Heatmap {
+                title: &title,
+                x_label: "position (mm)",
+                y_label: "log10 of feed (feed in mm/min)",
+                z_label: "friction (N)",
+                x: zs,
+                y: feeds.iter().map(|f| f.log10()).collect(),
+                z,
+            })?,
+        )?;
+    }
+
+    // Repeats and their mean at one feed (Fig. 11); mean curves of several feeds (Fig. 12).
+    let mut t11 = Vec::new();
+    let mut t12 = Vec::new();
+    for d in &map.directions {
+        let target = args.plot_feed.unwrap_or(d.feeds[0].feed_mm_min);
+        let g = d
+            .feeds
+            .iter()
+            .min_by(|a, b| {
+                (a.feed_mm_min - target)
+                    .abs()
+                    .total_cmp(&(b.feed_mm_min - target).abs())
+            })
+            .expect("a feed group");
+        t11.push(format!(
+            "{} at {} mm/min: IAFV of the repeats and their PPOCM",
+            dir_name(d.direction),
+            g.feed_mm_min
+        ));
+        t12.push(format!(
+            "{}: mean friction (PPOCM) along the travel per feed",
+            dir_name(d.direction)
+        ));
+    }
+    let mut c11 = Vec::new();
+    let mut c12 = Vec::new();
+    for (k, d) in map.directions.iter().enumerate() {
+        let zs = grid(d, (d.end_mm - d.start_mm) / 200.0);
+        let curve = |p: &feedscope::profile::PiecewisePoly| -> Vec<(f64, f64)> {
+            zs.iter().map(|&x| (x, p.value_n(x * 1e-3))).collect()
+        };
+        let target = args.plot_feed.unwrap_or(d.feeds[0].feed_mm_min);
+        let g = d
+            .feeds
+            .iter()
+            .min_by(|a, b| {
+                (a.feed_mm_min - target)
+                    .abs()
+                    .total_cmp(&(b.feed_mm_min - target).abs())
+            })
+            .expect("a feed group");
+        let mut s: Vec<Series> = g
+            .repeats
+            .iter()
+            .map(|r| Series {
+                name: format!("{} (repeat {})", r.run, r.repeat),
+                points: curve(&r.poly),
+                style: Style::Line,
+            })
+            .collect();
+        s.push(Series {
+            name: "PPOCM (mean)".into(),
+            points: curve(&g.ppocm),
+            style: Style::Dashed,
+        });
+        c11.push(LineChart {
+            title: &t11[k],
+            x_label: "position (mm)",
+            y_label: "friction (N)",
+            series: s,
+        });
+        let n = d.feeds.len();
+        let pick: Vec<usize> = if n <= 8 {
+            (0..n).collect()
+        } else {
+            (0..8).map(|i| (i * (n - 1) + 3) / 7).collect()
+        };
+        c12.push(LineChart {
+            title: &t12[k],
+            x_label: "position (mm)",
+            y_label: "friction (N)",
+            series: pick
+                .iter()
+                .map(|&i| Series {
+                    name: format!("{} mm/min", d.feeds[i].feed_mm_min),
+                    points: curve(&d.feeds[i].ppocm),
+                    style: Style::Line,
+                })
+                .collect(),
+        });
+    }
+    plot::write_svg(&out.join("iafv_repeats.svg"), &plot::stacked_svg(&c11)?)?;
+    plot::write_svg(&out.join("mvoiaf.svg"), &plot::stacked_svg(&c12)?)?;
+    Ok(())
+}
