@@ -121,19 +121,27 @@ impl Default for SegmentParams {
     }
 }
 
+/// The smallest non-zero position step in the data (m): the quantum, or 0 if none.
+fn position_quantum_m(z: &[f64]) -> f64 {
+    let q = z
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 1e-12)
+        .fold(f64::INFINITY, f64::min);
+    if q.is_finite() {
+        q
+    } else {
+        0.0
+    }
+}
+
 /// Hysteresis for turning points (m), see the module docs.
-fn hysteresis_m(z: &[f64]) -> f64 {
+fn hysteresis_m(z: &[f64], quantum: f64) -> f64 {
     let (lo, hi) = z
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
             (a.min(v), b.max(v))
         });
-    let quantum = z
-        .windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .filter(|d| *d > 1e-12)
-        .fold(f64::INFINITY, f64::min);
-    let quantum = if quantum.is_finite() { quantum } else { 0.0 };
     (8.0 * quantum).max(1e-4 * (hi - lo)).max(1e-7)
 }
 
@@ -207,7 +215,8 @@ pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpa
     if n < 2 {
         return Vec::new();
     }
-    let eps = hysteresis_m(z);
+    let quantum = position_quantum_m(z);
+    let eps = hysteresis_m(z, quantum);
     let tp = turning_points(z, eps);
     let mut out = Vec::new();
     let mut speeds = Vec::new();
@@ -222,9 +231,21 @@ pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpa
             Direction::Backward
         };
         let s = dir.sign();
-        let chord = |k: usize| s * (z[k + 1] - z[k]) / (t[k + 1] - t[k]);
+        // Chords span w samples so that each covers at least 8 position quanta: at a slow feed
+        // with coarse quantisation, consecutive samples often repeat a position and single-step
+        // chord speeds jump between 0 and one quantum per interval.
+        let mean_step = (z[i1] - z[i0]).abs() / (i1 - i0) as f64;
+        let w = if mean_step > 0.0 {
+            ((8.0 * quantum / mean_step).ceil() as usize).clamp(1, ((i1 - i0) / 4).max(1))
+        } else {
+            1
+        };
+        if i1 < i0 + w {
+            continue;
+        }
+        let chord = |k: usize| s * (z[k + w] - z[k]) / (t[k + w] - t[k]);
         speeds.clear();
-        speeds.extend((i0..i1).map(chord));
+        speeds.extend((i0..=i1 - w).map(chord));
         let mut sorted = speeds.clone();
         let rank = ((sorted.len() - 1) as f64 * 0.95).round() as usize;
         let p95 = *sorted.select_nth_unstable_by(rank, |a, b| a.total_cmp(b)).1;
@@ -250,8 +271,11 @@ pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpa
                 c += 1;
             }
             let c1 = c - 1; // last steady chord
-                            // Chords c0..=c1 join knots i0+c0 ..= i0+c1+1.
-            let first = i0 + c0 + params.trim_knots;
+                            // Chord c joins knots i0+c and i0+c+w. A steady chord may straddle the start (or
+                            // end) of the motion, so the stroke keeps only knots inside every steady chord's
+                            // reach: from the end of the first to the start of the last (for w = 1 this is
+                            // the whole run), then trims.
+            let first = i0 + c0 + (w - 1) + params.trim_knots;
             let last = (i0 + c1 + 1).saturating_sub(params.trim_knots);
             if last < first || last + 1 - first < params.min_knots.max(4) {
                 continue;
@@ -259,11 +283,13 @@ pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpa
             if (z[last] - z[first]).abs() < params.min_stroke_mm * 1e-3 {
                 continue;
             }
+            // The feed of the stroke: its mean speed, exact also when single chords are coarse.
+            let speed = (z[last] - z[first]).abs() / (t[last] - t[first]);
             out.push(StrokeSpan {
                 direction: dir,
                 first,
                 last,
-                plateau_speed_m_s: plateau,
+                plateau_speed_m_s: speed,
             });
         }
     }
@@ -361,6 +387,26 @@ mod tests {
         }
         let s = find_strokes(&c, &SegmentParams::default());
         assert_eq!(s.len(), 2);
+    }
+
+    #[test]
+    fn slow_feed_below_one_quantum_per_sample() {
+        // 10 mm/min sampled every 5 ms moves 0.83 µm per sample; positions in 1 µm steps.
+        let mut c = Channel::default();
+        for k in 0..40_000 {
+            let t = k as f64 * 0.005;
+            let z_um = if t < 1.0 {
+                0.0
+            } else {
+                (t - 1.0) * 10_000.0 / 60.0
+            };
+            c.time_s.push(t);
+            c.value.push(z_um.round() * 1e-6);
+        }
+        let s = find_strokes(&c, &SegmentParams::default());
+        assert_eq!(s.len(), 1, "{s:?}");
+        assert!((s[0].plateau_speed_m_s * 60e3 - 10.0).abs() < 0.2);
+        assert!(c.time_s[s[0].first] < 1.2 && c.time_s[s[0].last] > 199.0);
     }
 
     #[test]
