@@ -11,6 +11,8 @@ mod estimate;
 mod identify;
 mod plan;
 mod fit_stribeck;
+pub(crate) mod history;
+mod report;
 mod simulate;
 
 /// feedscope: how are the ball-screw feed drives of this machine doing?
@@ -40,6 +42,10 @@ pub enum Command {
     Plan(plan::Args),
     // Help text from the doc comment of `fit_stribeck::Args`.
     FitStribeck(fit_stribeck::Args),
+    // Help text from the doc comment of `history::Args`.
+    History(history::Args),
+    // Help text from the doc comment of `report::Args`.
+    Report(report::Args),
 }
 
 /// Marks an error as the user's input being wrong (exit code 2).
@@ -88,6 +94,8 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Command::Identify(a) => identify::run(a),
         Command::Plan(a) => plan::run(a),
         Command::FitStribeck(a) => fit_stribeck::run(a),
+        Command::History(a) => history::run(a),
+        Command::Report(a) => report::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

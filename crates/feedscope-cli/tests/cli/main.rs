@@ -5,5 +5,7 @@ mod estimate;
 mod identify;
 mod plan;
 mod fit_stribeck;
+mod history;
+mod report;
 mod simulate;
 mod util;
