@@ -26,8 +26,8 @@ use crate::plot::{Series, Style};
 /// estimated against true friction into the output folder. Then it simulates 16 weekly tests
 /// of the same axis whose lubrication slowly degrades from week 6 on (static friction excess
 /// +7 %, viscous coefficient +4 %, Stribeck velocity −2 % a week): a short triangular-wave
-/// test every week (one-test identification) and a short stroke test every 5 weeks
-/// (friction profile and spectra), stores them in history.db, and ends with report.html, the
+/// test every week (one-test identification) and a short stroke test in each of the first 5
+/// weeks and every 3 weeks after (friction profile and spectra), stores them in history.db, and ends with report.html, the
 /// condition report of the axis.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -146,8 +146,9 @@ pub fn run(args: Args) -> Result<()> {
 const HISTORY_START_S: f64 = 1_767_600_000.0;
 /// First week whose lubrication is worse than the one before.
 const DRIFT_FROM_WEEK: usize = 5;
-/// Every how many weeks a stroke test is run.
-const STROKE_EVERY: usize = 5;
+/// Every how many weeks a stroke test is run after the commissioning weeks (which have one
+/// each, to set the baseline).
+const STROKE_EVERY: usize = 3;
 
 /// The friction of week `w`: steady for the first weeks, then lubrication degrading.
 fn week_friction(axis: &feedscope::axis::AxisParams, w: usize) -> FrictionParams {
@@ -241,7 +242,10 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
     let mut jobs: Vec<(usize, TestKind)> = (0..weeks).map(|w| (w, TestKind::Triangle)).collect();
     jobs.extend(
         (0..weeks)
-            .filter(|w| w % STROKE_EVERY == 0 || *w + 1 == weeks)
+            .filter(|&w| {
+                w < DRIFT_FROM_WEEK || (w - DRIFT_FROM_WEEK) % STROKE_EVERY == STROKE_EVERY - 1
+                    || w + 1 == weeks
+            })
             .map(|w| (w, TestKind::Strokes)),
     );
     eprintln!(

@@ -863,6 +863,18 @@ pub fn axis_trends(
             Err(e) => return Err(anyhow::Error::new(e).context(format!("trend of {name}"))),
         }
     }
+    // Identification first (Fs, Fc, σ, vs, J), then mean friction along the travel, then the
+    // components: the order of the report.
+    let rank = |i: &Indicator| match i {
+        Indicator::StaticFriction => 0,
+        Indicator::CoulombFriction => 1,
+        Indicator::Viscous => 2,
+        Indicator::StribeckVelocity => 3,
+        Indicator::Inertia => 4,
+        Indicator::MeanFriction { .. } => 5,
+        Indicator::Component { .. } => 6,
+    };
+    trends.sort_by_key(|t| rank(&t.indicator));
     let diagnosis = diagnose(&trends);
     Ok(AxisTrends {
         machine: machine.to_string(),

@@ -286,18 +286,45 @@ fn profile_chart(c: &Curves, test: &TestDetail) -> Result<Option<Chart>> {
             )
         })
         .collect();
+    // The stroke ends carry acceleration transients of several times the friction: they would
+    // set the scale, so points further than 10 robust σ from the IAFV are not drawn.
+    let keep: Vec<Vec<bool>> = c
+        .profiles
+        .iter()
+        .map(|p| {
+            let mut r: Vec<f64> = p
+                .friction_n
+                .iter()
+                .zip(&p.iafv_n)
+                .map(|(f, m)| (f - m).abs())
+                .collect();
+            let mut sorted = r.clone();
+            sorted.sort_by(f64::total_cmp);
+            let mad = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+            let lim = 10.0 * 1.4826 * mad.max(1e-9);
+            r.iter_mut().map(|x| *x <= lim).collect()
+        })
+        .collect();
     let charts: Vec<LineChart> = c
         .profiles
         .iter()
         .zip(&titles)
-        .map(|(p, title)| LineChart {
+        .zip(&keep)
+        .map(|((p, title), keep)| LineChart {
             title,
             x_label: "position (mm)",
             y_label: "friction F_f (N)",
             series: vec![
                 Series {
                     name: "estimated friction".into(),
-                    points: p.position_mm.iter().copied().zip(p.friction_n.iter().copied()).collect(),
+                    points: p
+                        .position_mm
+                        .iter()
+                        .zip(&p.friction_n)
+                        .zip(keep)
+                        .filter(|(_, &k)| k)
+                        .map(|((&z, &f), _)| (z, f))
+                        .collect(),
                     style: Style::Line,
                 },
                 Series {

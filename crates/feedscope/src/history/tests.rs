@@ -116,8 +116,8 @@ fn cusum_by_hand() {
 
 #[test]
 fn slope_and_projection_by_hand() {
-    // exactly 2 N/day from 100 N; threshold 120 N → 10 days after the last point (t = 5 d,
-    // value 110)
+    // exactly 2 N/day from 100 N; the last point is at t = 5 d, 110 N; threshold 120 N →
+    // (120 − 110)/2 = 5 days after it
     let p: Vec<Point> = (0..6)
         .map(|i| Point {
             time_s: i as f64 * DAY,
@@ -132,7 +132,7 @@ fn slope_and_projection_by_hand() {
         lower: Some(50.0),
     };
     let pr = project_crossing(&s, &th).unwrap();
-    assert!(pr.upper && (pr.days - 10.0).abs() < 1e-9);
+    assert!(pr.upper && (pr.days - 5.0).abs() < 1e-9, "{pr:?}");
     // heading away from the only threshold, or too noisy: no projection
     assert!(project_crossing(
         &s,
@@ -170,10 +170,11 @@ fn indicator_names_round_trip() {
     assert_eq!(Indicator::parse("mean_n/sideways/0-1mm"), None);
 }
 
-/// Detection delay on a simulated drift: 10 in-control weeks (σ = 4 N), then +1.5 N a week
-/// (0.375 σ/week). Over 200 seeds, EWMA and CUSUM must signal on average well before the
-/// Shewhart chart and before the drift reaches the 3σ = 12 N line of a single test (8 weeks),
-/// and false alarms in the in-control part must be rare.
+/// Detection delay on a simulated drift: 10 in-control weeks (σ = 4 N), then +0.6 N a week
+/// (0.15 σ/week, the slow lubrication drift the charts are for). Over 200 seeds, EWMA and
+/// CUSUM must signal on average well before the Shewhart chart and before the drift itself
+/// reaches the 3σ = 12 N line of a single test (20 weeks), and false alarms in the
+/// in-control part must be rare.
 #[test]
 fn drift_detected_before_the_shewhart_chart() {
     let mut rng = StdRng::seed_from_u64(42);
@@ -188,7 +189,7 @@ fn drift_detected_before_the_shewhart_chart() {
     for _ in 0..runs {
         let vals: Vec<f64> = (0..60)
             .map(|i| {
-                let drift = if i >= 10 { 1.5 * (i - 9) as f64 } else { 0.0 };
+                let drift = if i >= 10 { 0.6 * (i - 9) as f64 } else { 0.0 };
                 400.0 + noise.sample(&mut rng) + drift
             })
             .collect();
@@ -213,8 +214,8 @@ fn drift_detected_before_the_shewhart_chart() {
     let n = runs as f64;
     let (e, c, s) = (d_ewma / n, d_cusum / n, d_shew / n);
     eprintln!("mean detection delay (weeks): EWMA {e:.1}, CUSUM {c:.1}, Shewhart {s:.1}");
-    assert!(e < s - 1.0 && c < s - 1.0, "EWMA {e}, CUSUM {c}, Shewhart {s}");
-    assert!(e < 8.0 && c < 8.0, "EWMA {e}, CUSUM {c}");
+    assert!(e < s - 2.0 && c < s - 2.0, "EWMA {e}, CUSUM {c}, Shewhart {s}");
+    assert!(e < 16.0 && c < 16.0, "EWMA {e}, CUSUM {c}");
     // baseline points are judged against their own mean: rare but possible; < 10 % of runs
     assert!(false_alarms < runs / 10, "{false_alarms} false alarms");
 }
