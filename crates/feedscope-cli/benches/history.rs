@@ -107,7 +107,13 @@ fn add_and_trend(n: usize, tests: &[NewTest]) -> usize {
         .map(|(name, pts)| {
             let pts: Vec<_> = pts.iter().map(|(_, p)| *p).collect();
             let i = Indicator::parse(name).unwrap();
-            assess(&i, &pts, &params, th.get(name).unwrap_or(&Threshold::default())).unwrap()
+            assess(
+                &i,
+                &pts,
+                &params,
+                th.get(name).unwrap_or(&Threshold::default()),
+            )
+            .unwrap()
         })
         .collect();
     let d = diagnose(&trends);

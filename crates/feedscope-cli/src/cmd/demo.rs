@@ -183,8 +183,13 @@ fn weekly_test(
     .with_context(|| format!("analysing the {} test of week {week}", kind.as_str()))?;
     t.machine = "demo lathe".into();
     t.axis = "Z".into();
-    t.time_s = HISTORY_START_S + week as f64 * 7.0 * 86_400.0
-        + if kind == TestKind::Strokes { 1800.0 } else { 0.0 };
+    t.time_s = HISTORY_START_S
+        + week as f64 * 7.0 * 86_400.0
+        + if kind == TestKind::Strokes {
+            1800.0
+        } else {
+            0.0
+        };
     t.time_utc = crate::store::time::format_rfc3339(t.time_s);
     t.source = path.display().to_string();
     t.program = Some(match kind {
@@ -243,7 +248,8 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
     jobs.extend(
         (0..weeks)
             .filter(|&w| {
-                w < DRIFT_FROM_WEEK || (w - DRIFT_FROM_WEEK) % STROKE_EVERY == STROKE_EVERY - 1
+                w < DRIFT_FROM_WEEK
+                    || (w - DRIFT_FROM_WEEK) % STROKE_EVERY == STROKE_EVERY - 1
                     || w + 1 == weeks
             })
             .map(|w| (w, TestKind::Strokes)),
@@ -300,7 +306,10 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
     let store = super::history::open_store(&db)?;
     let thresholds = super::history::load_thresholds(Some(&th_path))?;
     let t = super::history::axis_trends(&store, "demo lathe", "Z", 5, &thresholds)?;
-    println!("\ncondition history of the demo axis ({} tests):", t.tests.len());
+    println!(
+        "\ncondition history of the demo axis ({} tests):",
+        t.tests.len()
+    );
     for x in t.trends.iter().filter(|x| {
         matches!(
             x.indicator,
@@ -315,8 +324,10 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
             x.indicator.label(),
             x.change_percent,
             x.status.as_str(),
-            x.first_alarm
-                .map_or(String::new(), |i| format!(" (first flagged at test {} of the series)", i + 1))
+            x.first_alarm.map_or(String::new(), |i| format!(
+                " (first flagged at test {} of the series)",
+                i + 1
+            ))
         );
     }
     println!("diagnosis:");
@@ -326,7 +337,10 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
     println!("\nwrote to {}/:", out.display());
     for (f, what) in [
         ("weekly/", "the simulated weekly test traces"),
-        ("history.db", "the condition history (SQLite, docs/history.md)"),
+        (
+            "history.db",
+            "the condition history (SQLite, docs/history.md)",
+        ),
         ("thresholds.toml", "alarm levels used by the report"),
         ("report.html", "the condition report: open it in a browser"),
     ] {

@@ -7,7 +7,9 @@ use anyhow::{Context, Result};
 use clap::{Subcommand, ValueEnum};
 use feedscope::axis::AxisParams;
 use feedscope::estimate::{estimate, Direction, EstimateParams};
-use feedscope::history::{assess, diagnose, BaselineSpec, Indicator, IndicatorTrend, Threshold, TrendParams};
+use feedscope::history::{
+    assess, diagnose, BaselineSpec, Indicator, IndicatorTrend, Threshold, TrendParams,
+};
 use feedscope::ident::{identify, IdentParams, Identification};
 use feedscope::order::SpectrumAnalyzer;
 use feedscope::profile::{analyze_stroke, AnalysisParams, StrokeFriction as StrokeView};
@@ -19,8 +21,8 @@ use super::estimate::load_axis;
 use super::BadInput;
 use crate::store::time::{format_rfc3339, parse_rfc3339};
 use crate::store::{
-    AddOutcome, ComponentRow, Filter, Identified, IndicatorRow, IntervalRow, NewTest,
-    SqliteStore, Store, StoreError, TestKind,
+    AddOutcome, ComponentRow, Filter, Identified, IndicatorRow, IntervalRow, NewTest, SqliteStore,
+    Store, StoreError, TestKind,
 };
 
 /// Condition history: store tests in a database and trend their indicators.
@@ -320,15 +322,28 @@ pub fn identified_results(id: &Identification) -> (Identified, Vec<IndicatorRow>
     let rows = vec![
         ind(&Indicator::StaticFriction, p.fs_n, Some(p.fs_std_n)),
         ind(&Indicator::CoulombFriction, p.fc_n, Some(p.fc_std_n)),
-        ind(&Indicator::Viscous, p.sigma_n_s_per_m, Some(p.sigma_std_n_s_per_m)),
-        ind(&Indicator::StribeckVelocity, p.vs_mm_min, Some(p.vs_std_mm_min)),
+        ind(
+            &Indicator::Viscous,
+            p.sigma_n_s_per_m,
+            Some(p.sigma_std_n_s_per_m),
+        ),
+        ind(
+            &Indicator::StribeckVelocity,
+            p.vs_mm_min,
+            Some(p.vs_std_mm_min),
+        ),
         ind(&Indicator::Inertia, p.j_total_kgm2, Some(p.j_std_kgm2)),
     ];
     (p, rows)
 }
 
 /// Results of a stroke test: interval means, components, indicators, report curves.
-type StrokeResults = (Vec<IntervalRow>, Vec<ComponentRow>, Vec<IndicatorRow>, Curves);
+type StrokeResults = (
+    Vec<IntervalRow>,
+    Vec<ComponentRow>,
+    Vec<IndicatorRow>,
+    Curves,
+);
 
 fn stroke_results(trace: &Trace, axis: &AxisParams, interval_mm: f64) -> Result<StrokeResults> {
     let est = estimate(trace, axis, &EstimateParams::default())?;
@@ -396,7 +411,13 @@ fn stroke_results(trace: &Trace, axis: &AxisParams, interval_mm: f64) -> Result<
             curves.heatmaps.extend(heatmap(&a.fluctuation, d));
         }
     }
-    let dir = |k: u8| if k == 0 { Direction::Forward } else { Direction::Backward };
+    let dir = |k: u8| {
+        if k == 0 {
+            Direction::Forward
+        } else {
+            Direction::Backward
+        }
+    };
     // A bin counts when samples cover at least 80 % of it (grid spacing lead/samples-per-lead).
     let spacing_mm = lead * 1e3 / EstimateParams::default().samples_per_lead as f64;
     let min_n = (0.8 * interval_mm / spacing_mm).floor().max(2.0) as usize;
@@ -536,7 +557,8 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
         None => None,
     };
     let axis = load_axis(&a.axis)?;
-    let bytes = std::fs::read(&a.trace).with_context(|| format!("reading {}", a.trace.display()))?;
+    let bytes =
+        std::fs::read(&a.trace).with_context(|| format!("reading {}", a.trace.display()))?;
     let time_s = match time_given {
         Some(t) => t,
         None => std::fs::metadata(&a.trace)?
@@ -859,7 +881,9 @@ pub fn axis_trends(
         let th = thresholds.get(name).copied().unwrap_or_default();
         match assess(&ind, &pts, &params, &th) {
             Ok(t) => trends.push(t),
-            Err(feedscope::history::HistoryError::TooFewPoints { .. }) => skipped.push(name.clone()),
+            Err(feedscope::history::HistoryError::TooFewPoints { .. }) => {
+                skipped.push(name.clone())
+            }
             Err(e) => return Err(anyhow::Error::new(e).context(format!("trend of {name}"))),
         }
     }
@@ -919,7 +943,11 @@ fn trend(db: &Path, a: &TrendArgs) -> Result<bool> {
                 )?;
             }
             if !t.skipped.is_empty() {
-                writeln!(w, "  too few tests for a baseline: {}", t.skipped.join(", "))?;
+                writeln!(
+                    w,
+                    "  too few tests for a baseline: {}",
+                    t.skipped.join(", ")
+                )?;
             }
             writeln!(w, "\ndiagnosis:")?;
             for s in &t.diagnosis {
@@ -953,7 +981,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         HistoryCommand::Check => {
             let store = open_store(&db)?;
-            store.check().map_err(|e| anyhow::Error::new(e))?;
+            store.check()?;
             println!(
                 "{}: integrity ok, schema version {}",
                 db.display(),

@@ -8,10 +8,10 @@ mod analyze;
 mod demo;
 mod dynamics;
 mod estimate;
-mod identify;
-mod plan;
 mod fit_stribeck;
 pub(crate) mod history;
+mod identify;
+mod plan;
 mod report;
 mod simulate;
 

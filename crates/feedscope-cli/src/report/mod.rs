@@ -145,7 +145,11 @@ fn trend_chart(t: &IndicatorTrend) -> Result<Chart> {
     let mut series = vec![
         Series {
             name: format!("value ({})", t.indicator.unit()),
-            points: xs.iter().zip(&t.points).map(|(&x, p)| (x, p.value)).collect(),
+            points: xs
+                .iter()
+                .zip(&t.points)
+                .map(|(&x, p)| (x, p.value))
+                .collect(),
             style: Style::Points,
         },
         Series {
@@ -187,7 +191,10 @@ fn trend_chart(t: &IndicatorTrend) -> Result<Chart> {
             style: Style::Dashed,
         },
     ];
-    for (v, name) in [(t.threshold.upper, "upper threshold"), (t.threshold.lower, "lower threshold")] {
+    for (v, name) in [
+        (t.threshold.upper, "upper threshold"),
+        (t.threshold.lower, "lower threshold"),
+    ] {
         if let Some(v) = v {
             series.push(Series {
                 name: format!("{name} {}", num(v)),
@@ -250,7 +257,11 @@ fn stribeck_chart(tests: &[TestDetail]) -> Result<Option<Chart>> {
         .iter()
         .enumerate()
         .map(|(k, &i)| Series {
-            name: format!("test {} ({})", ident[i].0.test.id, &ident[i].0.test.time_utc[..10]),
+            name: format!(
+                "test {} ({})",
+                ident[i].0.test.id,
+                &ident[i].0.test.time_utc[..10]
+            ),
             points: stribeck_points(ident[i].1, v_max),
             style: if k + 1 == pick.len() {
                 Style::Line
@@ -328,8 +339,16 @@ fn profile_chart(c: &Curves, test: &TestDetail) -> Result<Option<Chart>> {
                     style: Style::Line,
                 },
                 Series {
-                    name: format!("IAFV, intervals at {:?} mm", p.breaks_mm.iter().map(|b| b.round()).collect::<Vec<_>>()),
-                    points: p.position_mm.iter().copied().zip(p.iafv_n.iter().copied()).collect(),
+                    name: format!(
+                        "IAFV, intervals at {:?} mm",
+                        p.breaks_mm.iter().map(|b| b.round()).collect::<Vec<_>>()
+                    ),
+                    points: p
+                        .position_mm
+                        .iter()
+                        .copied()
+                        .zip(p.iafv_n.iter().copied())
+                        .collect(),
                     style: Style::Line,
                 },
             ],
@@ -396,12 +415,42 @@ pub fn render(store: &SqliteStore, t: &AxisTrends) -> Result<String> {
         .and_then(|d| d.identified.as_ref())
         .map(|p| {
             vec![
-                Param { name: "static friction Fs", value: num(p.fs_n), std_error: num(p.fs_std_n), unit: "N" },
-                Param { name: "Coulomb friction Fc", value: num(p.fc_n), std_error: num(p.fc_std_n), unit: "N" },
-                Param { name: "viscous coefficient σ", value: num(p.sigma_n_s_per_m), std_error: num(p.sigma_std_n_s_per_m), unit: "N·s/m" },
-                Param { name: "Stribeck velocity vs", value: num(p.vs_mm_min), std_error: num(p.vs_std_mm_min), unit: "mm/min" },
-                Param { name: "inertia J", value: num(p.j_total_kgm2), std_error: num(p.j_std_kgm2), unit: "kg·m²" },
-                Param { name: "residual RMS", value: num(p.residual_rms_nm), std_error: "".into(), unit: "N·m" },
+                Param {
+                    name: "static friction Fs",
+                    value: num(p.fs_n),
+                    std_error: num(p.fs_std_n),
+                    unit: "N",
+                },
+                Param {
+                    name: "Coulomb friction Fc",
+                    value: num(p.fc_n),
+                    std_error: num(p.fc_std_n),
+                    unit: "N",
+                },
+                Param {
+                    name: "viscous coefficient σ",
+                    value: num(p.sigma_n_s_per_m),
+                    std_error: num(p.sigma_std_n_s_per_m),
+                    unit: "N·s/m",
+                },
+                Param {
+                    name: "Stribeck velocity vs",
+                    value: num(p.vs_mm_min),
+                    std_error: num(p.vs_std_mm_min),
+                    unit: "mm/min",
+                },
+                Param {
+                    name: "inertia J",
+                    value: num(p.j_total_kgm2),
+                    std_error: num(p.j_std_kgm2),
+                    unit: "kg·m²",
+                },
+                Param {
+                    name: "residual RMS",
+                    value: num(p.residual_rms_nm),
+                    std_error: "".into(),
+                    unit: "N·m",
+                },
             ]
         })
         .unwrap_or_default();
@@ -418,7 +467,12 @@ pub fn render(store: &SqliteStore, t: &AxisTrends) -> Result<String> {
         .collect();
     warnings.sort_by_key(|w| w.0);
     let mut counts = Vec::new();
-    for s in [Status::ThresholdCrossed, Status::OutOfLimits, Status::Drifting, Status::Ok] {
+    for s in [
+        Status::ThresholdCrossed,
+        Status::OutOfLimits,
+        Status::Drifting,
+        Status::Ok,
+    ] {
         let n = t.trends.iter().filter(|x| x.status == s).count();
         counts.push((s.as_str().to_string(), n));
     }
@@ -454,13 +508,18 @@ pub fn render(store: &SqliteStore, t: &AxisTrends) -> Result<String> {
         machine: &t.machine,
         axis: &t.axis,
         generated: crate::store::time::format_rfc3339(crate::store::time::now_s()),
-        first_time: t.tests.first().map_or(String::new(), |x| x.time_utc.clone()),
+        first_time: t
+            .tests
+            .first()
+            .map_or(String::new(), |x| x.time_utc.clone()),
         last_time: t.tests.last().map_or(String::new(), |x| x.time_utc.clone()),
         tests,
         counts,
         diagnosis: &t.diagnosis,
         warnings: warnings.into_iter().map(|w| w.1).collect(),
-        profile_test: curves.as_ref().map(|(_, d)| format!("test {} ({})", d.test.id, d.test.time_utc)),
+        profile_test: curves
+            .as_ref()
+            .map(|(_, d)| format!("test {} ({})", d.test.id, d.test.time_utc)),
         profile: profile.map(&mut chart),
         heatmaps: heatmaps.into_iter().map(&mut chart).collect(),
         stribeck: stribeck_chart(&details)?.map(&mut chart),
@@ -468,9 +527,17 @@ pub fn render(store: &SqliteStore, t: &AxisTrends) -> Result<String> {
         params_test: latest_ident.map(|d| format!("test {} ({})", d.test.id, d.test.time_utc)),
         trend_charts: trend_charts.into_iter().map(&mut chart).collect(),
         rows,
-        intervals: latest_strokes.map(|d| d.intervals.clone()).unwrap_or_default(),
+        intervals: latest_strokes
+            .map(|d| d.intervals.clone())
+            .unwrap_or_default(),
         components: latest_strokes
-            .map(|d| d.components.iter().filter(|c| c.segment == "all").cloned().collect())
+            .map(|d| {
+                d.components
+                    .iter()
+                    .filter(|c| c.segment == "all")
+                    .cloned()
+                    .collect()
+            })
             .unwrap_or_default(),
         skipped: &t.skipped,
         version: env!("CARGO_PKG_VERSION"),

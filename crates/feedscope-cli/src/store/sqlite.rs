@@ -230,7 +230,9 @@ impl SqliteStore {
             .conn
             .transaction_with_behavior(TransactionBehavior::Immediate)?;
         let axis: Option<i64> = tx
-            .query_row("SELECT axis_id FROM tests WHERE id = ?1", [id], |r| r.get(0))
+            .query_row("SELECT axis_id FROM tests WHERE id = ?1", [id], |r| {
+                r.get(0)
+            })
             .optional()?;
         let axis = axis.ok_or(StoreError::NoSuchTest(id))?;
         tx.execute("UPDATE tests SET reference = 0 WHERE axis_id = ?1", [axis])?;
@@ -269,10 +271,11 @@ impl Store for SqliteStore {
             "INSERT INTO machines (name) VALUES (?1) ON CONFLICT (name) DO NOTHING",
             [&t.machine],
         )?;
-        let machine_id: i64 =
-            tx.query_row("SELECT id FROM machines WHERE name = ?1", [&t.machine], |r| {
-                r.get(0)
-            })?;
+        let machine_id: i64 = tx.query_row(
+            "SELECT id FROM machines WHERE name = ?1",
+            [&t.machine],
+            |r| r.get(0),
+        )?;
         tx.execute(
             "INSERT INTO axes (machine_id, name, params_json) VALUES (?1, ?2, ?3)
              ON CONFLICT (machine_id, name) DO UPDATE SET params_json = excluded.params_json",
@@ -295,7 +298,10 @@ impl Store for SqliteStore {
             return Ok(AddOutcome::Duplicate(id));
         }
         if t.reference {
-            tx.execute("UPDATE tests SET reference = 0 WHERE axis_id = ?1", [axis_id])?;
+            tx.execute(
+                "UPDATE tests SET reference = 0 WHERE axis_id = ?1",
+                [axis_id],
+            )?;
         }
         tx.execute(
             "INSERT INTO tests (axis_id, time_utc, time_s, kind, source, content_sha256, program,

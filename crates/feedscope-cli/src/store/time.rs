@@ -22,7 +22,15 @@ fn civil_from_days(z: i64) -> (i64, i64, i64) {
     let mp = (5 * doy + 2) / 153;
     let d = doy - (153 * mp + 2) / 5 + 1;
     let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    (if m <= 2 { yoe + era * 400 + 1 } else { yoe + era * 400 }, m, d)
+    (
+        if m <= 2 {
+            yoe + era * 400 + 1
+        } else {
+            yoe + era * 400
+        },
+        m,
+        d,
+    )
 }
 
 /// Parse `YYYY-MM-DDTHH:MM:SS[.frac](Z|±HH:MM)` (also with a space or `t` for `T`, `z` for
@@ -34,7 +42,9 @@ pub fn parse_rfc3339(s: &str) -> Option<f64> {
     }
     let num = |r: std::ops::Range<usize>| -> Option<i64> {
         let t = s.get(r)?;
-        t.bytes().all(|c| c.is_ascii_digit()).then(|| t.parse().ok())?
+        t.bytes()
+            .all(|c| c.is_ascii_digit())
+            .then(|| t.parse().ok())?
     };
     let (y, mo, d) = (num(0..4)?, num(5..7)?, num(8..10)?);
     if b[4] != b'-' || b[7] != b'-' || !matches!(b[10], b'T' | b't' | b' ') {
@@ -113,7 +123,12 @@ mod tests {
         let t = parse_rfc3339("2024-02-29T23:59:59.25Z").unwrap();
         assert_eq!(format_rfc3339(t), "2024-02-29T23:59:59Z");
         assert_eq!(format_rfc3339(0.0), "1970-01-01T00:00:00Z");
-        for bad in ["2024-13-01T00:00:00Z", "2024-01-01 00:00:00", "yesterday", "2024-01-01T00:00:00.Z"] {
+        for bad in [
+            "2024-13-01T00:00:00Z",
+            "2024-01-01 00:00:00",
+            "yesterday",
+            "2024-01-01T00:00:00.Z",
+        ] {
             assert_eq!(parse_rfc3339(bad), None, "{bad}");
         }
     }

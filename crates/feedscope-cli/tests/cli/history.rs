@@ -53,9 +53,18 @@ pub fn triangle_trace(dir: &Path, name: &str, fs_scale: f64, seed: u64) -> PathB
 
 fn add(dir: &Path, trace: &Path, time: &str) -> std::process::Output {
     let mut c = feedscope(dir);
-    c.args(["history", "--db", "h.db", "add", "--kind", "triangle", "--axis", "axis.toml"])
-        .arg(trace)
-        .args(["--time", time]);
+    c.args([
+        "history",
+        "--db",
+        "h.db",
+        "add",
+        "--kind",
+        "triangle",
+        "--axis",
+        "axis.toml",
+    ])
+    .arg(trace)
+    .args(["--time", time]);
     run(c)
 }
 
@@ -77,7 +86,11 @@ fn check_ok(dir: &Path) {
     c.args(["history", "--db", "h.db", "check"]);
     let o = run(c);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stdout(&o).contains("integrity ok, schema version 1"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("integrity ok, schema version 1"),
+        "{}",
+        stdout(&o)
+    );
 }
 
 #[test]
@@ -96,7 +109,11 @@ fn add_list_show_export_remove() {
     std::fs::copy(&a, d.join("a-copy.csv")).unwrap();
     let o = add(d, &d.join("a-copy.csv"), "2026-02-01T00:00:00Z");
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stdout(&o).contains("already stored as test 1"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("already stored as test 1"),
+        "{}",
+        stdout(&o)
+    );
     assert_eq!(ids(d), vec![1, 2]);
 
     let mut c = feedscope(d);
@@ -110,7 +127,10 @@ fn add_list_show_export_remove() {
     let se = v["identified"]["fs_std_n"].as_f64().unwrap();
     // truth ≈ 250 N mean level + 1.2·80 N excess over the 120-200 mm window; identification
     // within a few percent (the ident round trips hold 5 %)
-    assert!(fs > 300.0 && fs < 420.0 && se > 0.0 && se < 20.0, "Fs {fs} ± {se}");
+    assert!(
+        fs > 300.0 && fs < 420.0 && se > 0.0 && se < 20.0,
+        "Fs {fs} ± {se}"
+    );
 
     // environment variable instead of --db
     let mut c = feedscope(d);
@@ -126,7 +146,9 @@ fn add_list_show_export_remove() {
     );
     assert_eq!(lines.count(), 10, "5 indicators × 2 tests:\n{text}");
     let mut c = feedscope(d);
-    c.args(["history", "--db", "h.db", "export", "--format", "json", "-o", "x.json"]);
+    c.args([
+        "history", "--db", "h.db", "export", "--format", "json", "-o", "x.json",
+    ]);
     assert!(run(c).status.success());
     let v: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("x.json")).unwrap()).unwrap();
@@ -169,7 +191,10 @@ fn bad_time_is_bad_input() {
     let o = add(d, &d.join("t.csv"), "last tuesday");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("RFC 3339"), "{}", stderr(&o));
-    assert!(!d.join("h.db").exists(), "nothing created before validation");
+    assert!(
+        !d.join("h.db").exists(),
+        "nothing created before validation"
+    );
 }
 
 /// SIGKILL while `history add` is inside its transaction: the committed test stays, the
@@ -184,12 +209,21 @@ fn killed_add_loses_nothing_committed() {
     let b = triangle_trace(d, "b.csv", 1.1, 2);
     assert!(add(d, &a, "2026-01-05T08:00:00Z").status.success());
     let mut c = feedscope(d);
-    c.args(["history", "--db", "h.db", "add", "--kind", "triangle", "--axis", "axis.toml"])
-        .arg(&b)
-        .args(["--time", "2026-01-12T08:00:00Z"])
-        .env("FEEDSCOPE_TEST_SLEEP_IN_TX_MS", "60000")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped());
+    c.args([
+        "history",
+        "--db",
+        "h.db",
+        "add",
+        "--kind",
+        "triangle",
+        "--axis",
+        "axis.toml",
+    ])
+    .arg(&b)
+    .args(["--time", "2026-01-12T08:00:00Z"])
+    .env("FEEDSCOPE_TEST_SLEEP_IN_TX_MS", "60000")
+    .stdout(Stdio::null())
+    .stderr(Stdio::piped());
     let mut child = c.spawn().unwrap();
     let mut err = BufReader::new(child.stderr.take().unwrap());
     let mut line = String::new();
@@ -227,12 +261,21 @@ fn concurrent_adds_both_land() {
     assert!(run(c).status.success());
     let spawn = |trace: &Path, time: &str, sleep: &str| {
         let mut c = feedscope(d);
-        c.args(["history", "--db", "h.db", "add", "--kind", "triangle", "--axis", "axis.toml"])
-            .arg(trace)
-            .args(["--time", time])
-            .env("FEEDSCOPE_TEST_SLEEP_IN_TX_MS", sleep)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped());
+        c.args([
+            "history",
+            "--db",
+            "h.db",
+            "add",
+            "--kind",
+            "triangle",
+            "--axis",
+            "axis.toml",
+        ])
+        .arg(trace)
+        .args(["--time", time])
+        .env("FEEDSCOPE_TEST_SLEEP_IN_TX_MS", sleep)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
         c.spawn().unwrap()
     };
     let first = spawn(&a, "2026-01-05T08:00:00Z", "1500");
@@ -253,12 +296,20 @@ fn expect_untouched(d: &Path, bytes: &[u8], what: &str) {
         assert_eq!(o.status.code(), Some(2), "{sub:?}: {}", stderr(&o));
         assert!(stderr(&o).contains(what), "{sub:?}: {}", stderr(&o));
         assert!(stderr(&o).contains("not modified"), "{}", stderr(&o));
-        assert_eq!(std::fs::read(d.join("h.db")).unwrap(), bytes, "file changed");
+        assert_eq!(
+            std::fs::read(d.join("h.db")).unwrap(),
+            bytes,
+            "file changed"
+        );
     }
     let trace = d.join("t.csv");
     let o = add(d, &trace, "2026-01-05T08:00:00Z");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert_eq!(std::fs::read(d.join("h.db")).unwrap(), bytes, "file changed by add");
+    assert_eq!(
+        std::fs::read(d.join("h.db")).unwrap(),
+        bytes,
+        "file changed by add"
+    );
 }
 
 #[test]
@@ -284,7 +335,9 @@ fn foreign_and_damaged_files_are_refused_untouched() {
 
     // 3. a feedscope database with a page overwritten
     std::fs::remove_file(d.join("h.db")).unwrap();
-    assert!(add(d, &d.join("t.csv"), "2026-01-05T08:00:00Z").status.success());
+    assert!(add(d, &d.join("t.csv"), "2026-01-05T08:00:00Z")
+        .status
+        .success());
     assert!(!d.join("h.db-wal").exists(), "WAL checkpointed on close");
     let mut bytes = std::fs::read(d.join("h.db")).unwrap();
     let page = 4096;
@@ -297,8 +350,16 @@ fn foreign_and_damaged_files_are_refused_untouched() {
     c.args(["history", "--db", "h.db", "list"]);
     let o = run(c);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert_eq!(std::fs::read(d.join("h.db")).unwrap(), bytes, "file changed");
+    assert_eq!(
+        std::fs::read(d.join("h.db")).unwrap(),
+        bytes,
+        "file changed"
+    );
     let o = add(d, &d.join("t.csv"), "2026-01-06T08:00:00Z");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert_eq!(std::fs::read(d.join("h.db")).unwrap(), bytes, "file changed by add");
+    assert_eq!(
+        std::fs::read(d.join("h.db")).unwrap(),
+        bytes,
+        "file changed by add"
+    );
 }

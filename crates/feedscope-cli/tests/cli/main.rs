@@ -2,10 +2,10 @@
 mod analyze;
 mod dynamics;
 mod estimate;
-mod identify;
-mod plan;
 mod fit_stribeck;
 mod history;
+mod identify;
+mod plan;
 mod report;
 mod simulate;
 mod util;

@@ -13,15 +13,32 @@ fn report_of_a_drifting_axis() {
     for (w, s) in scales.iter().enumerate() {
         let t = triangle_trace(d, &format!("w{w}.csv"), *s, 10 + w as u64);
         let mut c = feedscope(d);
-        c.args(["history", "--db", "h.db", "add", "--kind", "triangle", "--axis", "axis.toml"])
-            .arg(&t)
-            .args(["--time", &format!("2026-01-{:02}T08:00:00Z", 5 + w)]);
+        c.args([
+            "history",
+            "--db",
+            "h.db",
+            "add",
+            "--kind",
+            "triangle",
+            "--axis",
+            "axis.toml",
+        ])
+        .arg(&t)
+        .args(["--time", &format!("2026-01-{:02}T08:00:00Z", 5 + w)]);
         let o = run(c);
         assert!(o.status.success(), "{}", stderr(&o));
     }
     std::fs::write(d.join("th.toml"), "[thresholds]\nfs_n = { upper = 900 }\n").unwrap();
     let mut c = feedscope(d);
-    c.args(["history", "--db", "h.db", "trend", "--thresholds", "th.toml", "--fail-on-warning"]);
+    c.args([
+        "history",
+        "--db",
+        "h.db",
+        "trend",
+        "--thresholds",
+        "th.toml",
+        "--fail-on-warning",
+    ]);
     let o = run(c);
     assert_eq!(o.status.code(), Some(1), "{}\n{}", stdout(&o), stderr(&o));
     let text = stdout(&o);
@@ -29,23 +46,58 @@ fn report_of_a_drifting_axis() {
     assert!(text.contains("lubrication"), "{text}");
 
     let mut c = feedscope(d);
-    c.args(["report", "--db", "h.db", "--thresholds", "th.toml", "-o", "r.html"]);
+    c.args([
+        "report",
+        "--db",
+        "h.db",
+        "--thresholds",
+        "th.toml",
+        "-o",
+        "r.html",
+    ]);
     let o = run(c);
     assert!(o.status.success(), "{}", stderr(&o));
     let html = std::fs::read_to_string(d.join("r.html")).unwrap();
-    for id in ["summary", "diagnosis", "profile", "spectra", "stribeck", "trends", "tables"] {
-        assert!(html.contains(&format!("<section id=\"{id}\"")) || html.contains(&format!("id=\"{id}\"")), "{id}");
+    for id in [
+        "summary",
+        "diagnosis",
+        "profile",
+        "spectra",
+        "stribeck",
+        "trends",
+        "tables",
+    ] {
+        assert!(
+            html.contains(&format!("<section id=\"{id}\""))
+                || html.contains(&format!("id=\"{id}\"")),
+            "{id}"
+        );
     }
-    assert!(html.matches("<svg").count() >= 6, "trend charts and the Stribeck curves");
+    assert!(
+        html.matches("<svg").count() >= 6,
+        "trend charts and the Stribeck curves"
+    );
     // self-contained: no external resource
     for bad in ["<script", "src=\"http", "href=\"http", "<link"] {
         assert!(!html.contains(bad), "{bad}");
     }
 
     // a thresholds file with an unknown indicator is bad input
-    std::fs::write(d.join("bad.toml"), "[thresholds]\nfriction = { upper = 1 }\n").unwrap();
+    std::fs::write(
+        d.join("bad.toml"),
+        "[thresholds]\nfriction = { upper = 1 }\n",
+    )
+    .unwrap();
     let mut c = feedscope(d);
-    c.args(["report", "--db", "h.db", "--thresholds", "bad.toml", "-o", "x.html"]);
+    c.args([
+        "report",
+        "--db",
+        "h.db",
+        "--thresholds",
+        "bad.toml",
+        "-o",
+        "x.html",
+    ]);
     assert_eq!(run(c).status.code(), Some(2));
 }
 

@@ -109,7 +109,14 @@ fn mean_std(points: &[Point]) -> Result<(f64, f64), HistoryError> {
     let n = points.len() as f64;
     let m = points.iter().map(|p| p.value).sum::<f64>() / n;
     let ss: f64 = points.iter().map(|p| (p.value - m).powi(2)).sum();
-    Ok((m, if points.len() > 1 { (ss / (n - 1.0)).sqrt() } else { 0.0 }))
+    Ok((
+        m,
+        if points.len() > 1 {
+            (ss / (n - 1.0)).sqrt()
+        } else {
+            0.0
+        },
+    ))
 }
 
 /// Shewhart limits μ₀ ± L·σ.
@@ -251,7 +258,11 @@ pub fn recent_slope(points: &[Point], window: usize) -> Option<RecentSlope> {
     if stt <= 0.0 {
         return None;
     }
-    let sty: f64 = t.iter().zip(pts).map(|(x, p)| (x - tm) * (p.value - ym)).sum();
+    let sty: f64 = t
+        .iter()
+        .zip(pts)
+        .map(|(x, p)| (x - tm) * (p.value - ym))
+        .sum();
     let slope = sty / stt;
     let a = ym - slope * tm;
     let rss: f64 = t
@@ -292,7 +303,9 @@ pub struct Projection {
 /// Days until the line of `s` reaches the threshold it heads for; `None` when it heads away
 /// from both, is already beyond, or the slope is not distinguishable from zero (|slope| < 2·SE).
 pub fn project_crossing(s: &RecentSlope, th: &Threshold) -> Option<Projection> {
-    if !(s.per_day.abs() > 2.0 * s.std_error_per_day) {
+    // false for NaN too
+    let significant = s.per_day.abs() > 2.0 * s.std_error_per_day;
+    if !significant {
         return None;
     }
     let (thr, upper) = if s.per_day > 0.0 {

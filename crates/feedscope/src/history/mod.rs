@@ -355,7 +355,8 @@ pub fn assess(
         .into_iter()
         .flatten()
         .min();
-    let crossed = threshold.upper.is_some_and(|u| last > u) || threshold.lower.is_some_and(|l| last < l);
+    let crossed =
+        threshold.upper.is_some_and(|u| last > u) || threshold.lower.is_some_and(|l| last < l);
     let drifting = ew.limits[n].outside(ew.z[n]) || cu.upper[n] > cu.h || cu.lower[n] > cu.h;
     let status = if crossed {
         Status::ThresholdCrossed

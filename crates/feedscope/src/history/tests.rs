@@ -214,14 +214,23 @@ fn drift_detected_before_the_shewhart_chart() {
     let n = runs as f64;
     let (e, c, s) = (d_ewma / n, d_cusum / n, d_shew / n);
     eprintln!("mean detection delay (weeks): EWMA {e:.1}, CUSUM {c:.1}, Shewhart {s:.1}");
-    assert!(e < s - 2.0 && c < s - 2.0, "EWMA {e}, CUSUM {c}, Shewhart {s}");
+    assert!(
+        e < s - 2.0 && c < s - 2.0,
+        "EWMA {e}, CUSUM {c}, Shewhart {s}"
+    );
     assert!(e < 16.0 && c < 16.0, "EWMA {e}, CUSUM {c}");
     // baseline points are judged against their own mean: rare but possible; < 10 % of runs
     assert!(false_alarms < runs / 10, "{false_alarms} false alarms");
 }
 
 fn trend_of(ind: Indicator, vals: &[f64]) -> IndicatorTrend {
-    assess(&ind, &series(vals), &TrendParams::default(), &Threshold::default()).unwrap()
+    assess(
+        &ind,
+        &series(vals),
+        &TrendParams::default(),
+        &Threshold::default(),
+    )
+    .unwrap()
 }
 
 #[test]
@@ -233,7 +242,10 @@ fn diagnosis_lubrication_and_steady() {
         trend_of(Indicator::Viscous, &rising),
         trend_of(Indicator::CoulombFriction, &steady),
     ]);
-    assert!(d[0].contains("lubrication") && d[0].contains("evidence"), "{d:?}");
+    assert!(
+        d[0].contains("lubrication") && d[0].contains("evidence"),
+        "{d:?}"
+    );
     let d = diagnose(&[
         trend_of(Indicator::StaticFriction, &steady),
         trend_of(Indicator::Viscous, &steady),
@@ -262,13 +274,21 @@ fn diagnosis_preload_and_local_bump() {
         trend_of(m(200.0, 300.0), &steady),
         trend_of(refeed, &[5.0, 5.1, 4.9, 5.0, 5.05, 7.0, 8.0, 9.0]),
     ]);
-    assert!(d.iter().any(|s| s.contains("preload") && s.contains("refeed")), "{d:?}");
+    assert!(
+        d.iter()
+            .any(|s| s.contains("preload") && s.contains("refeed")),
+        "{d:?}"
+    );
     let d = diagnose(&[
         trend_of(m(0.0, 100.0), &steady),
         trend_of(m(100.0, 200.0), &rising),
         trend_of(m(200.0, 300.0), &steady),
     ]);
-    assert!(d.iter().any(|s| s.contains("locally") && s.contains("100-200 mm")), "{d:?}");
+    assert!(
+        d.iter()
+            .any(|s| s.contains("locally") && s.contains("100-200 mm")),
+        "{d:?}"
+    );
 }
 
 #[test]
@@ -276,13 +296,23 @@ fn rejects_bad_input() {
     let mut p = series(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
     p[2].value = f64::NAN;
     assert!(matches!(
-        assess(&Indicator::Inertia, &p, &TrendParams::default(), &Threshold::default()),
+        assess(
+            &Indicator::Inertia,
+            &p,
+            &TrendParams::default(),
+            &Threshold::default()
+        ),
         Err(HistoryError::NotFinite { .. })
     ));
     let mut p = series(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
     p[4].time_s = 0.0;
     assert!(matches!(
-        assess(&Indicator::Inertia, &p, &TrendParams::default(), &Threshold::default()),
+        assess(
+            &Indicator::Inertia,
+            &p,
+            &TrendParams::default(),
+            &Threshold::default()
+        ),
         Err(HistoryError::TimeNotIncreasing { index: 4 })
     ));
     let bad = TrendParams {
@@ -290,7 +320,12 @@ fn rejects_bad_input() {
         ..TrendParams::default()
     };
     assert!(matches!(
-        assess(&Indicator::Inertia, &series(&[1.0; 6]), &bad, &Threshold::default()),
+        assess(
+            &Indicator::Inertia,
+            &series(&[1.0; 6]),
+            &bad,
+            &Threshold::default()
+        ),
         Err(HistoryError::InvalidParams(_))
     ));
 }
