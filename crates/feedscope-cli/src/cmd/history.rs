@@ -162,7 +162,7 @@ pub struct TrendArgs {
     /// Baseline: the first N tests of each indicator (ignored when a reference test is marked).
     #[arg(long, default_value_t = 5)]
     pub baseline_tests: usize,
-    /// Thresholds file (TOML): a [thresholds] table of indicator = { upper = .., lower = .. }.
+    /// Thresholds file (TOML): a `[thresholds]` table of indicator = { upper = .., lower = .. }.
     #[arg(long)]
     pub thresholds: Option<PathBuf>,
     /// Exit with code 1 when any indicator is not `ok`.

@@ -29,7 +29,7 @@ pub struct Args {
     /// Baseline: the first N tests of each indicator (unless a reference test is marked).
     #[arg(long, default_value_t = 5)]
     pub baseline_tests: usize,
-    /// Thresholds file (TOML, a [thresholds] table; see docs/history.md).
+    /// Thresholds file (TOML, a `[thresholds]` table; see docs/history.md).
     #[arg(long)]
     pub thresholds: Option<PathBuf>,
     /// HTML file to write.
