@@ -150,7 +150,7 @@ fn trend_chart(t: &IndicatorTrend) -> Result<Chart> {
                 .zip(&t.points)
                 .map(|(&x, p)| (x, p.value))
                 .collect(),
-            style: Style::Points,
+            style: Style::Line,
         },
         Series {
             name: "EWMA (λ 0.2)".into(),

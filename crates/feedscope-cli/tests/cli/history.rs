@@ -4,7 +4,9 @@ use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
 
-use feedscope::plan::{triangle_program, Limits, TriangleParams};
+use feedscope::plan::{
+    strokes_program, triangle_program, Limits, StrokeTestParams, TriangleParams,
+};
 use feedscope::sim::{simulate_profile, DynamicsMode, SamplingMode, SimConfig};
 use feedscope::trace::{EffortKind, Layout};
 
@@ -362,4 +364,79 @@ fn foreign_and_damaged_files_are_refused_untouched() {
         bytes,
         "file changed by add"
     );
+}
+
+/// A stroke test through `history add --kind strokes`: interval means in both directions,
+/// classified components and the report curves are stored.
+#[test]
+fn stroke_test_stores_intervals_and_components() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    axis_file(d);
+    let mut c = SimConfig::default();
+    c.sampling.mode = SamplingMode::Synchronous;
+    c.sampling.effort_kind = EffortKind::TorqueNm;
+    let prog = strokes_program(
+        &StrokeTestParams {
+            from_mm: 20.0,
+            to_mm: 260.0,
+            feeds_mm_min: vec![600.0],
+            repeats: 1,
+            dwell_s: 0.5,
+            accel_mm_s2: 1000.0,
+        },
+        &Limits::default(),
+    )
+    .unwrap();
+    let sim = simulate_profile(&c, &prog, &mut |_| {}).unwrap();
+    let mut f = std::fs::File::create(d.join("s.csv")).unwrap();
+    sim.trace.write_csv(&mut f, Layout::Long).unwrap();
+    drop(f);
+    let mut c = feedscope(d);
+    c.args([
+        "history",
+        "--db",
+        "h.db",
+        "add",
+        "--kind",
+        "strokes",
+        "--axis",
+        "axis.toml",
+    ])
+    .args([
+        "s.csv",
+        "--interval-mm",
+        "40",
+        "--time",
+        "2026-01-05T08:00:00Z",
+    ]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut c = feedscope(d);
+    c.args(["history", "--db", "h.db", "show", "1", "--format", "json"]);
+    let o = run(c);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let iv = v["intervals"].as_array().unwrap();
+    // 20-260 mm: the 40 mm bins 40-80 ... 200-240 are fully covered in both directions
+    for dir in ["forward", "backward"] {
+        let n = iv.iter().filter(|r| r["direction"] == dir).count();
+        assert!((5..=6).contains(&n), "{dir}: {n} intervals");
+    }
+    // the true mean levels are 250-330 N (FrictionParams::default_for) plus σ·v = 20 N
+    for r in iv {
+        let m = r["mean_n"].as_f64().unwrap();
+        assert!(m > 230.0 && m < 400.0, "{r}");
+    }
+    let names: Vec<&str> = v["indicators"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["name"].as_str().unwrap())
+        .collect();
+    assert!(names.contains(&"mean_n/forward/80-120mm"), "{names:?}");
+    assert!(
+        names.iter().any(|n| n.starts_with("amplitude_n/")),
+        "{names:?}"
+    );
+    assert!(!v["components"].as_array().unwrap().is_empty());
 }
