@@ -203,7 +203,12 @@ pub fn open_store(path: &Path) -> Result<SqliteStore> {
 
 fn store_err(e: StoreError, path: &Path) -> anyhow::Error {
     if e.is_bad_input() {
-        anyhow::Error::new(BadInput(format!("{}: {e}", path.display())))
+        // the store's messages name the file already
+        let msg = match &e {
+            StoreError::Sqlite(_) | StoreError::NoSuchTest(_) => format!("{}: {e}", path.display()),
+            _ => e.to_string(),
+        };
+        anyhow::Error::new(BadInput(msg))
     } else {
         anyhow::Error::new(e).context(format!("database {}", path.display()))
     }
@@ -898,7 +903,21 @@ pub fn axis_trends(
         Indicator::MeanFriction { .. } => 5,
         Indicator::Component { .. } => 6,
     };
-    trends.sort_by_key(|t| rank(&t.indicator));
+    let start = |i: &Indicator| match i {
+        Indicator::MeanFriction { start_mm, .. } => *start_mm,
+        _ => 0.0,
+    };
+    // stable: within a rank, names (direction first) stay in order; intervals by position
+    trends.sort_by(|a, b| {
+        rank(&a.indicator)
+            .cmp(&rank(&b.indicator))
+            .then_with(|| {
+                let (da, db) = (a.indicator.name(), b.indicator.name());
+                let dir = |n: &str| n.split('/').nth(1).map(str::to_string);
+                dir(&da).cmp(&dir(&db))
+            })
+            .then(start(&a.indicator).total_cmp(&start(&b.indicator)))
+    });
     let diagnosis = diagnose(&trends);
     Ok(AxisTrends {
         machine: machine.to_string(),

@@ -47,7 +47,7 @@ pub enum StoreError {
         supported: i64,
     },
     /// The integrity check failed.
-    #[error("{path} failed the SQLite integrity check: {detail}")]
+    #[error("{path} failed the SQLite integrity check ({detail}); it was not modified")]
     Corrupt {
         /// The file.
         path: String,
