@@ -440,3 +440,53 @@ fn stroke_test_stores_intervals_and_components() {
     );
     assert!(!v["components"].as_array().unwrap().is_empty());
 }
+
+#[test]
+fn history_help() {
+    let d = tempfile::tempdir().unwrap();
+    for (args, name) in [
+        (vec!["history", "--help"], "history_help"),
+        (vec!["history", "add", "--help"], "history_add_help"),
+        (vec!["history", "trend", "--help"], "history_trend_help"),
+    ] {
+        let mut c = feedscope(d.path());
+        c.args(&args);
+        let o = run(c);
+        assert!(o.status.success());
+        insta::assert_snapshot!(name, stdout(&o));
+    }
+}
+
+/// `history reference` marks one test per axis; `list` shows it; trends then use it as μ₀.
+#[test]
+fn reference_test_is_marked() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    axis_file(d);
+    let a = triangle_trace(d, "a.csv", 1.0, 1);
+    let b = triangle_trace(d, "b.csv", 1.1, 2);
+    assert!(add(d, &a, "2026-01-05T08:00:00Z").status.success());
+    assert!(add(d, &b, "2026-01-12T08:00:00Z").status.success());
+    for id in ["1", "2"] {
+        let mut c = feedscope(d);
+        c.args(["history", "--db", "h.db", "reference", id]);
+        assert!(run(c).status.success());
+    }
+    let mut c = feedscope(d);
+    c.args(["history", "--db", "h.db", "list", "--format", "json"]);
+    let v: serde_json::Value = serde_json::from_slice(&run(c).stdout).unwrap();
+    let refs: Vec<bool> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["reference"].as_bool().unwrap())
+        .collect();
+    assert_eq!(
+        refs,
+        vec![false, true],
+        "one reference per axis, the latest marked"
+    );
+    let mut c = feedscope(d);
+    c.args(["history", "--db", "h.db", "reference", "9"]);
+    assert_eq!(run(c).status.code(), Some(2));
+}

@@ -110,3 +110,13 @@ fn report_without_database_is_bad_input() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(!tmp.path().join("none.db").exists());
 }
+
+#[test]
+fn report_help() {
+    let d = tempfile::tempdir().unwrap();
+    let mut c = feedscope(d.path());
+    c.args(["report", "--help"]);
+    let o = run(c);
+    assert!(o.status.success());
+    insta::assert_snapshot!("report_help", stdout(&o));
+}
