@@ -159,7 +159,8 @@ pub struct TrendArgs {
     /// Axis name [default: the only axis of the machine].
     #[arg(long)]
     pub axis_name: Option<String>,
-    /// Baseline: the first N tests of each indicator (ignored when a reference test is marked).
+    /// Baseline: mean and σ of the first N tests of each indicator; with a reference test
+    /// marked, μ₀ is its value and σ the scatter of these N.
     #[arg(long, default_value_t = 5)]
     pub baseline_tests: usize,
     /// Thresholds file (TOML): a `[thresholds]` table of indicator = { upper = .., lower = .. }.
