@@ -222,6 +222,11 @@ fn trend_chart(t: &IndicatorTrend) -> Result<Chart> {
     Ok(Chart { title, svg })
 }
 
+/// The date part of an RFC 3339 time (the whole text if it is shorter or not ASCII there).
+fn date(t: &str) -> &str {
+    t.get(..10).unwrap_or(t)
+}
+
 /// F(v) = F_c + (F_s − F_c)·exp(−(v/v_s)^δ) + σ·v for v ≥ 0 (paper 002 Eq. 2, force side).
 fn stribeck_points(p: &Identified, v_max_mm_min: f64) -> Vec<(f64, f64)> {
     (0..=200)
@@ -260,7 +265,7 @@ fn stribeck_chart(tests: &[TestDetail]) -> Result<Option<Chart>> {
             name: format!(
                 "test {} ({})",
                 ident[i].0.test.id,
-                &ident[i].0.test.time_utc[..10]
+                date(&ident[i].0.test.time_utc)
             ),
             points: stribeck_points(ident[i].1, v_max),
             style: if k + 1 == pick.len() {
@@ -293,7 +298,7 @@ fn profile_chart(c: &Curves, test: &TestDetail) -> Result<Option<Chart>> {
                 p.direction,
                 p.feed_mm_min,
                 test.test.id,
-                &test.test.time_utc[..10]
+                date(&test.test.time_utc)
             )
         })
         .collect();
