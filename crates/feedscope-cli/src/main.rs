@@ -3,6 +3,8 @@ use clap::Parser;
 mod cmd;
 mod output;
 mod plot;
+mod report;
+mod store;
 
 fn main() -> std::process::ExitCode {
     let cli = cmd::Cli::parse();

@@ -8,6 +8,7 @@
 pub mod axis;
 pub mod dynamics;
 pub mod estimate;
+pub mod history;
 pub mod ident;
 pub mod lugre;
 pub mod map;

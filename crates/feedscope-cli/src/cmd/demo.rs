@@ -1,10 +1,18 @@
 //! `feedscope demo`: the whole job on a built-in simulated lathe Z axis.
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use feedscope::estimate::{Direction, EstimateParams};
-use feedscope::sim::{simulate, SimConfig};
-use feedscope::trace::{Layout, ReadReport};
+use feedscope::history::Indicator;
+use feedscope::plan::{
+    strokes_program, triangle_program, Limits, StrokeTestParams, TestProgram, TriangleParams,
+};
+use feedscope::sim::{simulate, simulate_profile, FrictionParams, SamplingMode, SimConfig};
+use feedscope::trace::{EffortKind, Layout, ReadReport};
+use rayon::prelude::*;
+
+use super::history::{analyze_test, TestInput};
+use crate::store::{NewTest, SqliteStore, Store, TestKind};
 
 use super::estimate::{estimate_to_csv, print_table};
 use crate::output::{bar, write_atomic};
@@ -15,7 +23,12 @@ use crate::plot::{Series, Style};
 /// Simulates the drive (lead 10 mm, 425 kg table, FANUC-like asynchronous sampling at about
 /// 72 ms) doing the idle test of paper 000 — 0 → 410 mm and back at 100 mm/min — estimates
 /// the friction along the travel and writes the trace, the truth, the estimate and a plot of
-/// estimated against true friction into the output folder.
+/// estimated against true friction into the output folder. Then it simulates 16 weekly tests
+/// of the same axis whose lubrication slowly degrades from week 6 on (static friction excess
+/// +7 %, viscous coefficient +4 %, Stribeck velocity −2 % a week): a short triangular-wave
+/// test every week (one-test identification) and a short stroke test in each of the first 5
+/// weeks and every 3 weeks after (friction profile and spectra), stores them in history.db, and ends with report.html, the
+/// condition report of the axis.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Output folder (created if missing).
@@ -24,6 +37,9 @@ pub struct Args {
     /// Random seed of the simulated noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Weeks of simulated condition history (0: skip the history and the report).
+    #[arg(long, default_value_t = 16)]
+    pub weeks: usize,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -119,6 +135,216 @@ pub fn run(args: Args) -> Result<()> {
         ("friction.svg", "plot: estimated vs true friction"),
     ] {
         println!("  {f:<14} {what}");
+    }
+    if args.weeks > 0 {
+        weekly_history(&args.out, args.seed, args.weeks)?;
+    }
+    Ok(())
+}
+
+/// Start of the simulated history: Monday 2026-01-05 08:00 UTC.
+const HISTORY_START_S: f64 = 1_767_600_000.0;
+/// First week whose lubrication is worse than the one before.
+const DRIFT_FROM_WEEK: usize = 5;
+/// Every how many weeks a stroke test is run after the commissioning weeks (which have one
+/// each, to set the baseline).
+const STROKE_EVERY: usize = 3;
+
+/// The friction of week `w`: steady for the first weeks, then lubrication degrading.
+fn week_friction(axis: &feedscope::axis::AxisParams, w: usize) -> FrictionParams {
+    let mut f = FrictionParams::default_for(axis);
+    let d = w.saturating_sub(DRIFT_FROM_WEEK - 1) as f64;
+    f.velocity.static_excess_n *= 1.0 + 0.07 * d;
+    f.velocity.viscous_n_s_per_m *= 1.0 + 0.04 * d;
+    f.velocity.stribeck_velocity_mm_min *= 1.0 - 0.02 * d;
+    f
+}
+
+/// One simulated test: its trace written as CSV, analysed like `history add` does.
+fn weekly_test(
+    cfg: &SimConfig,
+    prog: &TestProgram,
+    kind: TestKind,
+    path: &Path,
+    week: usize,
+) -> Result<NewTest> {
+    let sim = simulate_profile(cfg, prog, &mut |_| {})
+        .with_context(|| format!("simulating week {week}"))?;
+    let mut bytes = Vec::new();
+    sim.trace.write_csv(&mut bytes, Layout::Long)?;
+    write_atomic(path, &bytes)?;
+    let mut t = analyze_test(&TestInput {
+        trace: &sim.trace,
+        bytes: &bytes,
+        axis: &cfg.axis,
+        kind,
+        interval_mm: 40.0,
+    })
+    .with_context(|| format!("analysing the {} test of week {week}", kind.as_str()))?;
+    t.machine = "demo lathe".into();
+    t.axis = "Z".into();
+    t.time_s = HISTORY_START_S
+        + week as f64 * 7.0 * 86_400.0
+        + if kind == TestKind::Strokes {
+            1800.0
+        } else {
+            0.0
+        };
+    t.time_utc = crate::store::time::format_rfc3339(t.time_s);
+    t.source = path.display().to_string();
+    t.program = Some(match kind {
+        TestKind::Triangle => "feedscope plan triangle (demo)".into(),
+        TestKind::Strokes => "feedscope plan strokes (demo)".into(),
+    });
+    Ok(t)
+}
+
+/// Simulate the weekly tests, store them in `out/history.db`, write `out/report.html`.
+fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
+    let dir = out.join("weekly");
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let db = out.join("history.db");
+    // A fresh history each run, so that the demo tells the same story.
+    for ext in ["", "-wal", "-shm"] {
+        let p = PathBuf::from(format!("{}{ext}", db.display()));
+        match std::fs::remove_file(&p) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(e).with_context(|| format!("removing {}", p.display()))
+            }
+            _ => {}
+        }
+    }
+    let mut base = SimConfig::default();
+    base.axis.name = Some("demo lathe Z (simulated)".into());
+    base.sampling.mode = SamplingMode::Synchronous;
+    base.sampling.synchronous_rate_hz = 1000.0;
+    base.sampling.effort_kind = EffortKind::TorqueNm;
+    let triangle = triangle_program(
+        &TriangleParams {
+            window_min_mm: 120.0,
+            window_max_mm: 200.0,
+            feed_max_mm_min: 3000.0,
+            levels: 6,
+            min_cruise_s: 0.5,
+            vs_guess_mm_min: 60.0,
+            ..TriangleParams::default()
+        },
+        &Limits::default(),
+    )
+    .context("planning the weekly triangular test")?;
+    let strokes = strokes_program(
+        &StrokeTestParams {
+            from_mm: 20.0,
+            to_mm: 260.0,
+            feeds_mm_min: vec![600.0],
+            repeats: 1,
+            dwell_s: 0.5,
+            accel_mm_s2: 1000.0,
+        },
+        &Limits::default(),
+    )
+    .context("planning the stroke test")?;
+    let mut jobs: Vec<(usize, TestKind)> = (0..weeks).map(|w| (w, TestKind::Triangle)).collect();
+    jobs.extend(
+        (0..weeks)
+            .filter(|&w| {
+                w < DRIFT_FROM_WEEK
+                    || (w - DRIFT_FROM_WEEK) % STROKE_EVERY == STROKE_EVERY - 1
+                    || w + 1 == weeks
+            })
+            .map(|w| (w, TestKind::Strokes)),
+    );
+    eprintln!(
+        "simulating {weeks} weeks of tests ({} triangular, {} stroke tests), lubrication \
+         degrading from week {} ...",
+        weeks,
+        jobs.len() - weeks,
+        DRIFT_FROM_WEEK + 1
+    );
+    let pb = bar(jobs.len() as u64, "weekly tests");
+    let mut tests: Vec<NewTest> = jobs
+        .par_iter()
+        .map(|&(w, kind)| {
+            let cfg = SimConfig {
+                seed: seed.wrapping_mul(1000).wrapping_add(w as u64),
+                friction: Some(week_friction(&base.axis, w)),
+                ..base.clone()
+            };
+            let (prog, name) = match kind {
+                TestKind::Triangle => (&triangle, format!("week-{:02}-triangle.csv", w + 1)),
+                TestKind::Strokes => (&strokes, format!("week-{:02}-strokes.csv", w + 1)),
+            };
+            let t = weekly_test(&cfg, prog, kind, &dir.join(name), w);
+            pb.inc(1);
+            t
+        })
+        .collect::<Result<_>>()?;
+    pb.finish_and_clear();
+    tests.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+    let mut store = SqliteStore::open(&db).map_err(anyhow::Error::new)?;
+    for t in &tests {
+        store.add(t).map_err(anyhow::Error::new)?;
+    }
+    // Thresholds a maintenance planner might set: 30 % above the first week's Fs, 50 % above
+    // its σ.
+    let first = tests
+        .iter()
+        .find_map(|t| t.identified.as_ref())
+        .context("no identification in the demo history")?;
+    let round10 = |x: f64| (x / 10.0).round() * 10.0;
+    let th_path = out.join("thresholds.toml");
+    let th = format!(
+        "# Alarm levels per indicator (see docs/history.md).\n[thresholds]\n\
+         fs_n = {{ upper = {} }}\nsigma_n_s_per_m = {{ upper = {} }}\n",
+        round10(first.fs_n * 1.3),
+        round10(first.sigma_n_s_per_m * 1.5)
+    );
+    write_atomic(&th_path, th.as_bytes())?;
+    drop(store);
+    let report = out.join("report.html");
+    super::report::write_report(&db, "demo lathe", Some("Z"), 5, Some(&th_path), &report)?;
+    let store = super::history::open_store(&db)?;
+    let thresholds = super::history::load_thresholds(Some(&th_path))?;
+    let t = super::history::axis_trends(&store, "demo lathe", "Z", 5, &thresholds)?;
+    println!(
+        "\ncondition history of the demo axis ({} tests):",
+        t.tests.len()
+    );
+    for x in t.trends.iter().filter(|x| {
+        matches!(
+            x.indicator,
+            Indicator::StaticFriction
+                | Indicator::CoulombFriction
+                | Indicator::Viscous
+                | Indicator::StribeckVelocity
+        )
+    }) {
+        println!(
+            "  {:<24} {:>+6.1} % since the baseline  {}{}",
+            x.indicator.label(),
+            x.change_percent,
+            x.status.as_str(),
+            x.first_alarm.map_or(String::new(), |i| format!(
+                " (first flagged at test {} of the series)",
+                i + 1
+            ))
+        );
+    }
+    println!("diagnosis:");
+    for s in &t.diagnosis {
+        println!("  - {s}");
+    }
+    println!("\nwrote to {}/:", out.display());
+    for (f, what) in [
+        ("weekly/", "the simulated weekly test traces"),
+        (
+            "history.db",
+            "the condition history (SQLite, docs/history.md)",
+        ),
+        ("thresholds.toml", "alarm levels used by the report"),
+        ("report.html", "the condition report: open it in a browser"),
+    ] {
+        println!("  {f:<16} {what}");
     }
     Ok(())
 }

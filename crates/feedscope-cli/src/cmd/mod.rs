@@ -9,9 +9,11 @@ mod demo;
 mod dynamics;
 mod estimate;
 mod fit_stribeck;
+pub(crate) mod history;
 mod identify;
 mod map;
 mod plan;
+mod report;
 mod simulate;
 
 /// feedscope: how are the ball-screw feed drives of this machine doing?
@@ -43,6 +45,10 @@ pub enum Command {
     FitStribeck(fit_stribeck::Args),
     // Help text from the doc comment of `map::Args`.
     Map(map::Args),
+    // Help text from the doc comment of `history::Args`.
+    History(history::Args),
+    // Help text from the doc comment of `report::Args`.
+    Report(report::Args),
 }
 
 /// Marks an error as the user's input being wrong (exit code 2).
@@ -92,6 +98,8 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Command::Plan(a) => plan::run(a),
         Command::FitStribeck(a) => fit_stribeck::run(a),
         Command::Map(a) => map::run(a),
+        Command::History(a) => history::run(a),
+        Command::Report(a) => report::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -219,7 +219,7 @@ impl SpectrumAnalyzer {
         amplitude_n.clear();
         amplitude_n.extend(self.output.iter().map(|c| c.norm() * corr));
         amplitude_n[0] *= 0.5;
-        if n % 2 == 0 {
+        if n.is_multiple_of(2) {
             if let Some(last) = amplitude_n.last_mut() {
                 *last *= 0.5;
             }
@@ -906,7 +906,7 @@ mod tests {
                     re += v * wi * ph.cos();
                     im += v * wi * ph.sin();
                 }
-                let edge = k == 0 || (n % 2 == 0 && k == n / 2);
+                let edge = k == 0 || (n.is_multiple_of(2) && k == n / 2);
                 (re.hypot(im)) * if edge { 1.0 } else { 2.0 } / sw
             })
             .collect()

@@ -104,7 +104,7 @@ pub(crate) fn run_ideal(
                 commanded_velocity_m_s: v,
             });
             done += 1;
-            if done % 4096 == 0 {
+            if done.is_multiple_of(4096) {
                 progress(done as f64 / total as f64);
             }
         }
@@ -342,7 +342,7 @@ pub(crate) fn run_servo(
             return Err(SimError::Diverged { time_s: t });
         }
         stats.max_following_error_m = stats.max_following_error_m.max(err);
-        if step % report_every == 0 {
+        if step.is_multiple_of(report_every) {
             progress((t / duration_s).min(1.0));
         }
     }

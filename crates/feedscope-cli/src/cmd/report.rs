@@ -1,0 +1,73 @@
+//! `feedscope report`: the condition report of an axis as one self-contained HTML file.
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+
+use super::history::{axis_trends, db_path, load_thresholds, open_store, resolve_axis};
+use crate::output::write_atomic;
+
+/// Write the condition report of an axis: one self-contained HTML file.
+///
+/// Reads the tests of the axis from the history database (see `feedscope history`) and writes
+/// one HTML file with everything inline (SVG plots, no script, no network): the diagnosis and
+/// warnings, the latest friction profile with its IAFV, the spectra heat maps, the Stribeck
+/// curves of the triangle tests, a trend chart per indicator with baseline, ±3σ limits, EWMA
+/// and its limits, thresholds and projected crossings, and the tables behind them.
+///
+/// Exit codes: 0 success; 2 bad input (no such database, axis or tests, bad thresholds file).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Database file [env: FEEDSCOPE_DB] [default: feedscope.db].
+    #[arg(long)]
+    pub db: Option<PathBuf>,
+    /// Machine name.
+    #[arg(long, default_value = "machine")]
+    pub machine: String,
+    /// Axis name [default: the only axis of the machine].
+    #[arg(long)]
+    pub axis_name: Option<String>,
+    /// Baseline: mean and σ of the first N tests of each indicator; with a reference test
+    /// marked, μ₀ is its value and σ the scatter of these N.
+    #[arg(long, default_value_t = 5)]
+    pub baseline_tests: usize,
+    /// Thresholds file (TOML, a `[thresholds]` table; see docs/history.md).
+    #[arg(long)]
+    pub thresholds: Option<PathBuf>,
+    /// HTML file to write.
+    #[arg(short = 'o', long = "output", default_value = "report.html")]
+    pub output: PathBuf,
+}
+
+/// Write the report of `machine`/`axis` from the database at `db` to `out`.
+pub fn write_report(
+    db: &Path,
+    machine: &str,
+    axis: Option<&str>,
+    baseline_tests: usize,
+    thresholds: Option<&Path>,
+    out: &Path,
+) -> Result<()> {
+    let thresholds = load_thresholds(thresholds)?;
+    if !db.exists() {
+        return Err(super::BadInput(format!("no database at {}", db.display())).into());
+    }
+    let store = open_store(db)?;
+    let axis = resolve_axis(&store, machine, axis)?;
+    let t = axis_trends(&store, machine, &axis, baseline_tests, &thresholds)?;
+    let html = crate::report::render(&store, &t)?;
+    write_atomic(out, html.as_bytes())
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let db = db_path(args.db.as_deref());
+    write_report(
+        &db,
+        &args.machine,
+        args.axis_name.as_deref(),
+        args.baseline_tests,
+        args.thresholds.as_deref(),
+        &args.output,
+    )?;
+    eprintln!("wrote {}", args.output.display());
+    Ok(())
+}

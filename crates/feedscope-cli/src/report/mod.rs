@@ -1,0 +1,558 @@
+//! The condition report: one self-contained HTML file per axis (plots inline as SVG, no
+//! script, no network), rendered from `report.html` with minijinja.
+use anyhow::{Context, Result};
+use feedscope::history::{IndicatorTrend, Status};
+use serde::Serialize;
+
+use crate::cmd::history::{AxisTrends, Curves};
+use crate::plot::{self, Heatmap, LineChart, Series, Style};
+use crate::store::{Identified, SqliteStore, Store, TestDetail};
+
+const TEMPLATE: &str = include_str!("report.html");
+
+#[derive(Serialize)]
+struct Chart {
+    title: String,
+    svg: String,
+}
+
+#[derive(Serialize)]
+struct Row {
+    name: String,
+    label: String,
+    unit: String,
+    n: usize,
+    baseline: String,
+    sigma: String,
+    lower: String,
+    upper: String,
+    latest: String,
+    change: String,
+    ewma: String,
+    cusum: String,
+    threshold: String,
+    projection: String,
+    status: String,
+    css: &'static str,
+}
+
+#[derive(Serialize)]
+struct TestLine {
+    id: i64,
+    time: String,
+    kind: String,
+    source: String,
+    reference: bool,
+    summary: String,
+}
+
+#[derive(Serialize)]
+struct Param {
+    name: &'static str,
+    value: String,
+    std_error: String,
+    unit: &'static str,
+}
+
+#[derive(Serialize)]
+struct Page<'a> {
+    machine: &'a str,
+    axis: &'a str,
+    generated: String,
+    tests: Vec<TestLine>,
+    first_time: String,
+    last_time: String,
+    counts: Vec<(String, usize)>,
+    diagnosis: &'a [String],
+    warnings: Vec<Row>,
+    profile: Option<Chart>,
+    profile_test: Option<String>,
+    heatmaps: Vec<Chart>,
+    stribeck: Option<Chart>,
+    params: Vec<Param>,
+    params_test: Option<String>,
+    trend_charts: Vec<Chart>,
+    rows: Vec<Row>,
+    intervals: Vec<crate::store::IntervalRow>,
+    components: Vec<crate::store::ComponentRow>,
+    skipped: &'a [String],
+    version: &'static str,
+}
+
+fn num(x: f64) -> String {
+    if !x.is_finite() {
+        "–".into()
+    } else if x == 0.0 || (0.1..1e5).contains(&x.abs()) {
+        format!("{x:.2}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+fn css(s: Status) -> &'static str {
+    match s {
+        Status::ThresholdCrossed => "alarm",
+        Status::OutOfLimits => "alarm",
+        Status::Drifting => "warn",
+        Status::Ok => "ok",
+    }
+}
+
+fn row(t: &IndicatorTrend) -> Row {
+    let n = t.points.len();
+    let last = t.points.last().map_or(f64::NAN, |p| p.value);
+    let th = match (t.threshold.lower, t.threshold.upper) {
+        (None, None) => "–".to_string(),
+        (l, u) => format!(
+            "{} … {}",
+            l.map_or("".into(), num),
+            u.map_or("".into(), num)
+        ),
+    };
+    Row {
+        name: t.indicator.name(),
+        label: t.indicator.label(),
+        unit: t.indicator.unit().into(),
+        n,
+        baseline: num(t.baseline.mean),
+        sigma: num(t.baseline.std),
+        lower: num(t.limits.lower),
+        upper: num(t.limits.upper),
+        latest: num(last),
+        change: format!("{:+.1} % ({:+.1} σ)", t.change_percent, t.change_sigma),
+        ewma: t.ewma.z.last().map_or("–".into(), |z| num(*z)),
+        cusum: format!(
+            "{:.1} / {:.1}",
+            t.cusum.upper.last().copied().unwrap_or(0.0),
+            t.cusum.lower.last().copied().unwrap_or(0.0)
+        ),
+        threshold: th,
+        projection: t.projection.map_or("–".into(), |p| {
+            format!("{} in ~{:.0} days", num(p.threshold), p.days)
+        }),
+        status: t.status.as_str().into(),
+        css: css(t.status),
+    }
+}
+
+/// Trend chart: values, baseline, Shewhart and EWMA limits, EWMA, threshold, projection.
+fn trend_chart(t: &IndicatorTrend) -> Result<Chart> {
+    let t0 = t.points[0].time_s;
+    let wk = |s: f64| (s - t0) / (7.0 * 86_400.0);
+    let xs: Vec<f64> = t.points.iter().map(|p| wk(p.time_s)).collect();
+    let (x0, x1) = (xs[0], *xs.last().expect("non-empty"));
+    let flat = |y: f64| vec![(x0, y), (x1, y)];
+    let mut series = vec![
+        Series {
+            name: format!("value ({})", t.indicator.unit()),
+            points: xs
+                .iter()
+                .zip(&t.points)
+                .map(|(&x, p)| (x, p.value))
+                .collect(),
+            style: Style::Line,
+        },
+        Series {
+            name: "EWMA (λ 0.2)".into(),
+            points: xs.iter().copied().zip(t.ewma.z.iter().copied()).collect(),
+            style: Style::Line,
+        },
+        Series {
+            name: "EWMA limits".into(),
+            points: xs
+                .iter()
+                .zip(&t.ewma.limits)
+                .map(|(&x, l)| (x, l.upper))
+                .collect(),
+            style: Style::Dashed,
+        },
+        Series {
+            name: "EWMA lower limit".into(),
+            points: xs
+                .iter()
+                .zip(&t.ewma.limits)
+                .map(|(&x, l)| (x, l.lower))
+                .collect(),
+            style: Style::Dashed,
+        },
+        Series {
+            name: format!("baseline {}", num(t.baseline.mean)),
+            points: flat(t.baseline.mean),
+            style: Style::Dashed,
+        },
+        Series {
+            name: "±3σ limits".into(),
+            points: flat(t.limits.upper),
+            style: Style::Dashed,
+        },
+        Series {
+            name: "−3σ".into(),
+            points: flat(t.limits.lower),
+            style: Style::Dashed,
+        },
+    ];
+    for (v, name) in [
+        (t.threshold.upper, "upper threshold"),
+        (t.threshold.lower, "lower threshold"),
+    ] {
+        if let Some(v) = v {
+            series.push(Series {
+                name: format!("{name} {}", num(v)),
+                points: flat(v),
+                style: Style::Line,
+            });
+        }
+    }
+    if let (Some(p), Some(s)) = (&t.projection, &t.slope) {
+        let xe = x1 + p.days / 7.0;
+        series.push(Series {
+            name: format!("projection: {} in ~{:.0} days", num(p.threshold), p.days),
+            points: vec![(x1, s.value_at_last), (xe, p.threshold)],
+            style: Style::Dashed,
+        });
+    }
+    let title = format!("{} [{}]", t.indicator.label(), t.status.as_str());
+    let y_label = format!("{} ({})", t.indicator.label(), t.indicator.unit());
+    let svg = plot::line_chart_svg(&LineChart {
+        title: &title,
+        x_label: "weeks since the first test",
+        y_label: &y_label,
+        series,
+    })?;
+    Ok(Chart { title, svg })
+}
+
+/// The date part of an RFC 3339 time (the whole text if it is shorter or not ASCII there).
+fn date(t: &str) -> &str {
+    t.get(..10).unwrap_or(t)
+}
+
+/// F(v) = F_c + (F_s − F_c)·exp(−(v/v_s)^δ) + σ·v for v ≥ 0 (paper 002 Eq. 2, force side).
+fn stribeck_points(p: &Identified, v_max_mm_min: f64) -> Vec<(f64, f64)> {
+    (0..=200)
+        .map(|k| {
+            let v = v_max_mm_min * k as f64 / 200.0;
+            let f = p.fc_n
+                + (p.fs_n - p.fc_n) * (-(v / p.vs_mm_min).abs().powf(p.delta)).exp()
+                + p.sigma_n_s_per_m * v / 60e3;
+            (v, f)
+        })
+        .collect()
+}
+
+fn stribeck_chart(tests: &[TestDetail]) -> Result<Option<Chart>> {
+    let ident: Vec<(&TestDetail, &Identified)> = tests
+        .iter()
+        .filter_map(|t| t.identified.as_ref().map(|p| (t, p)))
+        .collect();
+    if ident.is_empty() {
+        return Ok(None);
+    }
+    // First, a few in between and the latest: at most 5 curves.
+    let n = ident.len();
+    let mut pick: Vec<usize> = (0..5).map(|k| k * (n - 1) / 4).collect();
+    pick.dedup();
+    let v_max = ident
+        .iter()
+        .map(|(_, p)| p.vs_mm_min)
+        .fold(0.0f64, f64::max)
+        .mul_add(8.0, 0.0)
+        .clamp(100.0, 6000.0);
+    let series = pick
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| Series {
+            name: format!(
+                "test {} ({})",
+                ident[i].0.test.id,
+                date(&ident[i].0.test.time_utc)
+            ),
+            points: stribeck_points(ident[i].1, v_max),
+            style: if k + 1 == pick.len() {
+                Style::Line
+            } else {
+                Style::Dashed
+            },
+        })
+        .collect();
+    let title = "Stribeck curves, first to latest triangle test".to_string();
+    let svg = plot::line_chart_svg(&LineChart {
+        title: &title,
+        x_label: "feed velocity (mm/min)",
+        y_label: "friction force F (N)",
+        series,
+    })?;
+    Ok(Some(Chart { title, svg }))
+}
+
+fn profile_chart(c: &Curves, test: &TestDetail) -> Result<Option<Chart>> {
+    if c.profiles.is_empty() {
+        return Ok(None);
+    }
+    let titles: Vec<String> = c
+        .profiles
+        .iter()
+        .map(|p| {
+            format!(
+                "Friction and IAFV, {} at {:.0} mm/min (test {}, {})",
+                p.direction,
+                p.feed_mm_min,
+                test.test.id,
+                date(&test.test.time_utc)
+            )
+        })
+        .collect();
+    // The stroke ends carry acceleration transients of several times the friction: they would
+    // set the scale, so points further than 10 robust σ from the IAFV are not drawn.
+    let keep: Vec<Vec<bool>> = c
+        .profiles
+        .iter()
+        .map(|p| {
+            let mut r: Vec<f64> = p
+                .friction_n
+                .iter()
+                .zip(&p.iafv_n)
+                .map(|(f, m)| (f - m).abs())
+                .collect();
+            let mut sorted = r.clone();
+            sorted.sort_by(f64::total_cmp);
+            let mad = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+            let lim = 10.0 * 1.4826 * mad.max(1e-9);
+            r.iter_mut().map(|x| *x <= lim).collect()
+        })
+        .collect();
+    let charts: Vec<LineChart> = c
+        .profiles
+        .iter()
+        .zip(&titles)
+        .zip(&keep)
+        .map(|((p, title), keep)| LineChart {
+            title,
+            x_label: "position (mm)",
+            y_label: "friction F_f (N)",
+            series: vec![
+                Series {
+                    name: "estimated friction".into(),
+                    points: p
+                        .position_mm
+                        .iter()
+                        .zip(&p.friction_n)
+                        .zip(keep)
+                        .filter(|(_, &k)| k)
+                        .map(|((&z, &f), _)| (z, f))
+                        .collect(),
+                    style: Style::Line,
+                },
+                Series {
+                    name: format!(
+                        "IAFV, intervals at {:?} mm",
+                        p.breaks_mm.iter().map(|b| b.round()).collect::<Vec<_>>()
+                    ),
+                    points: p
+                        .position_mm
+                        .iter()
+                        .copied()
+                        .zip(p.iafv_n.iter().copied())
+                        .collect(),
+                    style: Style::Line,
+                },
+            ],
+        })
+        .collect();
+    Ok(Some(Chart {
+        title: "Latest friction profile".into(),
+        svg: plot::stacked_svg(&charts)?,
+    }))
+}
+
+fn heatmap_charts(c: &Curves) -> Result<Vec<Chart>> {
+    c.heatmaps
+        .iter()
+        .map(|h| {
+            let title = format!("FFS spectra along the travel, {}", h.direction);
+            let svg = plot::heatmap_svg(&Heatmap {
+                title: &title,
+                x_label: "order (cycles per lead)",
+                y_label: "segment centre position (mm)",
+                z_label: "amplitude (N)",
+                x: h.orders.clone(),
+                y: h.position_mm.clone(),
+                z: h.amplitude_n.clone(),
+            })?;
+            Ok(Chart { title, svg })
+        })
+        .collect()
+}
+
+/// Make an SVG scale with the page: keep its viewBox, drop the fixed size.
+fn responsive(svg: &str) -> String {
+    let s = svg.trim_start_matches(|c| c != '<');
+    let s = if s.starts_with("<?xml") {
+        s.split_once("?>").map_or(s, |x| x.1.trim_start())
+    } else {
+        s
+    };
+    s.replacen("<svg ", "<svg class=\"plot\" ", 1)
+}
+
+/// Render the report of an axis.
+pub fn render(store: &SqliteStore, t: &AxisTrends) -> Result<String> {
+    let details: Vec<TestDetail> = t
+        .tests
+        .iter()
+        .map(|x| store.get(x.id))
+        .collect::<Result<_, _>>()?;
+    let latest_strokes = details.iter().rev().find(|d| d.test.kind == "strokes");
+    let curves: Option<(Curves, &TestDetail)> = match latest_strokes {
+        Some(d) => store
+            .curves(d.test.id)?
+            .map(|j| serde_json::from_str::<Curves>(&j).map(|c| (c, d)))
+            .transpose()
+            .context("reading the stored curves")?,
+        None => None,
+    };
+    let (profile, heatmaps) = match &curves {
+        Some((c, d)) => (profile_chart(c, d)?, heatmap_charts(c)?),
+        None => (None, vec![]),
+    };
+    let latest_ident = details.iter().rev().find(|d| d.identified.is_some());
+    let params = latest_ident
+        .and_then(|d| d.identified.as_ref())
+        .map(|p| {
+            vec![
+                Param {
+                    name: "static friction Fs",
+                    value: num(p.fs_n),
+                    std_error: num(p.fs_std_n),
+                    unit: "N",
+                },
+                Param {
+                    name: "Coulomb friction Fc",
+                    value: num(p.fc_n),
+                    std_error: num(p.fc_std_n),
+                    unit: "N",
+                },
+                Param {
+                    name: "viscous coefficient σ",
+                    value: num(p.sigma_n_s_per_m),
+                    std_error: num(p.sigma_std_n_s_per_m),
+                    unit: "N·s/m",
+                },
+                Param {
+                    name: "Stribeck velocity vs",
+                    value: num(p.vs_mm_min),
+                    std_error: num(p.vs_std_mm_min),
+                    unit: "mm/min",
+                },
+                Param {
+                    name: "inertia J",
+                    value: num(p.j_total_kgm2),
+                    std_error: num(p.j_std_kgm2),
+                    unit: "kg·m²",
+                },
+                Param {
+                    name: "residual RMS",
+                    value: num(p.residual_rms_nm),
+                    std_error: "".into(),
+                    unit: "N·m",
+                },
+            ]
+        })
+        .unwrap_or_default();
+    let mut trend_charts = Vec::new();
+    for tr in &t.trends {
+        trend_charts.push(trend_chart(tr)?);
+    }
+    let rows: Vec<Row> = t.trends.iter().map(row).collect();
+    let mut warnings: Vec<(Status, Row)> = t
+        .trends
+        .iter()
+        .filter(|x| x.status != Status::Ok)
+        .map(|x| (x.status, row(x)))
+        .collect();
+    warnings.sort_by_key(|w| w.0);
+    let mut counts = Vec::new();
+    for s in [
+        Status::ThresholdCrossed,
+        Status::OutOfLimits,
+        Status::Drifting,
+        Status::Ok,
+    ] {
+        let n = t.trends.iter().filter(|x| x.status == s).count();
+        counts.push((s.as_str().to_string(), n));
+    }
+    let tests: Vec<TestLine> = details
+        .iter()
+        .map(|d| TestLine {
+            id: d.test.id,
+            time: d.test.time_utc.clone(),
+            kind: d.test.kind.clone(),
+            source: d.test.source.clone(),
+            reference: d.test.reference,
+            summary: match &d.identified {
+                Some(p) => format!(
+                    "Fs {} N, Fc {} N, σ {} N·s/m, vs {} mm/min",
+                    num(p.fs_n),
+                    num(p.fc_n),
+                    num(p.sigma_n_s_per_m),
+                    num(p.vs_mm_min)
+                ),
+                None => format!(
+                    "{} intervals, {} components",
+                    d.intervals.len(),
+                    d.components.iter().filter(|c| c.segment == "all").count()
+                ),
+            },
+        })
+        .collect();
+    let mut chart = |c: Chart| Chart {
+        title: c.title,
+        svg: responsive(&c.svg),
+    };
+    let ctx = Page {
+        machine: &t.machine,
+        axis: &t.axis,
+        generated: crate::store::time::format_rfc3339(crate::store::time::now_s()),
+        first_time: t
+            .tests
+            .first()
+            .map_or(String::new(), |x| x.time_utc.clone()),
+        last_time: t.tests.last().map_or(String::new(), |x| x.time_utc.clone()),
+        tests,
+        counts,
+        diagnosis: &t.diagnosis,
+        warnings: warnings.into_iter().map(|w| w.1).collect(),
+        profile_test: curves
+            .as_ref()
+            .map(|(_, d)| format!("test {} ({})", d.test.id, d.test.time_utc)),
+        profile: profile.map(&mut chart),
+        heatmaps: heatmaps.into_iter().map(&mut chart).collect(),
+        stribeck: stribeck_chart(&details)?.map(&mut chart),
+        params,
+        params_test: latest_ident.map(|d| format!("test {} ({})", d.test.id, d.test.time_utc)),
+        trend_charts: trend_charts.into_iter().map(&mut chart).collect(),
+        rows,
+        intervals: latest_strokes
+            .map(|d| d.intervals.clone())
+            .unwrap_or_default(),
+        components: latest_strokes
+            .map(|d| {
+                d.components
+                    .iter()
+                    .filter(|c| c.segment == "all")
+                    .cloned()
+                    .collect()
+            })
+            .unwrap_or_default(),
+        skipped: &t.skipped,
+        version: env!("CARGO_PKG_VERSION"),
+    };
+    let mut env = minijinja::Environment::new();
+    env.add_template("report.html", TEMPLATE)
+        .context("the report template")?;
+    let html = env
+        .get_template("report.html")
+        .and_then(|tpl| tpl.render(minijinja::value::Serde(&ctx)))
+        .context("rendering the report")?;
+    Ok(html)
+}

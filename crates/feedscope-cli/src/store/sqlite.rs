@@ -1,0 +1,571 @@
+//! SQLite backend of the [`Store`]: one file, WAL journal, versioned schema.
+//!
+//! Opening never writes to a file it does not recognise: a non-empty file must carry the
+//! SQLite header, and an SQLite file must either be empty of tables or carry feedscope's
+//! `application_id`; both are checked on a read-only connection before the read-write one
+//! is opened. Every `add` is one `BEGIN IMMEDIATE` transaction (so two writers queue on the
+//! busy timeout instead of deadlocking on a lock upgrade).
+use std::collections::BTreeMap;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use feedscope::history::Point;
+use rusqlite::{params, Connection, OpenFlags, OptionalExtension, TransactionBehavior};
+
+use super::{
+    AddOutcome, ComponentRow, Filter, Identified, IndicatorRow, IntervalRow, NewTest, Series,
+    Store, StoreError, TestDetail, TestRow,
+};
+
+/// `PRAGMA application_id` of a feedscope database: ASCII "FSCP".
+pub const APPLICATION_ID: i64 = 0x4653_4350;
+
+/// Migrations in order; migration k (0-based) takes the schema from version k to k + 1.
+/// `PRAGMA user_version` holds the version. Never edit a released migration: append one.
+const MIGRATIONS: &[&str] = &[r#"
+CREATE TABLE machines (
+    id    INTEGER PRIMARY KEY,
+    name  TEXT NOT NULL UNIQUE
+);
+CREATE TABLE axes (
+    id           INTEGER PRIMARY KEY,
+    machine_id   INTEGER NOT NULL REFERENCES machines(id),
+    name         TEXT NOT NULL,
+    params_json  TEXT NOT NULL,
+    UNIQUE (machine_id, name)
+);
+CREATE TABLE tests (
+    id                 INTEGER PRIMARY KEY,
+    axis_id            INTEGER NOT NULL REFERENCES axes(id),
+    time_utc           TEXT NOT NULL,
+    time_s             REAL NOT NULL,
+    kind               TEXT NOT NULL CHECK (kind IN ('strokes', 'triangle')),
+    source             TEXT NOT NULL,
+    content_sha256     TEXT NOT NULL,
+    program            TEXT,
+    reference          INTEGER NOT NULL DEFAULT 0 CHECK (reference IN (0, 1)),
+    compensation_ref   TEXT,
+    added_utc          TEXT NOT NULL,
+    feedscope_version  TEXT NOT NULL,
+    UNIQUE (axis_id, kind, content_sha256)
+);
+CREATE INDEX tests_axis_time ON tests (axis_id, time_s);
+CREATE TABLE identified (
+    test_id              INTEGER PRIMARY KEY REFERENCES tests(id) ON DELETE CASCADE,
+    j_total_kgm2         REAL NOT NULL,
+    j_std_kgm2           REAL,
+    fc_n                 REAL NOT NULL,
+    fc_std_n             REAL,
+    fs_n                 REAL NOT NULL,
+    fs_std_n             REAL,
+    sigma_n_s_per_m      REAL NOT NULL,
+    sigma_std_n_s_per_m  REAL,
+    vs_mm_min            REAL NOT NULL,
+    vs_std_mm_min        REAL,
+    delta                REAL NOT NULL,
+    offset_n             REAL NOT NULL,
+    residual_rms_nm      REAL NOT NULL,
+    samples_used         INTEGER NOT NULL
+);
+CREATE TABLE interval_friction (
+    test_id    INTEGER NOT NULL REFERENCES tests(id) ON DELETE CASCADE,
+    direction  TEXT NOT NULL CHECK (direction IN ('forward', 'backward')),
+    start_mm   REAL NOT NULL,
+    end_mm     REAL NOT NULL,
+    mean_n     REAL NOT NULL,
+    std_n      REAL NOT NULL,
+    samples    INTEGER NOT NULL,
+    PRIMARY KEY (test_id, direction, start_mm)
+);
+CREATE TABLE components (
+    id           INTEGER PRIMARY KEY,
+    test_id      INTEGER NOT NULL REFERENCES tests(id) ON DELETE CASCADE,
+    direction    TEXT NOT NULL CHECK (direction IN ('forward', 'backward')),
+    segment      TEXT NOT NULL,
+    position_mm  REAL NOT NULL,
+    order_cpl    REAL NOT NULL,
+    amplitude_n  REAL NOT NULL,
+    floor_n      REAL NOT NULL,
+    cause        TEXT NOT NULL,
+    trusted      INTEGER NOT NULL
+);
+CREATE INDEX components_test ON components (test_id);
+CREATE TABLE indicators (
+    test_id    INTEGER NOT NULL REFERENCES tests(id) ON DELETE CASCADE,
+    name       TEXT NOT NULL,
+    value      REAL NOT NULL,
+    std_error  REAL,
+    unit       TEXT NOT NULL,
+    PRIMARY KEY (test_id, name)
+) WITHOUT ROWID;
+CREATE INDEX indicators_name ON indicators (name, test_id);
+CREATE TABLE curves (
+    test_id  INTEGER PRIMARY KEY REFERENCES tests(id) ON DELETE CASCADE,
+    json     TEXT NOT NULL
+);
+"#];
+
+/// Newest schema version this build writes.
+pub const SCHEMA_VERSION: i64 = MIGRATIONS.len() as i64;
+
+/// Busy timeout: how long a writer waits for another (ms).
+const BUSY_TIMEOUT_MS: u64 = 30_000;
+
+/// A feedscope database in one SQLite file.
+pub struct SqliteStore {
+    conn: Connection,
+    path: PathBuf,
+}
+
+/// Look at an existing file without writing to it.
+fn probe(path: &Path) -> Result<(), StoreError> {
+    let shown = path.display().to_string();
+    let len = match std::fs::metadata(path) {
+        Ok(m) => m.len(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(e.into()),
+    };
+    if len == 0 {
+        return Ok(());
+    }
+    let mut head = [0u8; 16];
+    let mut f = std::fs::File::open(path)?;
+    if f.read_exact(&mut head).is_err() || &head != b"SQLite format 3\0" {
+        return Err(StoreError::NotADatabase { path: shown });
+    }
+    let c = Connection::open_with_flags(
+        path,
+        OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
+    )?;
+    c.busy_timeout(Duration::from_millis(BUSY_TIMEOUT_MS))?;
+    let app: i64 = c.query_row("PRAGMA application_id", [], |r| r.get(0))?;
+    let version: i64 = c.query_row("PRAGMA user_version", [], |r| r.get(0))?;
+    let tables: i64 = c.query_row(
+        "SELECT count(*) FROM sqlite_schema WHERE type = 'table'",
+        [],
+        |r| r.get(0),
+    )?;
+    if app != APPLICATION_ID && !(app == 0 && tables == 0) {
+        return Err(StoreError::Foreign {
+            path: shown,
+            application_id: app,
+            tables,
+        });
+    }
+    if version > SCHEMA_VERSION {
+        return Err(StoreError::NewerSchema {
+            path: shown,
+            found: version,
+            supported: SCHEMA_VERSION,
+        });
+    }
+    // Damaged pages show here, before anything is written.
+    let detail: String = c.query_row("PRAGMA quick_check(1)", [], |r| r.get(0))?;
+    if detail != "ok" {
+        return Err(StoreError::Corrupt {
+            path: shown,
+            detail,
+        });
+    }
+    Ok(())
+}
+
+impl SqliteStore {
+    /// Open (creating it when missing) and migrate to [`SCHEMA_VERSION`].
+    ///
+    /// # Errors
+    /// A file that is not SQLite, an SQLite file of another application, a newer schema or a
+    /// failed quick check: the file is not modified.
+    pub fn open(path: &Path) -> Result<Self, StoreError> {
+        probe(path)?;
+        let conn = Connection::open(path)?;
+        conn.busy_timeout(Duration::from_millis(BUSY_TIMEOUT_MS))?;
+        // WAL: readers do not block the writer; NORMAL sync is safe against a killed
+        // process (the WAL is replayed), only an OS crash can lose the last commits.
+        conn.pragma_update(None, "journal_mode", "WAL")?;
+        conn.pragma_update(None, "synchronous", "NORMAL")?;
+        conn.pragma_update(None, "foreign_keys", "ON")?;
+        let mut s = Self {
+            conn,
+            path: path.to_path_buf(),
+        };
+        s.migrate()?;
+        Ok(s)
+    }
+
+    fn migrate(&mut self) -> Result<(), StoreError> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)?;
+        let version: i64 = tx.query_row("PRAGMA user_version", [], |r| r.get(0))?;
+        if version > SCHEMA_VERSION {
+            return Err(StoreError::NewerSchema {
+                path: self.path.display().to_string(),
+                found: version,
+                supported: SCHEMA_VERSION,
+            });
+        }
+        for sql in &MIGRATIONS[version as usize..] {
+            tx.execute_batch(sql)?;
+        }
+        if version < SCHEMA_VERSION {
+            tx.pragma_update(None, "user_version", SCHEMA_VERSION)?;
+            tx.pragma_update(None, "application_id", APPLICATION_ID)?;
+        }
+        tx.commit()?;
+        Ok(())
+    }
+
+    /// Schema version of the open file.
+    pub fn schema_version(&self) -> Result<i64, StoreError> {
+        Ok(self
+            .conn
+            .query_row("PRAGMA user_version", [], |r| r.get(0))?)
+    }
+
+    /// Mark a test as the reference of its axis (clearing any other).
+    pub fn set_reference(&mut self, id: i64) -> Result<(), StoreError> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)?;
+        let axis: Option<i64> = tx
+            .query_row("SELECT axis_id FROM tests WHERE id = ?1", [id], |r| {
+                r.get(0)
+            })
+            .optional()?;
+        let axis = axis.ok_or(StoreError::NoSuchTest(id))?;
+        tx.execute("UPDATE tests SET reference = 0 WHERE axis_id = ?1", [axis])?;
+        tx.execute("UPDATE tests SET reference = 1 WHERE id = ?1", [id])?;
+        tx.commit()?;
+        Ok(())
+    }
+}
+
+const TEST_COLS: &str = "t.id, m.name, a.name, t.time_utc, t.time_s, t.kind, t.source, \
+    t.content_sha256, t.program, t.reference, t.compensation_ref, t.added_utc";
+
+fn test_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<TestRow> {
+    Ok(TestRow {
+        id: r.get(0)?,
+        machine: r.get(1)?,
+        axis: r.get(2)?,
+        time_utc: r.get(3)?,
+        time_s: r.get(4)?,
+        kind: r.get(5)?,
+        source: r.get(6)?,
+        content_sha256: r.get(7)?,
+        program: r.get(8)?,
+        reference: r.get::<_, i64>(9)? != 0,
+        compensation_ref: r.get(10)?,
+        added_utc: r.get(11)?,
+    })
+}
+
+impl Store for SqliteStore {
+    fn add(&mut self, t: &NewTest) -> Result<AddOutcome, StoreError> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)?;
+        tx.execute(
+            "INSERT INTO machines (name) VALUES (?1) ON CONFLICT (name) DO NOTHING",
+            [&t.machine],
+        )?;
+        let machine_id: i64 = tx.query_row(
+            "SELECT id FROM machines WHERE name = ?1",
+            [&t.machine],
+            |r| r.get(0),
+        )?;
+        tx.execute(
+            "INSERT INTO axes (machine_id, name, params_json) VALUES (?1, ?2, ?3)
+             ON CONFLICT (machine_id, name) DO UPDATE SET params_json = excluded.params_json",
+            params![machine_id, t.axis, t.axis_params_json],
+        )?;
+        let axis_id: i64 = tx.query_row(
+            "SELECT id FROM axes WHERE machine_id = ?1 AND name = ?2",
+            params![machine_id, t.axis],
+            |r| r.get(0),
+        )?;
+        let dup: Option<i64> = tx
+            .query_row(
+                "SELECT id FROM tests WHERE axis_id = ?1 AND kind = ?2 AND content_sha256 = ?3",
+                params![axis_id, t.kind.as_str(), t.content_sha256],
+                |r| r.get(0),
+            )
+            .optional()?;
+        if let Some(id) = dup {
+            // Nothing new: the machine/axis upserts are dropped with the transaction.
+            return Ok(AddOutcome::Duplicate(id));
+        }
+        if t.reference {
+            tx.execute(
+                "UPDATE tests SET reference = 0 WHERE axis_id = ?1",
+                [axis_id],
+            )?;
+        }
+        tx.execute(
+            "INSERT INTO tests (axis_id, time_utc, time_s, kind, source, content_sha256, program,
+                                reference, compensation_ref, added_utc, feedscope_version)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)",
+            params![
+                axis_id,
+                t.time_utc,
+                t.time_s,
+                t.kind.as_str(),
+                t.source,
+                t.content_sha256,
+                t.program,
+                i64::from(t.reference),
+                t.compensation_ref,
+                super::time::format_rfc3339(super::time::now_s()),
+                env!("CARGO_PKG_VERSION"),
+            ],
+        )?;
+        let id = tx.last_insert_rowid();
+        if let Some(p) = &t.identified {
+            tx.execute(
+                "INSERT INTO identified VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11,
+                                                ?12, ?13, ?14, ?15)",
+                params![
+                    id,
+                    p.j_total_kgm2,
+                    p.j_std_kgm2,
+                    p.fc_n,
+                    p.fc_std_n,
+                    p.fs_n,
+                    p.fs_std_n,
+                    p.sigma_n_s_per_m,
+                    p.sigma_std_n_s_per_m,
+                    p.vs_mm_min,
+                    p.vs_std_mm_min,
+                    p.delta,
+                    p.offset_n,
+                    p.residual_rms_nm,
+                    p.samples_used
+                ],
+            )?;
+        }
+        {
+            let mut st = tx.prepare_cached(
+                "INSERT INTO interval_friction VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+            )?;
+            for r in &t.intervals {
+                st.execute(params![
+                    id,
+                    r.direction,
+                    r.start_mm,
+                    r.end_mm,
+                    r.mean_n,
+                    r.std_n,
+                    r.samples
+                ])?;
+            }
+            let mut st = tx.prepare_cached(
+                "INSERT INTO components (test_id, direction, segment, position_mm, order_cpl,
+                                         amplitude_n, floor_n, cause, trusted)
+                 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
+            )?;
+            for c in &t.components {
+                st.execute(params![
+                    id,
+                    c.direction,
+                    c.segment,
+                    c.position_mm,
+                    c.order,
+                    c.amplitude_n,
+                    c.floor_n,
+                    c.cause,
+                    i64::from(c.trusted)
+                ])?;
+            }
+            let mut st = tx.prepare_cached("INSERT INTO indicators VALUES (?1, ?2, ?3, ?4, ?5)")?;
+            for i in &t.indicators {
+                st.execute(params![id, i.name, i.value, i.std_error, i.unit])?;
+            }
+        }
+        if let Some(j) = &t.curves_json {
+            tx.execute("INSERT INTO curves VALUES (?1, ?2)", params![id, j])?;
+        }
+        // Test hook for the kill test: stay inside the open transaction for a while.
+        if let Some(ms) = std::env::var("FEEDSCOPE_TEST_SLEEP_IN_TX_MS")
+            .ok()
+            .and_then(|v| v.parse::<u64>().ok())
+        {
+            eprintln!("history add: inside the transaction, sleeping {ms} ms (test hook)");
+            std::thread::sleep(Duration::from_millis(ms));
+        }
+        tx.commit()?;
+        Ok(AddOutcome::Added(id))
+    }
+
+    fn list(&self, f: &Filter) -> Result<Vec<TestRow>, StoreError> {
+        let sql = format!(
+            "SELECT {TEST_COLS} FROM tests t JOIN axes a ON a.id = t.axis_id
+             JOIN machines m ON m.id = a.machine_id
+             WHERE (?1 IS NULL OR m.name = ?1) AND (?2 IS NULL OR a.name = ?2)
+             ORDER BY m.name, a.name, t.time_s, t.id"
+        );
+        let mut st = self.conn.prepare(&sql)?;
+        let rows = st
+            .query_map(params![f.machine, f.axis], test_row)?
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(rows)
+    }
+
+    fn get(&self, id: i64) -> Result<TestDetail, StoreError> {
+        let sql = format!(
+            "SELECT {TEST_COLS} FROM tests t JOIN axes a ON a.id = t.axis_id
+             JOIN machines m ON m.id = a.machine_id WHERE t.id = ?1"
+        );
+        let test = self
+            .conn
+            .query_row(&sql, [id], test_row)
+            .optional()?
+            .ok_or(StoreError::NoSuchTest(id))?;
+        let identified = self
+            .conn
+            .query_row(
+                "SELECT j_total_kgm2, j_std_kgm2, fc_n, fc_std_n, fs_n, fs_std_n,
+                        sigma_n_s_per_m, sigma_std_n_s_per_m, vs_mm_min, vs_std_mm_min, delta,
+                        offset_n, residual_rms_nm, samples_used
+                 FROM identified WHERE test_id = ?1",
+                [id],
+                |r| {
+                    Ok(Identified {
+                        j_total_kgm2: r.get(0)?,
+                        j_std_kgm2: r.get::<_, Option<f64>>(1)?.unwrap_or(f64::NAN),
+                        fc_n: r.get(2)?,
+                        fc_std_n: r.get::<_, Option<f64>>(3)?.unwrap_or(f64::NAN),
+                        fs_n: r.get(4)?,
+                        fs_std_n: r.get::<_, Option<f64>>(5)?.unwrap_or(f64::NAN),
+                        sigma_n_s_per_m: r.get(6)?,
+                        sigma_std_n_s_per_m: r.get::<_, Option<f64>>(7)?.unwrap_or(f64::NAN),
+                        vs_mm_min: r.get(8)?,
+                        vs_std_mm_min: r.get::<_, Option<f64>>(9)?.unwrap_or(f64::NAN),
+                        delta: r.get(10)?,
+                        offset_n: r.get(11)?,
+                        residual_rms_nm: r.get(12)?,
+                        samples_used: r.get(13)?,
+                    })
+                },
+            )
+            .optional()?;
+        let mut st = self.conn.prepare(
+            "SELECT direction, start_mm, end_mm, mean_n, std_n, samples FROM interval_friction
+             WHERE test_id = ?1 ORDER BY direction DESC, start_mm",
+        )?;
+        let intervals = st
+            .query_map([id], |r| {
+                Ok(IntervalRow {
+                    direction: r.get(0)?,
+                    start_mm: r.get(1)?,
+                    end_mm: r.get(2)?,
+                    mean_n: r.get(3)?,
+                    std_n: r.get(4)?,
+                    samples: r.get(5)?,
+                })
+            })?
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut st = self.conn.prepare(
+            "SELECT direction, segment, position_mm, order_cpl, amplitude_n, floor_n, cause,
+                    trusted FROM components WHERE test_id = ?1 ORDER BY id",
+        )?;
+        let components = st
+            .query_map([id], |r| {
+                Ok(ComponentRow {
+                    direction: r.get(0)?,
+                    segment: r.get(1)?,
+                    position_mm: r.get(2)?,
+                    order: r.get(3)?,
+                    amplitude_n: r.get(4)?,
+                    floor_n: r.get(5)?,
+                    cause: r.get(6)?,
+                    trusted: r.get::<_, i64>(7)? != 0,
+                })
+            })?
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut st = self.conn.prepare(
+            "SELECT name, value, std_error, unit FROM indicators WHERE test_id = ?1 ORDER BY name",
+        )?;
+        let indicators = st
+            .query_map([id], |r| {
+                Ok(IndicatorRow {
+                    name: r.get(0)?,
+                    value: r.get(1)?,
+                    std_error: r.get(2)?,
+                    unit: r.get(3)?,
+                })
+            })?
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(TestDetail {
+            test,
+            identified,
+            intervals,
+            components,
+            indicators,
+        })
+    }
+
+    fn remove(&mut self, id: i64) -> Result<bool, StoreError> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)?;
+        let n = tx.execute("DELETE FROM tests WHERE id = ?1", [id])?;
+        tx.commit()?;
+        Ok(n > 0)
+    }
+
+    fn series(&self, machine: &str, axis: &str) -> Result<BTreeMap<String, Series>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT i.name, t.id, t.time_s, i.value, i.std_error
+             FROM indicators i JOIN tests t ON t.id = i.test_id
+             JOIN axes a ON a.id = t.axis_id JOIN machines m ON m.id = a.machine_id
+             WHERE m.name = ?1 AND a.name = ?2
+             ORDER BY i.name, t.time_s, t.id",
+        )?;
+        let mut out: BTreeMap<String, Series> = BTreeMap::new();
+        let mut rows = st.query(params![machine, axis])?;
+        while let Some(r) = rows.next()? {
+            let name: String = r.get(0)?;
+            out.entry(name).or_default().push((
+                r.get(1)?,
+                Point {
+                    time_s: r.get(2)?,
+                    value: r.get(3)?,
+                    std_error: r.get(4)?,
+                },
+            ));
+        }
+        Ok(out)
+    }
+
+    fn curves(&self, id: i64) -> Result<Option<String>, StoreError> {
+        Ok(self
+            .conn
+            .query_row("SELECT json FROM curves WHERE test_id = ?1", [id], |r| {
+                r.get(0)
+            })
+            .optional()?)
+    }
+
+    fn check(&self) -> Result<(), StoreError> {
+        let detail: String = self
+            .conn
+            .query_row("PRAGMA integrity_check(1)", [], |r| r.get(0))?;
+        let fk: Option<String> = self
+            .conn
+            .query_row("PRAGMA foreign_key_check", [], |r| r.get(0))
+            .optional()?;
+        if detail != "ok" || fk.is_some() {
+            return Err(StoreError::Corrupt {
+                path: self.path.display().to_string(),
+                detail: if detail == "ok" {
+                    format!("foreign key violation in table {}", fk.unwrap_or_default())
+                } else {
+                    detail
+                },
+            });
+        }
+        Ok(())
+    }
+}

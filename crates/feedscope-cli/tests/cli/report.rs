@@ -1,0 +1,122 @@
+//! `feedscope report` and the demo's history: a drifting history gives warnings, a diagnosis
+//! of lubrication and a self-contained HTML report with every section.
+use crate::history::{axis_file, triangle_trace};
+use crate::util::{feedscope, run, stderr, stdout};
+
+/// Seven weekly triangle tests, the last two with a clearly higher static friction.
+#[test]
+fn report_of_a_drifting_axis() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    axis_file(d);
+    let scales = [1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 1.8];
+    for (w, s) in scales.iter().enumerate() {
+        let t = triangle_trace(d, &format!("w{w}.csv"), *s, 10 + w as u64);
+        let mut c = feedscope(d);
+        c.args([
+            "history",
+            "--db",
+            "h.db",
+            "add",
+            "--kind",
+            "triangle",
+            "--axis",
+            "axis.toml",
+        ])
+        .arg(&t)
+        .args(["--time", &format!("2026-01-{:02}T08:00:00Z", 5 + w)]);
+        let o = run(c);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    std::fs::write(d.join("th.toml"), "[thresholds]\nfs_n = { upper = 900 }\n").unwrap();
+    let mut c = feedscope(d);
+    c.args([
+        "history",
+        "--db",
+        "h.db",
+        "trend",
+        "--thresholds",
+        "th.toml",
+        "--fail-on-warning",
+    ]);
+    let o = run(c);
+    assert_eq!(o.status.code(), Some(1), "{}\n{}", stdout(&o), stderr(&o));
+    let text = stdout(&o);
+    assert!(text.contains("fs_n"), "{text}");
+    assert!(text.contains("lubrication"), "{text}");
+
+    let mut c = feedscope(d);
+    c.args([
+        "report",
+        "--db",
+        "h.db",
+        "--thresholds",
+        "th.toml",
+        "-o",
+        "r.html",
+    ]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(d.join("r.html")).unwrap();
+    for id in [
+        "summary",
+        "diagnosis",
+        "profile",
+        "spectra",
+        "stribeck",
+        "trends",
+        "tables",
+    ] {
+        assert!(
+            html.contains(&format!("<section id=\"{id}\""))
+                || html.contains(&format!("id=\"{id}\"")),
+            "{id}"
+        );
+    }
+    assert!(
+        html.matches("<svg").count() >= 6,
+        "trend charts and the Stribeck curves"
+    );
+    // self-contained: no external resource
+    for bad in ["<script", "src=\"http", "href=\"http", "<link"] {
+        assert!(!html.contains(bad), "{bad}");
+    }
+
+    // a thresholds file with an unknown indicator is bad input
+    std::fs::write(
+        d.join("bad.toml"),
+        "[thresholds]\nfriction = { upper = 1 }\n",
+    )
+    .unwrap();
+    let mut c = feedscope(d);
+    c.args([
+        "report",
+        "--db",
+        "h.db",
+        "--thresholds",
+        "bad.toml",
+        "-o",
+        "x.html",
+    ]);
+    assert_eq!(run(c).status.code(), Some(2));
+}
+
+#[test]
+fn report_without_database_is_bad_input() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut c = feedscope(tmp.path());
+    c.args(["report", "--db", "none.db"]);
+    let o = run(c);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!tmp.path().join("none.db").exists());
+}
+
+#[test]
+fn report_help() {
+    let d = tempfile::tempdir().unwrap();
+    let mut c = feedscope(d.path());
+    c.args(["report", "--help"]);
+    let o = run(c);
+    assert!(o.status.success());
+    insta::assert_snapshot!("report_help", stdout(&o));
+}
