@@ -86,8 +86,11 @@ impl<'a> CubicSpline<'a> {
     /// [`SplineError`] when lengths differ, fewer than 2 knots are given, x does not strictly
     /// increase, or a value is not finite.
     pub fn new(x: &'a [f64], y: &'a [f64], end: EndCondition) -> Result<Self, SplineError> {
-        let mut scratch = Vec::new();
-        Self::with_scratch(x, y, end, &mut scratch)
+        // The sweep buffer is reused per thread (fresh large allocations cost page faults).
+        thread_local! {
+            static SCRATCH: std::cell::RefCell<Vec<f64>> = const { std::cell::RefCell::new(Vec::new()) };
+        }
+        SCRATCH.with_borrow_mut(|scratch| Self::with_scratch(x, y, end, scratch))
     }
 
     /// As [`CubicSpline::new`], reusing `scratch` for the tridiagonal sweep.
@@ -245,15 +248,50 @@ pub fn smoothing_moments(
         return Ok(m);
     }
     let nn = n - 2; // unknowns γ_1..γ_{n−2}
-    let hs: Vec<f64> = x.windows(2).map(|w| w[1] - w[0]).collect();
-    let ih: Vec<f64> = hs.iter().map(|h| 1.0 / h).collect();
+                    // Eight work arrays, reused per thread: allocating them afresh for every stroke costs more
+                    // in page faults than the solve itself.
+    SMOOTH_SCRATCH.with_borrow_mut(|w| {
+        for v in w.iter_mut() {
+            v.clear();
+        }
+        let [hs, ih, e, f, sd, rhs, u, v] = w;
+        hs.extend(x.windows(2).map(|w| w[1] - w[0]));
+        ih.extend(hs.iter().map(|h| 1.0 / h));
+        for a in [&mut *e, &mut *f, &mut *sd, &mut *rhs, &mut *u, &mut *v] {
+            a.resize(nn, 0.0);
+        }
+        smooth_solve(x.len(), y, alpha, hs, ih, e, f, sd, rhs, u, v, g, &mut m);
+    });
+    Ok(m)
+}
+
+thread_local! {
+    static SMOOTH_SCRATCH: std::cell::RefCell<[Vec<f64>; 8]> =
+        const { std::cell::RefCell::new([const { Vec::new() }; 8]) };
+}
+
+/// The banded solve of [`smoothing_moments`] on prepared work arrays (all of length n − 2
+/// except `hs`, `ih`: n − 1).
+#[allow(clippy::too_many_arguments)]
+fn smooth_solve(
+    n: usize,
+    y: &[f64],
+    alpha: f64,
+    hs: &[f64],
+    ih: &[f64],
+    e: &mut [f64],
+    f: &mut [f64],
+    sd: &mut [f64],
+    rhs: &mut [f64],
+    u: &mut [f64],
+    v: &mut [f64],
+    g: &mut [f64],
+    m: &mut [f64],
+) {
+    let nn = n - 2;
     // Column j of Q (knot j = i + 1) has a_j = 1/h_{j−1}, b_j = −a_j − c_j, c_j = 1/h_j at
     // rows j−1, j, j+1.
     // Band of A = R + α QᵀQ: e (diagonal), f (first), s (second off-diagonal).
-    let mut e = vec![0.0; nn];
-    let mut f = vec![0.0; nn];
-    let mut sd = vec![0.0; nn];
-    let mut rhs = vec![0.0; nn];
     for i in 0..nn {
         let j = i + 1;
         let (a, c) = (ih[j - 1], ih[j]);
@@ -270,8 +308,6 @@ pub fn smoothing_moments(
         rhs[i] = a * y[j - 1] + b * y[j] + c * y[j + 1];
     }
     // LDLᵀ with L's sub-diagonals u (first) and v (second); d in `e`, solution in `rhs`.
-    let mut u = vec![0.0; nn];
-    let mut v = vec![0.0; nn];
     for i in 0..nn {
         let mut d = e[i];
         if i >= 2 {
@@ -307,7 +343,7 @@ pub fn smoothing_moments(
             rhs[i] -= v[i + 2] * rhs[i + 2];
         }
     }
-    m[1..n - 1].copy_from_slice(&rhs);
+    m[1..n - 1].copy_from_slice(rhs);
     // g = y − α Q γ; row k of Q touches columns k−1, k, k+1 (interior knots only).
     for k in 0..n {
         let mut qg = 0.0;
@@ -322,7 +358,6 @@ pub fn smoothing_moments(
         }
         g[k] = y[k] - alpha * qg;
     }
-    Ok(m)
 }
 
 /// α for [`smoothing_moments`] that puts the smoother's half-power point at `cutoff_hz`, for
