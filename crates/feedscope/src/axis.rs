@@ -23,6 +23,14 @@ pub enum AxisError {
         /// What the parser reported.
         message: String,
     },
+    /// A `[thresholds]` key is not a known condition indicator.
+    #[error("{source_name}: [thresholds]: `{name}` is not a condition indicator (see `feedscope history show`)")]
+    UnknownIndicator {
+        /// File name (or other label) of the input.
+        source_name: String,
+        /// The unknown key.
+        name: String,
+    },
     /// A key holds a value outside its physical range.
     #[error("{source_name}: key `{key}` = {value}: {reason}")]
     InvalidValue {
@@ -95,6 +103,11 @@ pub struct AxisParams {
     /// Extra orders with known causes (e.g. rolling-tool marks).
     #[serde(default, rename = "declared_order")]
     pub declared_orders: Vec<DeclaredOrder>,
+    /// Alarm levels per condition indicator (`[thresholds]` table, e.g.
+    /// `fs_n = { upper = 480 }`), used by `history trend` and `report`; keys are
+    /// the indicator names of [`crate::history::Indicator`].
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub thresholds: std::collections::BTreeMap<String, crate::history::Threshold>,
 }
 
 /// Which file syntax an axis description is in.
@@ -209,6 +222,19 @@ impl AxisParams {
         for d in &self.declared_orders {
             positive("declared_order.order", d.order)?;
         }
+        for (name, t) in &self.thresholds {
+            if crate::history::Indicator::parse(name).is_none() {
+                return Err(AxisError::UnknownIndicator {
+                    source_name: source_name.to_string(),
+                    name: name.clone(),
+                });
+            }
+            for v in [t.upper, t.lower].into_iter().flatten() {
+                if !v.is_finite() {
+                    return Err(bad("thresholds", v, "must be a finite number"));
+                }
+            }
+        }
         Ok(())
     }
 
@@ -292,6 +318,16 @@ mod tests {
             "damping_nms_per_rad": 0, "torque_constant_nm_per_a": 0.9}"#;
         let a = AxisParams::parse(json, ConfigFormat::Json, "a.json").unwrap();
         assert!((a.lead_mm - 5.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn thresholds_table_is_checked() {
+        let ok = format!("{MINIMAL}[thresholds]\nfs_n = {{ upper = 480 }}\n");
+        let a = AxisParams::parse(&ok, ConfigFormat::Toml, "a.toml").unwrap();
+        assert_eq!(a.thresholds["fs_n"].upper, Some(480.0));
+        let bad = format!("{MINIMAL}[thresholds]\nfs_nn = {{ upper = 480 }}\n");
+        let e = AxisParams::parse(&bad, ConfigFormat::Toml, "a.toml").unwrap_err();
+        assert!(e.to_string().contains("fs_nn"), "{e}");
     }
 
     #[test]

@@ -224,6 +224,29 @@ pub struct ThresholdFile {
     pub thresholds: BTreeMap<String, Threshold>,
 }
 
+/// The thresholds in force: those of the axis file stored with the tests (`[thresholds]`),
+/// each overridden by the same key of a `--thresholds` file.
+pub fn with_axis_thresholds(
+    store: &SqliteStore,
+    machine: &str,
+    axis: &str,
+    from_file: BTreeMap<String, Threshold>,
+) -> Result<BTreeMap<String, Threshold>> {
+    let mut out = BTreeMap::new();
+    if let Some(json) = store
+        .axis_params(machine, axis)
+        .map_err(|e| anyhow::Error::new(e))?
+    {
+        // Stored by `history add` from a validated axis file; an old or foreign shape simply
+        // carries no thresholds.
+        if let Ok(p) = serde_json::from_str::<feedscope::axis::AxisParams>(&json) {
+            out = p.thresholds;
+        }
+    }
+    out.extend(from_file);
+    Ok(out)
+}
+
 /// Read a thresholds file; unknown indicator keys are bad input.
 pub fn load_thresholds(path: Option<&Path>) -> Result<BTreeMap<String, Threshold>> {
     let Some(p) = path else {
@@ -934,6 +957,7 @@ fn trend(db: &Path, a: &TrendArgs) -> Result<bool> {
     let thresholds = load_thresholds(a.thresholds.as_deref())?;
     let store = open_store(db)?;
     let axis = resolve_axis(&store, &a.machine, a.axis_name.as_deref())?;
+    let thresholds = with_axis_thresholds(&store, &a.machine, &axis, thresholds)?;
     let t = axis_trends(&store, &a.machine, &axis, a.baseline_tests, &thresholds)?;
     let warn = t
         .trends

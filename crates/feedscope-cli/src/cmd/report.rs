@@ -53,6 +53,7 @@ pub fn write_report(
     }
     let store = open_store(db)?;
     let axis = resolve_axis(&store, machine, axis)?;
+    let thresholds = super::history::with_axis_thresholds(&store, machine, &axis, thresholds)?;
     let t = axis_trends(&store, machine, &axis, baseline_tests, &thresholds)?;
     let html = crate::report::render(&store, &t)?;
     write_atomic(out, html.as_bytes())

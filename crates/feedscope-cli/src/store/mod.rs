@@ -301,6 +301,8 @@ pub trait Store {
     fn series(&self, machine: &str, axis: &str) -> Result<BTreeMap<String, Series>, StoreError>;
     /// The report curves of a test.
     fn curves(&self, id: i64) -> Result<Option<String>, StoreError>;
+    /// The axis parameters (JSON of the axis file) last stored for an axis.
+    fn axis_params(&self, machine: &str, axis: &str) -> Result<Option<String>, StoreError>;
     /// Integrity check; `Ok(())` when the file is sound.
     fn check(&self) -> Result<(), StoreError>;
 }

@@ -548,6 +548,18 @@ impl Store for SqliteStore {
             .optional()?)
     }
 
+    fn axis_params(&self, machine: &str, axis: &str) -> Result<Option<String>, StoreError> {
+        Ok(self
+            .conn
+            .query_row(
+                "SELECT a.params_json FROM axes a JOIN machines m ON m.id = a.machine_id
+                 WHERE m.name = ?1 AND a.name = ?2",
+                params![machine, axis],
+                |r| r.get(0),
+            )
+            .optional()?)
+    }
+
     fn check(&self) -> Result<(), StoreError> {
         let detail: String = self
             .conn

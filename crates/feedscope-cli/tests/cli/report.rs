@@ -120,3 +120,53 @@ fn report_help() {
     assert!(o.status.success());
     insta::assert_snapshot!("report_help", stdout(&o));
 }
+
+#[test]
+fn thresholds_from_the_axis_file_are_used() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    axis_file(d);
+    // The same axis with an alarm level every test crosses (fs_n is ~ hundreds of N).
+    let mut axis = std::fs::read_to_string(d.join("axis.toml")).unwrap();
+    axis.push_str("\n[thresholds]\nfs_n = { upper = 1.0 }\n");
+    std::fs::write(d.join("axis.toml"), axis).unwrap();
+    for w in 0..3 {
+        let t = triangle_trace(d, &format!("w{w}.csv"), 1.0, 40 + w as u64);
+        let mut c = feedscope(d);
+        c.args([
+            "history",
+            "--db",
+            "h.db",
+            "add",
+            "--kind",
+            "triangle",
+            "--axis",
+            "axis.toml",
+        ])
+        .arg(&t)
+        .args(["--time", &format!("2026-02-{:02}T08:00:00Z", 2 + 7 * w)]);
+        let o = run(c);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let mut c = feedscope(d);
+    c.args([
+        "history",
+        "--db",
+        "h.db",
+        "trend",
+        "--baseline-tests",
+        "2",
+        "--format",
+        "json",
+    ]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let fs = v["trends"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["indicator"]["kind"] == "static_friction")
+        .unwrap_or_else(|| panic!("no static-friction trend in {v}"));
+    assert_eq!(fs["threshold"]["upper"].as_f64(), Some(1.0), "{fs}");
+}

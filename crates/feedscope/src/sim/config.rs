@@ -54,6 +54,7 @@ impl Default for SimConfig {
                 order: 0.56,
                 cause: "rolling-tool mark".to_string(),
             }],
+            thresholds: Default::default(),
         };
         let friction = Some(FrictionParams::default_for(&axis));
         Self {
