@@ -235,7 +235,7 @@ pub fn with_axis_thresholds(
     let mut out = BTreeMap::new();
     if let Some(json) = store
         .axis_params(machine, axis)
-        .map_err(|e| anyhow::Error::new(e))?
+        .map_err(anyhow::Error::new)?
     {
         // Stored by `history add` from a validated axis file; an old or foreign shape simply
         // carries no thresholds.
