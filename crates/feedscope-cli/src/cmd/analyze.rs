@@ -575,39 +575,16 @@ fn plots(
             .min(fl.max_trusted_order.max(4.0))
             .min(40.0);
         // 2. Heat map of segment spectra: amplitude over order and position.
-        let segs: Vec<&feedscope::order::Spectrum> =
-            fl.spectra.iter().filter(|sp| sp.segment != "all").collect();
-        if !segs.is_empty() {
-            let step = segs
-                .iter()
-                .map(|sp| sp.order_resolution)
-                .fold(f64::INFINITY, f64::min)
-                .max(max_order / 800.0);
-            let nx = (max_order / step).floor() as usize + 1;
-            let x: Vec<f64> = (0..nx).map(|i| i as f64 * step).collect();
-            let mut rows: Vec<(f64, Vec<f64>)> = segs
-                .iter()
-                .map(|sp| {
-                    let row = x
-                        .iter()
-                        .map(|&o| {
-                            let b = (o / sp.order_resolution).round() as usize;
-                            sp.amplitude_n.get(b).copied().unwrap_or(f64::NAN)
-                        })
-                        .collect();
-                    (0.5 * (sp.start_mm + sp.end_mm), row)
-                })
-                .collect();
-            rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some(g) = fl.segment_grid(max_order, 800) {
             let title = format!("FFS spectra along the travel, {dir}");
             let svg = plot::heatmap_svg(&Heatmap {
                 title: &title,
                 x_label: "order (cycles per lead)",
                 y_label: "segment centre position (mm)",
                 z_label: "amplitude (N)",
-                x,
-                y: rows.iter().map(|r| r.0).collect(),
-                z: rows.into_iter().map(|r| r.1).collect(),
+                x: g.orders,
+                y: g.position_mm,
+                z: g.amplitude_n,
             })?;
             out.push((format!("spectra_heatmap_{dir}.svg"), svg));
         }

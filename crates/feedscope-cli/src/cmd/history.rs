@@ -485,38 +485,12 @@ fn stroke_results(trace: &Trace, axis: &AxisParams, interval_mm: f64) -> Result<
 }
 
 fn heatmap(fl: &feedscope::order::FluctuationAnalysis, d: Direction) -> Option<HeatmapData> {
-    let segs: Vec<&feedscope::order::Spectrum> =
-        fl.spectra.iter().filter(|sp| sp.segment != "all").collect();
-    if segs.is_empty() {
-        return None;
-    }
-    let max_order = fl.max_trusted_order.clamp(4.0, 40.0);
-    let step = segs
-        .iter()
-        .map(|sp| sp.order_resolution)
-        .fold(f64::INFINITY, f64::min)
-        .max(max_order / 400.0);
-    let nx = (max_order / step).floor() as usize + 1;
-    let x: Vec<f64> = (0..nx).map(|i| i as f64 * step).collect();
-    let mut rows: Vec<(f64, Vec<f64>)> = segs
-        .iter()
-        .map(|sp| {
-            let row = x
-                .iter()
-                .map(|&o| {
-                    let b = (o / sp.order_resolution).round() as usize;
-                    sp.amplitude_n.get(b).copied().unwrap_or(f64::NAN)
-                })
-                .collect();
-            (0.5 * (sp.start_mm + sp.end_mm), row)
-        })
-        .collect();
-    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let g = fl.segment_grid(fl.max_trusted_order.clamp(4.0, 40.0), 400)?;
     Some(HeatmapData {
         direction: d.as_str().into(),
-        orders: x,
-        position_mm: rows.iter().map(|r| r.0).collect(),
-        amplitude_n: rows.into_iter().map(|r| r.1).collect(),
+        orders: g.orders,
+        position_mm: g.position_mm,
+        amplitude_n: g.amplitude_n,
     })
 }
 

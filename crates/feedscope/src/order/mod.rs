@@ -705,6 +705,59 @@ pub struct FluctuationAnalysis {
     pub warnings: Vec<String>,
 }
 
+/// Segment spectra on one order grid, for a heat map of amplitude over order and position.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SpectrumGrid {
+    /// Orders of the columns (cycles per lead), from 0 in equal steps.
+    pub orders: Vec<f64>,
+    /// Segment centre of each row (mm), increasing.
+    pub position_mm: Vec<f64>,
+    /// Amplitude (N), one row per segment; NaN where a segment's spectrum ends.
+    pub amplitude_n: Vec<Vec<f64>>,
+}
+
+impl FluctuationAnalysis {
+    /// The segment spectra (not `all`) on a common order grid from 0 to `max_order`: the
+    /// finest segment resolution, but at most `max_columns` columns; each cell takes its
+    /// segment's nearest bin. `None` without segments.
+    pub fn segment_grid(&self, max_order: f64, max_columns: usize) -> Option<SpectrumGrid> {
+        let segs: Vec<&Spectrum> = self
+            .spectra
+            .iter()
+            .filter(|sp| sp.segment != "all")
+            .collect();
+        if segs.is_empty() || max_order.is_nan() || max_order <= 0.0 {
+            return None;
+        }
+        let step = segs
+            .iter()
+            .map(|sp| sp.order_resolution)
+            .fold(f64::INFINITY, f64::min)
+            .max(max_order / max_columns.max(1) as f64);
+        let nx = (max_order / step).floor() as usize + 1;
+        let orders: Vec<f64> = (0..nx).map(|i| i as f64 * step).collect();
+        let mut rows: Vec<(f64, Vec<f64>)> = segs
+            .iter()
+            .map(|sp| {
+                let row = orders
+                    .iter()
+                    .map(|&o| {
+                        let b = (o / sp.order_resolution).round() as usize;
+                        sp.amplitude_n.get(b).copied().unwrap_or(f64::NAN)
+                    })
+                    .collect();
+                (0.5 * (sp.start_mm + sp.end_mm), row)
+            })
+            .collect();
+        rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Some(SpectrumGrid {
+            orders,
+            position_mm: rows.iter().map(|r| r.0).collect(),
+            amplitude_n: rows.into_iter().map(|r| r.1).collect(),
+        })
+    }
+}
+
 /// Spectra of the FFS of a stroke: whole stroke and segments, significant components and
 /// their causes, aliasing guard.
 ///
