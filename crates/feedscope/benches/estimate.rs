@@ -12,6 +12,11 @@
 use std::hint::black_box;
 use std::path::PathBuf;
 
+// The `feedscope` binary runs on mimalloc (it keeps freed pages instead of returning them to
+// the OS for every stroke); measure the library under the same allocator.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use feedscope::axis::{AxisParams, ConfigFormat};
 use feedscope::estimate::{estimate, EstimateParams};

@@ -248,30 +248,32 @@ pub fn smoothing_moments(
         return Ok(m);
     }
     let nn = n - 2; // unknowns γ_1..γ_{n−2}
-                    // Eight work arrays, reused per thread: allocating them afresh for every stroke costs more
+                    // Seven work arrays, reused per thread: allocating them afresh for every stroke costs more
                     // in page faults than the solve itself.
-    SMOOTH_SCRATCH.with_borrow_mut(|w| {
-        for v in w.iter_mut() {
-            v.clear();
+    SMOOTH_SCRATCH.with_borrow_mut(|work| {
+        for a in work.iter_mut() {
+            a.clear();
         }
-        let [hs, ih, e, f, sd, rhs, u, v] = w;
-        hs.extend(x.windows(2).map(|w| w[1] - w[0]));
+        let [hs, ih, d, inv_d, u, v, w] = work;
+        hs.extend(x.windows(2).map(|p| p[1] - p[0]));
         ih.extend(hs.iter().map(|h| 1.0 / h));
-        for a in [&mut *e, &mut *f, &mut *sd, &mut *rhs, &mut *u, &mut *v] {
+        for a in [&mut *d, &mut *inv_d, &mut *u, &mut *v, &mut *w] {
             a.resize(nn, 0.0);
         }
-        smooth_solve(x.len(), y, alpha, hs, ih, e, f, sd, rhs, u, v, g, &mut m);
+        smooth_solve(x.len(), y, alpha, hs, ih, d, inv_d, u, v, w, g, &mut m);
     });
     Ok(m)
 }
 
 thread_local! {
-    static SMOOTH_SCRATCH: std::cell::RefCell<[Vec<f64>; 8]> =
-        const { std::cell::RefCell::new([const { Vec::new() }; 8]) };
+    static SMOOTH_SCRATCH: std::cell::RefCell<[Vec<f64>; 7]> =
+        const { std::cell::RefCell::new([const { Vec::new() }; 7]) };
 }
 
-/// The banded solve of [`smoothing_moments`] on prepared work arrays (all of length n − 2
-/// except `hs`, `ih`: n − 1).
+/// The banded solve of [`smoothing_moments`]: one forward pass builds row i of
+/// A = R + α QᵀQ, factors it (LDLᵀ with sub-diagonals u, v) and forward-substitutes; one
+/// backward pass solves for γ; a last pass forms g. `d`, `inv_d`, `u`, `v`, `w` have length
+/// n − 2; `hs`, `ih` (spacings and their reciprocals) n − 1.
 #[allow(clippy::too_many_arguments)]
 fn smooth_solve(
     n: usize,
@@ -279,71 +281,53 @@ fn smooth_solve(
     alpha: f64,
     hs: &[f64],
     ih: &[f64],
-    e: &mut [f64],
-    f: &mut [f64],
-    sd: &mut [f64],
-    rhs: &mut [f64],
+    d: &mut [f64],
+    inv_d: &mut [f64],
     u: &mut [f64],
     v: &mut [f64],
+    w: &mut [f64],
     g: &mut [f64],
     m: &mut [f64],
 ) {
     let nn = n - 2;
-    // Column j of Q (knot j = i + 1) has a_j = 1/h_{j−1}, b_j = −a_j − c_j, c_j = 1/h_j at
-    // rows j−1, j, j+1.
-    // Band of A = R + α QᵀQ: e (diagonal), f (first), s (second off-diagonal).
+    // Unknown i is γ at knot j = i + 1; column j of Q holds a_j = 1/h_{j−1},
+    // b_j = −a_j − c_j, c_j = 1/h_j at rows j−1, j, j+1.
     for i in 0..nn {
         let j = i + 1;
         let (a, c) = (ih[j - 1], ih[j]);
         let b = -a - c;
-        e[i] = (hs[j - 1] + hs[j]) / 3.0 + alpha * (a * a + b * b + c * c);
-        if i + 1 < nn {
-            let (a1, c1) = (ih[j], ih[j + 1]);
-            let b1 = -a1 - c1;
-            f[i] = hs[j] / 6.0 + alpha * (b * a1 + c * b1);
-        }
-        if i + 2 < nn {
-            sd[i] = alpha * c * ih[j + 1];
-        }
-        rhs[i] = a * y[j - 1] + b * y[j] + c * y[j + 1];
-    }
-    // LDLᵀ with L's sub-diagonals u (first) and v (second); d in `e`, solution in `rhs`.
-    for i in 0..nn {
-        let mut d = e[i];
-        if i >= 2 {
-            v[i] = sd[i - 2] / e[i - 2];
-            d -= v[i] * v[i] * e[i - 2];
-        }
+        let mut di = (hs[j - 1] + hs[j]) / 3.0 + alpha * (a * a + b * b + c * c);
+        let mut r = a * y[j - 1] + b * y[j] + c * y[j + 1];
         if i >= 1 {
-            let mut num = f[i - 1];
+            // A_{i,i−1} = h_{j−1}/6 + α (b_{j−1} a_j + c_{j−1} b_j)
+            let (a0, c0) = (ih[j - 2], ih[j - 1]);
+            let mut num = hs[j - 1] / 6.0 + alpha * ((-a0 - c0) * a + c0 * b);
             if i >= 2 {
-                num -= v[i] * u[i - 1] * e[i - 2];
+                // A_{i,i−2} = α c_{j−2} a_j
+                v[i] = alpha * ih[j - 2] * ih[j - 1] * inv_d[i - 2];
+                num -= v[i] * u[i - 1] * d[i - 2];
+                di -= v[i] * v[i] * d[i - 2];
+                r -= v[i] * w[i - 2];
             }
-            u[i] = num / e[i - 1];
-            d -= u[i] * u[i] * e[i - 1];
+            u[i] = num * inv_d[i - 1];
+            di -= u[i] * u[i] * d[i - 1];
+            r -= u[i] * w[i - 1];
         }
-        e[i] = d;
+        d[i] = di;
+        inv_d[i] = 1.0 / di;
+        w[i] = r;
     }
-    for i in 0..nn {
-        if i >= 1 {
-            rhs[i] -= u[i] * rhs[i - 1];
-        }
-        if i >= 2 {
-            rhs[i] -= v[i] * rhs[i - 2];
-        }
-    }
-    for i in 0..nn {
-        rhs[i] /= e[i];
-    }
+    // Back substitution: γ_i = w_i/d_i − u_{i+1} γ_{i+1} − v_{i+2} γ_{i+2}.
     for i in (0..nn).rev() {
+        let mut x = w[i] * inv_d[i];
         if i + 1 < nn {
-            rhs[i] -= u[i + 1] * rhs[i + 1];
+            x -= u[i + 1] * m[i + 2];
         }
         if i + 2 < nn {
-            rhs[i] -= v[i + 2] * rhs[i + 2];
+            x -= v[i + 2] * m[i + 3];
         }
+        m[i + 1] = x;
     }
-    m[1..n - 1].copy_from_slice(rhs);
     // g = y − α Q γ; row k of Q touches columns k−1, k, k+1 (interior knots only).
     for k in 0..n {
         let mut qg = 0.0;
