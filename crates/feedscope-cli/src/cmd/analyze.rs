@@ -14,7 +14,7 @@ use feedscope::profile::{
 use feedscope::trace::{read_trace_file, ReadOptions};
 use serde::Serialize;
 
-use super::estimate::{load_axis, params_from, Args as EstimateArgs};
+use super::estimate::load_axis;
 use super::BadInput;
 use crate::output::{push_fixed, write_atomic, AtomicFile};
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
@@ -222,20 +222,10 @@ fn load_strokes(args: &Args, axis: &AxisParams) -> Result<(Vec<StrokeFriction>, 
         ));
     }
     let (trace, _) = read_trace_file(&args.input, &ReadOptions::default())?;
-    let est_args = EstimateArgs {
-        trace: args.input.clone(),
-        axis: args.axis.clone(),
-        output: PathBuf::new(),
-        summary: None,
-        plot: None,
-        no_plot: true,
+    let params = EstimateParams {
         samples_per_lead: args.samples_per_lead,
-        end_condition: super::estimate::EndArg::NotAKnot,
-        time_of_position: super::estimate::TimeArg::Invert,
-        effort: None,
-        format: super::estimate::Format::Text,
+        ..EstimateParams::default()
     };
-    let params: EstimateParams = params_from(&est_args);
     let est = estimate(&trace, axis, &params)?;
     Ok((est.strokes, source))
 }
@@ -340,7 +330,7 @@ pub fn run(args: Args) -> Result<()> {
         },
     };
     let json = serde_json::to_string_pretty(&report)?;
-    let svgs = plots(&strokes, &analyses, &singles, &views, args.segment)?;
+    let svgs = plots(&strokes, &analyses, &singles, args.segment)?;
 
     let mut fcsv = AtomicFile::create(&args.out.join("friction.csv"))?;
     {
@@ -482,7 +472,6 @@ fn plots(
     strokes: &[StrokeFriction],
     analyses: &[StrokeAnalysis],
     singles: &[feedscope::profile::PiecewiseFit],
-    views: &[StrokeView],
     segment: usize,
 ) -> Result<Vec<(String, String)>> {
     let mut out = Vec::new();
@@ -658,6 +647,5 @@ fn plots(
             ));
         }
     }
-    let _ = views;
     Ok(out)
 }

@@ -357,7 +357,7 @@ pub fn print_table(summary: &Summary) {
     }
 }
 
-pub fn params_from(args: &Args) -> EstimateParams {
+fn params_from(args: &Args) -> EstimateParams {
     EstimateParams {
         samples_per_lead: args.samples_per_lead,
         end_condition: match args.end_condition {

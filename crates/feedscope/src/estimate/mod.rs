@@ -223,14 +223,24 @@ pub fn estimate(
     axis: &AxisParams,
     params: &EstimateParams,
 ) -> Result<Estimate, EstimateError> {
-    let planned = plan(trace, params)?;
-    let results: Vec<Result<Option<StrokeFriction>, EstimateError>> = planned
-        .spans
-        .par_iter()
-        .enumerate()
-        .map(|(k, span)| estimate_stroke(trace, axis, params, k, span))
-        .collect();
-    finish(trace, planned, results)
+    let mut strokes = Vec::new();
+    // One batch holding every stroke: all run in parallel.
+    let (zones, skipped) = estimate_streaming(
+        trace,
+        axis,
+        params,
+        usize::MAX,
+        |s| -> Result<(), EstimateError> {
+            strokes.push(s);
+            Ok(())
+        },
+    )?;
+    Ok(Estimate {
+        effort_kind: trace.effort_kind,
+        strokes,
+        zones,
+        skipped,
+    })
 }
 
 /// Strokes found in a trace, before estimation; lets a caller estimate them in batches (to
@@ -257,38 +267,6 @@ pub fn plan(trace: &Trace, params: &EstimateParams) -> Result<Plan, EstimateErro
         });
     }
     Ok(Plan { spans })
-}
-
-fn finish(
-    trace: &Trace,
-    plan: Plan,
-    results: Vec<Result<Option<StrokeFriction>, EstimateError>>,
-) -> Result<Estimate, EstimateError> {
-    let mut strokes = Vec::new();
-    let mut skipped = Vec::new();
-    for (k, r) in results.into_iter().enumerate() {
-        match r? {
-            Some(s) => strokes.push(s),
-            None => skipped.push(format!(
-                "stroke {k} ({}, {:.1} to {:.1} mm): too few effort samples inside it",
-                plan.spans[k].direction.as_str(),
-                trace.position_m.value[plan.spans[k].first] * 1e3,
-                trace.position_m.value[plan.spans[k].last] * 1e3
-            )),
-        }
-    }
-    if strokes.is_empty() {
-        return Err(EstimateError::NoStroke {
-            min_stroke_mm: 0.0,
-            min_knots: crate::trace::MIN_SAMPLES,
-        });
-    }
-    Ok(Estimate {
-        effort_kind: trace.effort_kind,
-        zones: segment::zones_between(&trace.position_m, &plan.spans),
-        strokes,
-        skipped,
-    })
 }
 
 /// Estimate one stroke (step 1-7). `Ok(None)` when the effort channel has fewer than four
@@ -396,22 +374,25 @@ pub fn estimate_stroke(
         EffortKind::CurrentA => axis.force_per_torque_n_per_nm() * axis.torque_constant_nm_per_a,
         EffortKind::TorqueNm => axis.force_per_torque_n_per_nm(),
     };
-    // t(z) by the paper's knot spline, when asked for (x must increase: use s·z).
+    // t(z) by the paper's knot spline, when asked for: a spline through (s·z_k, t_k), since its
+    // abscissae must increase for either direction.
+    let knot_x: Vec<f64> = match params.time_of_position {
+        TimeOfPosition::Invert => Vec::new(),
+        TimeOfPosition::KnotSpline => zz.iter().map(|z| s * z).collect(),
+    };
     let knot_spline = match params.time_of_position {
         TimeOfPosition::Invert => None,
-        TimeOfPosition::KnotSpline => Some(KnotInverse::new(zz, tz, s, params.end_condition)),
+        TimeOfPosition::KnotSpline => Some(
+            CubicSpline::new(&knot_x, tz, params.end_condition).map_err(|error| {
+                EstimateError::Spline {
+                    stroke: index,
+                    channel: "t(z)",
+                    error,
+                }
+            })?,
+        ),
     };
-    let knot_spline = match knot_spline {
-        Some(Ok(k)) => Some(k),
-        Some(Err(error)) => {
-            return Err(EstimateError::Spline {
-                stroke: index,
-                channel: "t(z)",
-                error,
-            })
-        }
-        None => None,
-    };
+    let mut knot_cursor = knot_spline.as_ref().map(|k| k.cursor());
     let mut ecur = es.cursor();
     let mut k_int = zs.interval(w_lo);
     let mut piece = zs.piece(k_int);
@@ -420,9 +401,9 @@ pub fn estimate_stroke(
     let mut sum = 0.0;
     for j in 0..count {
         let zg = (k_first as f64 + s * j as f64) * step;
-        let (t, v, a) = match &knot_spline {
+        let (t, v, a) = match &mut knot_cursor {
             Some(ks) => {
-                let t = ks.time_at(zg).clamp(w_lo, w_hi);
+                let t = ks.eval(s * zg).clamp(w_lo, w_hi);
                 let (_, v, a) = zs.eval_all(t);
                 (t, v, a)
             }
@@ -616,44 +597,6 @@ fn invert_in(
     (t, zs.interval(t), false)
 }
 
-/// The paper's t(z): a spline through (s·z_k, t_k).
-struct KnotInverse {
-    x: Vec<f64>,
-    y: Vec<f64>,
-    m: Vec<f64>,
-    s: f64,
-}
-
-impl KnotInverse {
-    fn new(z: &[f64], t: &[f64], s: f64, end: EndCondition) -> Result<Self, SplineError> {
-        let x: Vec<f64> = z.iter().map(|v| s * v).collect();
-        let sp = CubicSpline::new(&x, t, end)?;
-        let m = sp.moments().to_vec();
-        Ok(Self {
-            y: t.to_vec(),
-            m,
-            x,
-            s,
-        })
-    }
-
-    fn time_at(&self, z: f64) -> f64 {
-        let xq = self.s * z;
-        let k = self
-            .x
-            .partition_point(|&v| v <= xq)
-            .saturating_sub(1)
-            .min(self.x.len() - 2);
-        let (x0, x1) = (self.x[k], self.x[k + 1]);
-        let h = x1 - x0;
-        let (a, b) = (x1 - xq, xq - x0);
-        let (m0, m1) = (self.m[k], self.m[k + 1]);
-        (m0 * a * a * a + m1 * b * b * b) / (6.0 * h)
-            + (self.y[k] / h - m0 * h / 6.0) * a
-            + (self.y[k + 1] / h - m1 * h / 6.0) * b
-    }
-}
-
 /// Estimate the strokes in batches of `batch` at a time (in parallel within a batch) and hand
 /// each finished stroke, in time order, to `sink`; memory holds one batch of results.
 ///
@@ -701,10 +644,16 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
                     any = true;
                     sink(t)?;
                 }
-                None => skipped.push(format!(
-                    "stroke {}: too few effort samples inside it",
-                    base + k
-                )),
+                None => {
+                    let span = &chunk[k];
+                    skipped.push(format!(
+                        "stroke {} ({}, {:.1} to {:.1} mm): too few effort samples inside it",
+                        base + k,
+                        span.direction.as_str(),
+                        trace.position_m.value[span.first] * 1e3,
+                        trace.position_m.value[span.last] * 1e3
+                    ));
+                }
             }
         }
     }
