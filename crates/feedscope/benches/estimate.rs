@@ -19,7 +19,7 @@ static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use feedscope::axis::{AxisParams, ConfigFormat};
-use feedscope::estimate::{estimate, EstimateParams};
+use feedscope::estimate::{estimate, estimate_streaming, EstimateParams};
 use feedscope::trace::{read_trace_file, Channel, EffortKind, Layout, ReadOptions, Trace};
 
 const AXIS: &str = "lead_mm = 10\ntable_mass_kg = 425\ninertia_kgm2 = 0.004\n\
@@ -117,6 +117,30 @@ fn bench_estimate(c: &mut Criterion) {
             BenchmarkId::new("samples_per_channel", n),
             &trace,
             |b, tr| b.iter(|| black_box(estimate(tr, &ax, &params).unwrap())),
+        );
+        // As `feedscope estimate` runs it: strokes in batches, each dropped (there: written)
+        // once finished, so the output never piles up in memory.
+        g.bench_with_input(
+            BenchmarkId::new("samples_per_channel_streamed", n),
+            &trace,
+            |b, tr| {
+                b.iter(|| {
+                    let batch = 2 * rayon::current_num_threads();
+                    let mut points = 0usize;
+                    estimate_streaming(
+                        tr,
+                        &ax,
+                        &params,
+                        batch,
+                        |s| -> Result<(), feedscope::estimate::EstimateError> {
+                            points += s.friction_n.len();
+                            Ok(())
+                        },
+                    )
+                    .unwrap();
+                    black_box(points)
+                })
+            },
         );
         if n == 1_000_000 {
             // The paper's exact interpolation, without position smoothing.

@@ -227,13 +227,15 @@ pub fn estimate_to_csv(
     let mut plot = PlotData::default();
     // A writer thread takes formatted strokes, so the copy into the file overlaps with the
     // estimation of the next batch; the bounded channel caps the memory in flight.
-    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(2 * n_threads);
+    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Vec<u8>>>(2 * n_threads);
     let (streamed, out) = std::thread::scope(|scope| {
         let writer = scope.spawn(move || -> Result<AtomicFile> {
-            for buf in rx {
-                out.writer()
-                    .write_all(&buf)
-                    .with_context(|| format!("writing {}", csv_path.display()))?;
+            for parts in rx {
+                for buf in parts {
+                    out.writer()
+                        .write_all(&buf)
+                        .with_context(|| format!("writing {}", csv_path.display()))?;
+                }
             }
             Ok(out)
         });
@@ -244,7 +246,7 @@ pub fn estimate_to_csv(
             params,
             2 * n_threads,
             |s: StrokeFriction| (format_stroke(&s), PlotData::points(&s), s.summary),
-            |(rows, pts, summary): (Vec<u8>, Vec<(f64, f64)>, StrokeSummary)| -> Result<()> {
+            |(rows, pts, summary): (Vec<Vec<u8>>, Vec<(f64, f64)>, StrokeSummary)| -> Result<()> {
                 // A send fails only when the writer stopped on an error; join() reports it.
                 if tx.send(rows).is_err() {
                     return Err(anyhow::anyhow!("the CSV writer stopped"));
@@ -282,14 +284,15 @@ pub fn estimate_to_csv(
     })
 }
 
-/// CSV rows of one stroke, formatted in parallel chunks (formatting dominates writing).
-fn format_stroke(s: &StrokeFriction) -> Vec<u8> {
+/// CSV rows of one stroke, formatted in parallel chunks (formatting dominates writing); the
+/// chunks go to the file in order without being joined first.
+fn format_stroke(s: &StrokeFriction) -> Vec<Vec<u8>> {
     use rayon::prelude::*;
     let n = s.position_m.len();
     let dir = s.summary.direction.as_str().as_bytes();
     let stroke = s.summary.stroke.to_string();
     let chunk = 16_384;
-    let parts: Vec<Vec<u8>> = (0..n.div_ceil(chunk))
+    (0..n.div_ceil(chunk))
         .into_par_iter()
         .map(|c| {
             let mut b = Vec::with_capacity(chunk * 90);
@@ -313,8 +316,7 @@ fn format_stroke(s: &StrokeFriction) -> Vec<u8> {
             }
             b
         })
-        .collect();
-    parts.concat()
+        .collect()
 }
 
 /// The stroke table for people.

@@ -173,35 +173,99 @@ const BLOCK_BYTES: usize = 32 << 20;
 /// Any [`TraceError`]: unreadable file, bad header, malformed or non-finite numbers, time not
 /// increasing within a channel, a missing channel, too few samples, or no motion.
 pub fn read_trace_file(path: &Path, opts: &ReadOptions) -> Result<(Trace, ReadReport), TraceError> {
+    read_file_in_blocks(path, opts, BLOCK_BYTES)
+}
+
+/// [`read_trace_file`] with a chosen block size (tests use small blocks to cross boundaries).
+fn read_file_in_blocks(
+    path: &Path,
+    opts: &ReadOptions,
+    block_bytes: usize,
+) -> Result<(Trace, ReadReport), TraceError> {
     let name = path.display().to_string();
     let io = |error| TraceError::Io {
         source_name: name.clone(),
         error,
     };
-    let mut file = File::open(path).map_err(io)?;
+    let file = File::open(path).map_err(io)?;
     let size_hint = file.metadata().map(|m| m.len()).unwrap_or(0);
     let mut reader = BlockParser::new(name.clone(), opts, size_hint);
-    let mut buf: Vec<u8> = Vec::with_capacity(BLOCK_BYTES.min(size_hint as usize + 1) + 64);
-    let mut eof = false;
-    while !eof {
-        // Fill the buffer up to one block after the carried-over partial line.
-        let start = buf.len();
-        let want = BLOCK_BYTES.max(start + 1);
-        buf.resize(want, 0);
-        let mut filled = start;
-        while filled < want {
-            let n = file.read(&mut buf[filled..]).map_err(io)?;
-            if n == 0 {
-                eof = true;
-                break;
-            }
-            filled += n;
+    // A reading thread fills the next block while the workers parse this one. Blocks hold
+    // complete lines only (a partial last line moves to the next block); two buffers circulate.
+    let (full_tx, full_rx) = std::sync::mpsc::sync_channel::<std::io::Result<(Vec<u8>, bool)>>(1);
+    let (empty_tx, empty_rx) = std::sync::mpsc::channel::<Vec<u8>>();
+    let result = std::thread::scope(|scope| {
+        // Owned by this closure, so an early error drops them and the reading thread ends.
+        let (full_rx, empty_tx) = (full_rx, empty_tx);
+        scope.spawn(move || read_blocks(file, block_bytes, &full_tx, &empty_rx));
+        for _ in 0..2 {
+            let _ = empty_tx.send(Vec::new());
         }
-        buf.truncate(filled);
-        let consumed = reader.feed(&buf, eof)?;
-        buf.drain(..consumed);
-    }
+        for msg in full_rx.iter() {
+            let (buf, eof) = msg.map_err(io)?;
+            let consumed = reader.feed(&buf, eof)?;
+            debug_assert!(eof || consumed == buf.len());
+            // The reader stops when its buffers stop coming back; a failed send just means it
+            // is done.
+            let _ = empty_tx.send(buf);
+        }
+        Ok(())
+    });
+    result?;
     reader.finish()
+}
+
+/// Read `file` in blocks of about `block_bytes` that end at a line terminator (except at the
+/// end of the file) and send them with an end-of-file flag, reusing the buffers sent back.
+fn read_blocks(
+    mut file: File,
+    block_bytes: usize,
+    full: &std::sync::mpsc::SyncSender<std::io::Result<(Vec<u8>, bool)>>,
+    empty: &std::sync::mpsc::Receiver<Vec<u8>>,
+) {
+    let mut carry: Vec<u8> = Vec::new();
+    let mut term = None;
+    loop {
+        let Ok(mut buf) = empty.recv() else { return };
+        buf.clear();
+        buf.extend_from_slice(&carry);
+        carry.clear();
+        // Grow until at least one whole line is in: a line longer than a block still works.
+        // `read_to_end` fills the spare capacity without zeroing it first.
+        let eof = loop {
+            let start = buf.len();
+            buf.reserve(block_bytes);
+            let eof = match (&mut file).take(block_bytes as u64).read_to_end(&mut buf) {
+                Ok(n) => n < block_bytes,
+                Err(e) => {
+                    let _ = full.send(Err(e));
+                    return;
+                }
+            };
+            let t = *term.get_or_insert_with(|| line_terminator(&buf));
+            if eof {
+                break true;
+            }
+            if let Some(k) = memchr::memrchr(t, &buf[start..]) {
+                carry.extend_from_slice(&buf[start + k + 1..]);
+                buf.truncate(start + k + 1);
+                break false;
+            }
+        };
+        if full.send(Ok((buf, eof))).is_err() || eof {
+            return;
+        }
+    }
+}
+
+/// The line terminator of a file from its first block: LF, or a bare CR (old Mac style) when
+/// the block has CRs but no LF at all.
+fn line_terminator(buf: &[u8]) -> u8 {
+    if memchr::memchr(b'\n', buf).is_none() && memchr::memchr(b'\r', buf).is_some() {
+        b'\r'
+    } else {
+        b'\n'
+    }
 }
 
 /// Parse a trace held in memory; `source_name` labels errors.
@@ -270,6 +334,10 @@ struct BlockParser {
     ignored_rows: u64,
     ignored_names: Vec<String>,
     bom_checked: bool,
+    /// Bytes fed so far (for [`BlockParser::reserve_for_file`]).
+    bytes_seen: u64,
+    /// Whether the channels were reserved for the whole file.
+    reserved: bool,
 }
 
 fn shorten(b: &[u8]) -> String {
@@ -303,6 +371,8 @@ impl BlockParser {
             ignored_rows: 0,
             ignored_names: Vec::new(),
             bom_checked: false,
+            bytes_seen: 0,
+            reserved: false,
         }
     }
 
@@ -315,14 +385,7 @@ impl BlockParser {
                 off = 3;
             }
         }
-        let term = *self.terminator.get_or_insert_with(|| {
-            // A file with bare CR line ends (old Mac style) has no LF at all.
-            if memchr::memchr(b'\n', buf).is_none() && memchr::memchr(b'\r', buf).is_some() {
-                b'\r'
-            } else {
-                b'\n'
-            }
-        });
+        let term = *self.terminator.get_or_insert_with(|| line_terminator(buf));
         // Only complete lines now; the rest waits for the next block.
         let end = if eof {
             buf.len()
@@ -342,11 +405,6 @@ impl BlockParser {
                 continue;
             }
             self.header = Some(self.parse_header(line)?);
-            if let Some(Header::Wide { .. }) = self.header {
-                let est = (self.size_hint / 24) as usize;
-                self.pos.time_s.reserve(est);
-                self.pos.value.reserve(est);
-            }
         }
         let Some(header) = self.header.clone() else {
             return Ok(end);
@@ -388,7 +446,27 @@ impl BlockParser {
             let piece = r.map_err(|(local, e)| relocate(e, self.lines + local))?;
             self.append(piece)?;
         }
+        self.bytes_seen += end as u64;
+        if !self.reserved && !eof {
+            self.reserve_for_file();
+        }
         Ok(end)
+    }
+
+    /// Reserve every channel for the whole file at the sample density seen so far, so that
+    /// growing never reallocates and copies; capacity that stays unused is never touched.
+    fn reserve_for_file(&mut self) {
+        if self.bytes_seen == 0 || self.pos.is_empty() && self.cur.is_empty() && self.tor.is_empty()
+        {
+            return;
+        }
+        self.reserved = true;
+        let ratio = self.size_hint as f64 / self.bytes_seen as f64;
+        for ch in [&mut self.pos, &mut self.cur, &mut self.tor] {
+            let want = (ch.len() as f64 * ratio * 1.05) as usize + 64;
+            ch.time_s.reserve(want.saturating_sub(ch.len()));
+            ch.value.reserve(want.saturating_sub(ch.len()));
+        }
     }
 
     fn parse_header(&mut self, line: &[u8]) -> Result<Header, TraceError> {
@@ -1021,6 +1099,54 @@ mod tests {
         match parse(&s).unwrap_err() {
             TraceError::NotANumber { line, .. } => assert_eq!(line, 102),
             e => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn small_blocks_match_in_memory_parse() {
+        // Long lines (longer than a block), every line ending and a BOM, read through blocks
+        // of a few hundred bytes: the same trace and the same error lines as one parse.
+        let mut body = String::from("\u{feff}# a comment\ntime_s,channel,value\n");
+        body.push_str(&format!("# {}\n", "x".repeat(5000)));
+        for k in 0..3000 {
+            body.push_str(&format!(
+                "{}.25,position_mm,{}\n{}.5,current_a,{}\n",
+                k,
+                k % 89,
+                k,
+                k % 7
+            ));
+        }
+        let dir = tempfile::tempdir().unwrap();
+        for (label, text) in [
+            ("lf", body.clone()),
+            ("crlf", body.replace('\n', "\r\n")),
+            ("cr", body.replace('\n', "\r")),
+        ] {
+            let path = dir.path().join(format!("{label}.csv"));
+            std::fs::write(&path, &text).unwrap();
+            let want = parse_trace(
+                text.as_bytes(),
+                &path.display().to_string(),
+                &ReadOptions::default(),
+            )
+            .unwrap();
+            for block in [97, 300, 4096, 1 << 20] {
+                let got = read_file_in_blocks(&path, &ReadOptions::default(), block).unwrap();
+                assert_eq!(got.0, want.0, "{label} {block}");
+                assert_eq!(got.1.lines, want.1.lines, "{label} {block}");
+            }
+            // An error deep in the file names the same line whatever the block size.
+            let bad = text.replace("2500.25,position_mm", "2499.25,position_mm");
+            std::fs::write(&path, &bad).unwrap();
+            for block in [97, 4096] {
+                match read_file_in_blocks(&path, &ReadOptions::default(), block).unwrap_err() {
+                    TraceError::TimeNotIncreasing { line, .. } => {
+                        assert_eq!(line, 4 + 2 * 2500, "{label} {block}")
+                    }
+                    e => panic!("{e}"),
+                }
+            }
         }
     }
 
