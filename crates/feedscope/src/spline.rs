@@ -479,38 +479,81 @@ fn moments(x: &[f64], y: &[f64], end: EndCondition, cp: &mut Vec<f64>) -> Vec<f6
         return m;
     }
     // Interior rows k = 1..=n−2: sub·m_{k−1} + diag·m_k + sup·m_{k+1} = r_k, with the
-    // not-a-knot ends eliminated into rows 1 and n−2.
+    // not-a-knot ends eliminated into rows 1 and n−2 (natural ends: m_0 = m_{n−1} = 0).
     let nak = end == EndCondition::NotAKnot;
-    // Thomas algorithm: c' in `cp`, d' in `m`. Rows are diagonally dominant (also the
-    // not-a-knot rows: |h1 − h0²/h1| < (h0 + h1)(2 + h0/h1)), so no pivoting is needed.
-    // h and the slope d roll along so each is computed once.
-    cp.clear();
-    cp.resize(n, 0.0);
-    let (mut h0, mut d0) = (h(0), d(0));
-    for k in 1..n - 1 {
-        let h1 = x[k + 1] - x[k];
-        let d1 = (y[k + 1] - y[k]) / h1;
-        let r = 6.0 * (d1 - d0);
+    let row = |k: usize, h0: f64, h1: f64, d0: f64, d1: f64| {
         let (mut sub, mut diag, mut sup) = (h0, 2.0 * (h0 + h1), h1);
-        if nak && k == 1 {
-            // m_0 = ((h0 + h1)·m_1 − h0·m_2)/h1
-            diag += h0 * (h0 + h1) / h1;
-            sup -= h0 * h0 / h1;
+        if k == 1 {
+            if nak {
+                // m_0 = ((h0 + h1)·m_1 − h0·m_2)/h1
+                diag += h0 * (h0 + h1) / h1;
+                sup -= h0 * h0 / h1;
+            }
             sub = 0.0;
         }
-        if nak && k == n - 2 {
-            // m_{n−1} = ((a + b)·m_{n−2} − b·m_{n−3})/a with a = h_{n−3}, b = h_{n−2}
-            diag += h1 * (h0 + h1) / h0;
-            sub -= h1 * h1 / h0;
+        if k == n - 2 {
+            if nak {
+                // m_{n−1} = ((a + b)·m_{n−2} − b·m_{n−3})/a with a = h_{n−3}, b = h_{n−2}
+                diag += h1 * (h0 + h1) / h0;
+                sub -= h1 * h1 / h0;
+            }
             sup = 0.0;
         }
+        (sub, diag, sup, 6.0 * (d1 - d0))
+    };
+    // Twisted ("burn at both ends") elimination: rows 1..p−1 from the top and rows
+    // n−2..p+1 from the bottom in one loop, so the two serial chains of divisions overlap;
+    // row p joins them. Rows are diagonally dominant (also the not-a-knot rows:
+    // |h1 − h0²/h1| < (h0 + h1)(2 + h0/h1)), so no pivoting is needed in either direction.
+    // Top: m_k = m'_k − cp_k·m_{k+1}; bottom: m_k = m'_k − cp_k·m_{k−1}; m' is kept in `m`
+    // (m_0 = m_{n−1} = 0 start both recurrences) and cp in `cp`. h and the slope d roll
+    // along each way so each is computed once.
+    let p = (n - 1) / 2;
+    cp.clear();
+    cp.resize(n, 0.0);
+    let top = |k: usize, h0: f64, d0: f64, cp: &mut [f64], m: &mut [f64]| {
+        let h1 = x[k + 1] - x[k];
+        let d1 = (y[k + 1] - y[k]) / h1;
+        let (sub, diag, sup, r) = row(k, h0, h1, d0, d1);
         let inv = 1.0 / (diag - sub * cp[k - 1]);
         cp[k] = sup * inv;
         m[k] = (r - sub * m[k - 1]) * inv;
-        (h0, d0) = (h1, d1);
+        (h1, d1)
+    };
+    let bottom = |k: usize, h1: f64, d1: f64, cp: &mut [f64], m: &mut [f64]| {
+        let h0 = x[k] - x[k - 1];
+        let d0 = (y[k] - y[k - 1]) / h0;
+        let (sub, diag, sup, r) = row(k, h0, h1, d0, d1);
+        let inv = 1.0 / (diag - sup * cp[k + 1]);
+        cp[k] = sub * inv;
+        m[k] = (r - sup * m[k + 1]) * inv;
+        (h0, d0)
+    };
+    let (n_top, n_bottom) = (p - 1, n - 2 - p);
+    let (mut ht, mut dt) = (h(0), d(0));
+    let (mut hb, mut db) = (h(n - 2), d(n - 2));
+    for j in 0..n_top.min(n_bottom) {
+        (ht, dt) = top(1 + j, ht, dt, cp, &mut m);
+        (hb, db) = bottom(n - 2 - j, hb, db, cp, &mut m);
     }
-    for k in (1..n - 2).rev() {
-        m[k] -= cp[k] * m[k + 1];
+    for j in n_bottom.min(n_top)..n_top {
+        (ht, dt) = top(1 + j, ht, dt, cp, &mut m);
+    }
+    for j in n_top.min(n_bottom)..n_bottom {
+        (hb, db) = bottom(n - 2 - j, hb, db, cp, &mut m);
+    }
+    let (sub, diag, sup, r) = row(p, h(p - 1), h(p), d(p - 1), d(p));
+    m[p] = (r - sub * m[p - 1] - sup * m[p + 1]) / (diag - sub * cp[p - 1] - sup * cp[p + 1]);
+    // Back substitution outwards from p, again both ways at once.
+    for j in 1..=n_top.max(n_bottom) {
+        if j <= n_top {
+            let k = p - j;
+            m[k] -= cp[k] * m[k + 1];
+        }
+        if j <= n_bottom {
+            let k = p + j;
+            m[k] -= cp[k] * m[k - 1];
+        }
     }
     if nak {
         let (h0, h1) = (h(0), h(1));
@@ -752,6 +795,27 @@ mod tests {
             .map(|(t, v)| (v - (2.0 * 2.0 * std::f64::consts::PI * t).sin()).abs())
             .fold(0.0f64, f64::max);
         assert!(err < 2e-3, "{err}");
+    }
+
+    #[test]
+    fn smallest_systems_match_dense_solve() {
+        // The twisted elimination's edge cases: one interior row, and one row per direction.
+        for (x, end) in [
+            (vec![0.0, 0.7, 2.0], EndCondition::Natural),
+            (vec![0.0, 0.7, 2.0, 2.5], EndCondition::Natural),
+            (vec![0.0, 0.7, 2.0, 2.5], EndCondition::NotAKnot),
+            (vec![0.0, 0.7, 2.0, 2.5, 4.0], EndCondition::NotAKnot),
+        ] {
+            let y: Vec<f64> = x
+                .iter()
+                .map(|v: &f64| (1.3 * v).sin() + 0.2 * v * v)
+                .collect();
+            let s = CubicSpline::new(&x, &y, end).unwrap();
+            let want = dense_moments(&x, &y, end);
+            for (a, b) in s.moments().iter().zip(&want) {
+                assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "{a} vs {b}");
+            }
+        }
     }
 
     proptest! {
