@@ -469,8 +469,9 @@ pub struct ChannelReport {
     pub repeated_times: usize,
     /// `UNAVAILABLE` observations (gaps: no sample written).
     pub unavailable: usize,
-    /// Samples earlier than the channel's previous one (out of order in the log), dropped.
-    pub out_of_order: usize,
+    /// Samples earlier than an earlier-written sample of the channel (the log is pieced
+    /// together from several recordings, or a poll was stamped late); put into time order.
+    pub reordered: usize,
     /// Median interval between samples (s); `NaN` with fewer than two samples.
     pub median_interval_s: f64,
     /// First and last sample time (s).
@@ -565,6 +566,12 @@ fn sampling_warnings(report: &mut ImportReport, trace: &Trace) {
         report.warnings.push(
             "the position never moves in this trace; `feedscope estimate` needs strokes".into(),
         );
+    }
+    if trace.effort.value.iter().all(|&v| v == 0.0) {
+        report.warnings.push(format!(
+            "the effort ({}) is zero in every sample: nothing to estimate friction from",
+            report.effort.source_key
+        ));
     }
     let dt = report
         .position

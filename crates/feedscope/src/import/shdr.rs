@@ -76,6 +76,27 @@ pub struct ShdrLog {
     pub other_device_observations: u64,
     /// Line endings seen.
     pub endings: LineEndings,
+    /// Stretches of the log whose data lines run forward in time; a new one starts where a
+    /// line's timestamp is more than [`SEGMENT_BACKSTEP_S`] before the latest one so far.
+    pub segments: Vec<Segment>,
+}
+
+/// A backward time step larger than this (s) between data lines starts a new [`Segment`]:
+/// adapters stamp items of one poll up to ~0.1 s out of order, a new recording jumps by
+/// minutes.
+pub const SEGMENT_BACKSTEP_S: f64 = 1.0;
+
+/// A stretch of a log written forward in time (one recording).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Segment {
+    /// Its first line (1-based).
+    pub first_line: u64,
+    /// Earliest and latest timestamp of its data lines.
+    pub start: Timestamp,
+    /// See `start`.
+    pub end: Timestamp,
+    /// Data lines in it.
+    pub lines: u64,
 }
 
 /// Where time 0 of the converted trace is.
@@ -225,6 +246,12 @@ fn choose_device(
         .iter()
         .map(|d| keys.iter().filter(|k| d.find_item(k).is_some()).count())
         .collect();
+    if keys.is_empty() {
+        // No data line at all: say so rather than that no key matched.
+        return Err(ImportError::Empty {
+            source_name: source_name.to_string(),
+        });
+    }
     let best = *score.iter().max().unwrap_or(&0);
     if best == 0 {
         return Err(dev_err(format!(
@@ -283,7 +310,9 @@ pub fn parse_shdr(
         asset_lines: 0,
         other_device_observations: 0,
         endings: LineEndings::default(),
+        segments: Vec::new(),
     };
+    let mut latest: Option<Timestamp> = None;
     let mut have_first = false;
     let mut version = 1u32;
     let mut multiline: Option<String> = None;
@@ -337,6 +366,21 @@ pub fn parse_shdr(
             have_first = true;
         }
         log.data_lines += 1;
+        let new_segment = latest.is_none_or(|l| l.seconds_since(&time) > SEGMENT_BACKSTEP_S);
+        if new_segment {
+            log.segments.push(Segment {
+                first_line: line_no,
+                start: time,
+                end: time,
+                lines: 0,
+            });
+            latest = Some(time);
+        }
+        let seg = log.segments.last_mut().expect("pushed above");
+        seg.start = seg.start.min(time);
+        seg.end = seg.end.max(time);
+        seg.lines += 1;
+        latest = latest.map(|l| l.max(time));
         let mut i = 1usize;
         while i < tokens.len() {
             let raw_key = tokens[i].as_str();
@@ -425,6 +469,14 @@ pub fn text_from(tokens: &[String], start: usize) -> String {
 }
 
 impl ShdrLog {
+    /// True when two segments share some time span.
+    pub fn segments_overlap(&self) -> bool {
+        let mut v: Vec<(Timestamp, Timestamp)> =
+            self.segments.iter().map(|g| (g.start, g.end)).collect();
+        v.sort();
+        v.windows(2).any(|w| w[1].0 < w[0].1)
+    }
+
     /// The device the log was read against.
     pub fn device<'m>(&self, model: &'m DeviceModel) -> &'m super::devices::Device {
         &model.devices[self.device]
@@ -608,11 +660,22 @@ impl ShdrLog {
             "load is integer percent: torque is quantised in steps of 1 % = {:.4} N·m",
             scale / 100.0
         ));
-        if lrep.out_of_order + prep.out_of_order > 0 {
+        if self.segments.len() > 1 {
             warnings.push(format!(
-                "{} samples earlier than their channel's previous sample were dropped",
-                lrep.out_of_order + prep.out_of_order
+                "the log is pieced together from {} recordings (time jumps back at lines {}); \
+                 samples were put in time order, with gaps between the recordings",
+                self.segments.len(),
+                self.segments[1..]
+                    .iter()
+                    .map(|g| g.first_line.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ));
+        }
+        if self.segments_overlap() {
+            warnings.push(
+                "some recordings of the log overlap in time: their samples interleave".into(),
+            );
         }
         let t0_lag = prep.span_s.0.min(lrep.span_s.0);
         if t0_lag > 3600.0 {
@@ -647,32 +710,39 @@ impl ShdrLog {
     }
 }
 
-/// Build a channel from numeric observations in file order: gaps skipped, repeated times keep
-/// the later value, earlier times dropped; values multiplied by `scale`.
+/// Build a channel from numeric observations in file order: gaps skipped, the samples put in
+/// time order (a stable sort, so of samples with the same timestamp the one written last is
+/// kept), values multiplied by `scale`.
 fn build_channel(
     obs: &[(Timestamp, Option<f64>)],
     origin: &Timestamp,
     scale: f64,
 ) -> (Channel, ChannelReport) {
-    let mut ch = Channel::default();
     let mut rep = ChannelReport::default();
-    let mut last: Option<Timestamp> = None;
+    let mut avail: Vec<(Timestamp, f64)> = Vec::with_capacity(obs.len());
+    let mut latest: Option<Timestamp> = None;
     for &(t, v) in obs {
         let Some(v) = v else {
             rep.unavailable += 1;
             continue;
         };
-        match last {
-            Some(l) if t == l => {
-                rep.repeated_times += 1;
-                *ch.value.last_mut().expect("a previous sample") = v * scale;
-            }
-            Some(l) if t < l => rep.out_of_order += 1,
-            _ => {
-                ch.time_s.push(t.seconds_since(origin));
-                ch.value.push(v * scale);
-                last = Some(t);
-            }
+        if latest.is_some_and(|l| t < l) {
+            rep.reordered += 1;
+        }
+        latest = Some(latest.map_or(t, |l| l.max(t)));
+        avail.push((t, v));
+    }
+    avail.sort_by_key(|&(t, _)| t);
+    let mut ch = Channel::default();
+    let mut last: Option<Timestamp> = None;
+    for (t, v) in avail {
+        if last == Some(t) {
+            rep.repeated_times += 1;
+            *ch.value.last_mut().expect("a previous sample") = v * scale;
+        } else {
+            ch.time_s.push(t.seconds_since(origin));
+            ch.value.push(v * scale);
+            last = Some(t);
         }
     }
     rep.finish(&ch);
@@ -813,6 +883,40 @@ mod tests {
         assert_eq!(log.asset_lines, 4);
         assert_eq!(log.series["Xabs"].observations, 2);
         assert_eq!(log.data_lines, 2);
+    }
+
+    #[test]
+    fn recordings_pieced_together_are_segments_and_come_out_in_time_order() {
+        // A second recording that starts 5 s earlier; inside it a line stamped 0.1 s late
+        // (poll jitter) is not a new segment.
+        let text = "2024-01-01T10:00:05Z|Xabs|5|Xload|1\n\
+                    2024-01-01T10:00:06Z|Xabs|6|Xload|1\n\
+                    2024-01-01T10:00:07Z|Xabs|7|Xload|1\n\
+                    2024-01-01T10:00:00Z|Xabs|0|Xload|2\n\
+                    2024-01-01T10:00:01Z|Xabs|1|Xload|2\n\
+                    2024-01-01T10:00:00.9Z|execution|ACTIVE\n\
+                    2024-01-01T10:00:02Z|Xabs|2|Xload|2\n";
+        let log = parse(text).unwrap();
+        assert_eq!(log.segments.len(), 2);
+        assert_eq!(log.segments[1].first_line, 4);
+        assert_eq!(log.segments[1].lines, 4);
+        assert!(!log.segments_overlap());
+        let p = ShdrConvertParams {
+            torque_per_load_nm: Some(10.0),
+            ..Default::default()
+        };
+        let imp = log.to_trace(&model(), "X", &p).unwrap();
+        let t = &imp.trace.position_m;
+        assert_eq!(t.len(), 6);
+        assert!(t.time_s.windows(2).all(|w| w[1] > w[0]));
+        // Time 0 is the first line (10:00:05): the earlier recording comes out negative.
+        assert!((t.time_s[0] + 5.0).abs() < 1e-12);
+        assert_eq!(imp.report.position.reordered, 3);
+        assert!(imp
+            .report
+            .warnings
+            .iter()
+            .any(|w| w.contains("2 recordings")));
     }
 
     #[test]

@@ -117,11 +117,13 @@ pub fn parse_umich(text: &str, source_name: &str) -> Result<UmichTable, ImportEr
 }
 
 impl UmichTable {
-    /// Axes that have an `A_ActualPosition` column, e.g. `X1`, `Y1`, `Z1`, `S1`.
+    /// Feed axes that have an `A_ActualPosition` column, e.g. `X1`, `Y1`, `Z1`; the spindle
+    /// (`S1`, position in degrees) is not one.
     pub fn axes(&self) -> Vec<String> {
         self.columns
             .iter()
             .filter_map(|c| c.strip_suffix("_ActualPosition"))
+            .filter(|a| !a.starts_with('S'))
             .map(str::to_string)
             .collect()
     }
@@ -183,7 +185,15 @@ impl UmichTable {
             .into_iter()
             .filter(|a| self.column(&format!("{a}_{suffix}")).is_some())
             .collect();
-        let prefix = self.resolve_axis(axis).unwrap_or_else(|| axis.to_string());
+        // An axis not in the file is named as the dataset would (`Y` → `Y1`) in the message.
+        let prefix = self.resolve_axis(axis).unwrap_or_else(|| {
+            let a = axis.to_ascii_uppercase();
+            if a.ends_with(|c: char| c.is_ascii_digit()) {
+                a
+            } else {
+                format!("{a}1")
+            }
+        });
         let pos_name = format!("{prefix}_ActualPosition");
         let cur_name = format!("{prefix}_{suffix}");
         let (pc, cc) = (self.column(&pos_name), self.column(&cur_name));
@@ -321,7 +331,7 @@ mod tests {
         let e = t.to_trace("Z", &UmichParams::default()).unwrap_err();
         assert!(
             e.to_string()
-                .contains("Z_ActualPosition, Z_CurrentFeedback"),
+                .contains("Z1_ActualPosition, Z1_CurrentFeedback"),
             "{e}"
         );
     }
