@@ -472,6 +472,9 @@ pub struct ChannelReport {
     /// Samples earlier than an earlier-written sample of the channel (the log is pieced
     /// together from several recordings, or a poll was stamped late); put into time order.
     pub reordered: usize,
+    /// Samples of different recordings alternate in time (recordings overlap, not just
+    /// follow each other).
+    pub interleaved: bool,
     /// Median interval between samples (s); `NaN` with fewer than two samples.
     pub median_interval_s: f64,
     /// First and last sample time (s).

@@ -469,7 +469,8 @@ pub fn text_from(tokens: &[String], start: usize) -> String {
 }
 
 impl ShdrLog {
-    /// True when two segments share some time span.
+    /// True when the spans of two segments overlap (a recording may still fit in a pause of
+    /// another; [`ChannelReport::interleaved`] tells whether samples really interleave).
     pub fn segments_overlap(&self) -> bool {
         let mut v: Vec<(Timestamp, Timestamp)> =
             self.segments.iter().map(|g| (g.start, g.end)).collect();
@@ -660,6 +661,13 @@ impl ShdrLog {
             "load is integer percent: torque is quantised in steps of 1 % = {:.4} N·m",
             scale / 100.0
         ));
+        if effort.value.iter().all(|&v| v >= 0.0) {
+            warnings.push(
+                "the load is never negative: drives usually report its magnitude, so the torque \
+                 sign (and the sign of friction on backward strokes) is lost"
+                    .into(),
+            );
+        }
         if self.segments.len() > 1 {
             warnings.push(format!(
                 "the log is pieced together from {} recordings (time jumps back at lines {}); \
@@ -672,10 +680,13 @@ impl ShdrLog {
                     .join(", ")
             ));
         }
-        if self.segments_overlap() {
-            warnings.push(
-                "some recordings of the log overlap in time: their samples interleave".into(),
-            );
+        for (rep, what) in [(&prep, "position"), (&lrep, "load")] {
+            if rep.interleaved {
+                warnings.push(format!(
+                    "{what}: recordings of the log overlap in time and their samples \
+                     interleave; check the trace before estimating"
+                ));
+            }
         }
         let t0_lag = prep.span_s.0.min(lrep.span_s.0);
         if t0_lag > 3600.0 {
@@ -719,8 +730,15 @@ fn build_channel(
     scale: f64,
 ) -> (Channel, ChannelReport) {
     let mut rep = ChannelReport::default();
-    let mut avail: Vec<(Timestamp, f64)> = Vec::with_capacity(obs.len());
+    // (time, value, run): a run is this channel's own stretch written forward in time, split
+    // as the log's segments are. After sorting, a recording that fits in a pause of another
+    // switches runs twice; runs alternating more often than 3 times per run means two
+    // recordings cover the same time sample by sample.
+    let mut avail: Vec<(Timestamp, f64, usize)> = Vec::with_capacity(obs.len());
+    // Latest time written so far (for `reordered`) and latest of the current run.
     let mut latest: Option<Timestamp> = None;
+    let mut latest_run: Option<Timestamp> = None;
+    let mut run = 0usize;
     for &(t, v) in obs {
         let Some(v) = v else {
             rep.unavailable += 1;
@@ -730,12 +748,19 @@ fn build_channel(
             rep.reordered += 1;
         }
         latest = Some(latest.map_or(t, |l| l.max(t)));
-        avail.push((t, v));
+        if latest_run.is_some_and(|l| l.seconds_since(&t) > SEGMENT_BACKSTEP_S) {
+            run += 1;
+            latest_run = Some(t);
+        }
+        latest_run = Some(latest_run.map_or(t, |l| l.max(t)));
+        avail.push((t, v, run));
     }
-    avail.sort_by_key(|&(t, _)| t);
+    avail.sort_by_key(|&(t, _, _)| t);
+    let switches = avail.windows(2).filter(|w| w[0].2 != w[1].2).count();
+    rep.interleaved = switches > 3 * (run + 1);
     let mut ch = Channel::default();
     let mut last: Option<Timestamp> = None;
-    for (t, v) in avail {
+    for (t, v, _) in avail {
         if last == Some(t) {
             rep.repeated_times += 1;
             *ch.value.last_mut().expect("a previous sample") = v * scale;
