@@ -10,6 +10,7 @@ pub mod dynamics;
 pub mod estimate;
 pub mod history;
 pub mod ident;
+pub mod import;
 pub mod lugre;
 pub mod map;
 pub mod order;

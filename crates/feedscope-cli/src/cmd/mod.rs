@@ -11,6 +11,7 @@ mod estimate;
 mod fit_stribeck;
 pub(crate) mod history;
 mod identify;
+mod import;
 mod map;
 mod plan;
 mod report;
@@ -49,6 +50,8 @@ pub enum Command {
     History(history::Args),
     // Help text from the doc comment of `report::Args`.
     Report(report::Args),
+    // Help text from the doc comment of `import::Args`.
+    Import(import::Args),
 }
 
 /// Marks an error as the user's input being wrong (exit code 2).
@@ -64,6 +67,7 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
             || c.is::<TraceError>()
             || c.is::<AxisError>()
             || c.is::<EstimateError>()
+            || c.is::<feedscope::import::ImportError>()
             || c.is::<feedscope::sim::SimError>()
             || c.is::<feedscope::profile::ProfileError>()
             || c.is::<toml::de::Error>()
@@ -100,6 +104,7 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Command::Map(a) => map::run(a),
         Command::History(a) => history::run(a),
         Command::Report(a) => report::run(a),
+        Command::Import(a) => import::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -5,6 +5,7 @@ mod estimate;
 mod fit_stribeck;
 mod history;
 mod identify;
+mod import;
 mod map;
 mod plan;
 mod report;
