@@ -115,6 +115,17 @@ pub enum EstimateError {
         /// Fewest knots accepted.
         min_knots: usize,
     },
+    /// Steady strokes were found, but none held enough effort samples to estimate.
+    #[error(
+        "{strokes} steady stroke(s) found, but none holds {min_samples} or more effort samples \
+         (the current or torque channel is sampled too slowly or has a gap there)"
+    )]
+    NoEffortInStrokes {
+        /// Strokes found.
+        strokes: usize,
+        /// Fewest effort samples a stroke needs.
+        min_samples: usize,
+    },
     /// `samples_per_lead` is zero.
     #[error("samples_per_lead must be at least 1")]
     BadSamplesPerLead,
@@ -658,9 +669,9 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
         }
     }
     if !any {
-        return Err(EstimateError::NoStroke {
-            min_stroke_mm: 0.0,
-            min_knots: crate::trace::MIN_SAMPLES,
+        return Err(EstimateError::NoEffortInStrokes {
+            strokes: planned.spans.len(),
+            min_samples: crate::trace::MIN_SAMPLES,
         }
         .into());
     }

@@ -178,3 +178,42 @@ fn inversion_is_exact() {
         assert!((m.state(*t).0 - z).abs() < 5e-9, "{z} at {t}");
     }
 }
+
+#[test]
+fn strokes_without_effort_samples_are_named_as_such() {
+    // A steady forward stroke, but the current was logged only before it started.
+    let m = Motion {
+        v0: 0.01,
+        a: 0.0,
+        w: 1.0,
+    };
+    let tz: Vec<f64> = (0..2000).map(|k| k as f64 * 1e-3).collect();
+    let zz: Vec<f64> = tz.iter().map(|&t| m.state(t).0).collect();
+    let te: Vec<f64> = (0..6).map(|k| -1.0 + k as f64 * 0.1).collect();
+    let trace = Trace {
+        position_m: Channel {
+            time_s: tz,
+            value: zz,
+        },
+        effort: Channel {
+            value: vec![1.0; te.len()],
+            time_s: te,
+        },
+        effort_kind: EffortKind::CurrentA,
+    };
+    let err = estimate(&trace, &axis(10.0), &EstimateParams::default()).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            EstimateError::NoEffortInStrokes {
+                strokes: 1,
+                min_samples: 4
+            }
+        ),
+        "{err}"
+    );
+    assert!(
+        err.to_string().contains("1 steady stroke(s) found"),
+        "{err}"
+    );
+}
