@@ -18,6 +18,7 @@
 use std::io::Write;
 
 mod format;
+mod parquet;
 mod read;
 pub use format::push_fixed;
 pub use read::{parse_trace, read_trace_file, ReadOptions, ReadReport, TraceError, MIN_SAMPLES};
