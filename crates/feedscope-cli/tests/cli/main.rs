@@ -6,6 +6,7 @@ mod fit_stribeck;
 mod history;
 mod identify;
 mod map;
+mod parquet;
 mod plan;
 mod report;
 mod simulate;
