@@ -1,6 +1,7 @@
 //! `feedscope simulate`: traces of a simulated drive whose friction is known.
 //!
-//! Writes `DIR/trace.csv`, `DIR/axis.toml`, `DIR/truth.json` and `DIR/truth.csv`. All four are
+//! Writes `DIR/trace.csv` (or the `--trace` name; Parquet when it ends in `.parquet`),
+//! `DIR/axis.toml`, `DIR/truth.json` and `DIR/truth.csv`. All four are
 //! written under temporary names and renamed at the end, so an error leaves no partial output.
 //! Exit codes: 0 ok, 1 I/O failure, 2 bad input (config, arguments) or a diverging servo.
 
@@ -17,8 +18,10 @@ use feedscope::trace::Layout;
 /// Files written under --out DIR: trace.csv (time_s and position_mm / current_a or torque_nm,
 /// the controller's view), axis.toml (the axis, for `feedscope estimate DIR/trace.csv --axis
 /// DIR/axis.toml`), truth.json (friction model and commanded strokes), truth.csv
-/// (time_s,position_mm,velocity_mm_s,accel_mm_s2,friction_n of the true state). Config keys
-/// carry their units (feed_mm_min, interval_ms, ...); see --print-default-config.
+/// (time_s,position_mm,velocity_mm_s,accel_mm_s2,friction_n of the true state). With --trace
+/// NAME.parquet the trace is written as Parquet instead (columns time_s, position_m,
+/// current_a or torque_nm; or time_s, channel, value), at full precision. Config keys carry
+/// their units (feed_mm_min, interval_ms, ...); see --print-default-config.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Simulator config (TOML); without it the default lathe Z axis, 0 → 410 → 0 mm at
@@ -34,7 +37,12 @@ pub struct Args {
     )]
     out: Option<PathBuf>,
 
-    /// CSV layout of trace.csv: long (time_s,channel,value) or wide (time_s,position_mm,
+    /// File name of the trace under --out DIR; a name ending in .parquet writes Parquet
+    /// (same layouts, SI units at full precision) instead of CSV.
+    #[arg(long, value_name = "NAME", default_value = "trace.csv")]
+    trace: String,
+
+    /// Layout of the trace file: long (time_s,channel,value) or wide (time_s,position_mm,
     /// current_a; needs sampling.mode = "synchronous").
     #[arg(long, value_enum, default_value_t = LayoutArg::Long)]
     layout: LayoutArg,
@@ -91,6 +99,7 @@ fn execute(args: Args) -> Result<(), Failure> {
 
     // Parse and validate everything before any output exists.
     let (cfg, layout, dir) = prepare(&args).map_err(Failure::BadInput)?;
+    let trace_name = args.trace.as_str();
 
     let bar = indicatif::ProgressBar::new(1000);
     bar.set_style(
@@ -103,7 +112,7 @@ fn execute(args: Args) -> Result<(), Failure> {
         .context("simulation failed")
         .map_err(Failure::BadInput)?;
 
-    write_outputs(&dir, &out, layout).map_err(Failure::Other)?;
+    write_outputs_as(&dir, &out, layout, trace_name).map_err(Failure::Other)?;
     eprintln!(
         "wrote {} position and {} {} samples over {:.1} s to {}",
         out.trace.position_m.len(),
@@ -140,6 +149,21 @@ fn prepare(args: &Args) -> anyhow::Result<(SimConfig, Layout, PathBuf)> {
             Layout::Wide
         }
     };
+    let plain = Path::new(&args.trace)
+        .file_name()
+        .is_some_and(|n| n == args.trace.as_str());
+    if !plain || args.trace.starts_with('.') {
+        bail!(
+            "--trace {}: expected a plain file name (written under --out DIR)",
+            args.trace
+        );
+    }
+    if ["axis.toml", "truth.json", "truth.csv"].contains(&args.trace.as_str()) {
+        bail!(
+            "--trace {}: that name is taken by another output",
+            args.trace
+        );
+    }
     let Some(dir) = args.out.clone() else {
         bail!("--out DIR is required");
     };
@@ -149,19 +173,31 @@ fn prepare(args: &Args) -> anyhow::Result<(SimConfig, Layout, PathBuf)> {
     Ok((cfg, layout, dir))
 }
 
-const FILES: [&str; 4] = ["trace.csv", "axis.toml", "truth.json", "truth.csv"];
-
 fn tmp_name(dir: &Path, name: &str) -> PathBuf {
     dir.join(format!(".{name}.{}.tmp", std::process::id()))
 }
 
-/// Write the four files under temporary names, then rename them; on error remove what was
-/// written (and the directory if this call created it).
+/// Write the four files (the trace as `trace.csv`) under temporary names, then rename them; on
+/// error remove what was written (and the directory if this call created it).
 pub(crate) fn write_outputs(
     dir: &Path,
     out: &feedscope::sim::SimOutput,
     layout: Layout,
 ) -> anyhow::Result<()> {
+    write_outputs_as(dir, out, layout, "trace.csv")
+}
+
+/// [`write_outputs`] with the trace named `trace_name`: Parquet when it ends in `.parquet`.
+pub(crate) fn write_outputs_as(
+    dir: &Path,
+    out: &feedscope::sim::SimOutput,
+    layout: Layout,
+    trace_name: &str,
+) -> anyhow::Result<()> {
+    let files = [trace_name, "axis.toml", "truth.json", "truth.csv"];
+    let parquet = Path::new(trace_name)
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("parquet"));
     let created = !dir.exists();
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let result = (|| -> anyhow::Result<()> {
@@ -169,9 +205,12 @@ pub(crate) fn write_outputs(
             let p = tmp_name(dir, name);
             std::fs::File::create(&p).with_context(|| format!("creating {}", p.display()))
         };
-        out.trace
-            .write_csv(create("trace.csv")?, layout)
-            .context("writing trace.csv")?;
+        if parquet {
+            out.trace.write_parquet(create(trace_name)?, layout)
+        } else {
+            out.trace.write_csv(create(trace_name)?, layout)
+        }
+        .with_context(|| format!("writing {trace_name}"))?;
         let axis = toml::to_string_pretty(&out.truth.axis).context("serializing the axis")?;
         create("axis.toml")?
             .write_all(axis.as_bytes())
@@ -183,14 +222,14 @@ pub(crate) fn write_outputs(
         out.truth
             .write_states_csv(create("truth.csv")?)
             .context("writing truth.csv")?;
-        for name in FILES {
+        for name in files {
             std::fs::rename(tmp_name(dir, name), dir.join(name))
                 .with_context(|| format!("renaming to {}", dir.join(name).display()))?;
         }
         Ok(())
     })();
     if result.is_err() {
-        for name in FILES {
+        for name in files {
             let _ = std::fs::remove_file(tmp_name(dir, name));
         }
         if created {

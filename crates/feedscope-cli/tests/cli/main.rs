@@ -7,6 +7,7 @@ mod history;
 mod identify;
 mod import;
 mod map;
+mod parquet;
 mod plan;
 mod report;
 mod simulate;

@@ -14,10 +14,25 @@
 //!
 //! Either layout may use `time_ms` instead of `time_s`. Lines starting with `#` and blank lines
 //! are skipped, a UTF-8 byte-order mark is accepted, and lines may end in LF, CRLF or a bare CR.
+//!
+//! # Parquet
+//! The same columns in the same two layouts. A file is Parquet when it starts with the magic
+//! bytes `PAR1` (whatever its name; a `*.parquet` name without them is an error).
+//! - **wide**: `time_s` or `time_ms`, `position_mm` or `position_m`, `current_a` and/or
+//!   `torque_nm`; a null cell means "no sample of this channel at this time".
+//! - **long**: `time_s` or `time_ms`, `channel` (Utf8, LargeUtf8, or a dictionary of them),
+//!   `value`; channel names as above.
+//!
+//! Numeric columns may be Float64, Float32, Int32 or Int64; any other type is an error naming
+//! the column. Extra columns are ignored and not decoded. Errors about a value name its 1-based
+//! data row ([`TraceError::NonFiniteInRow`], [`TraceError::TimeNotIncreasingInRow`],
+//! [`TraceError::BadCell`]). [`Trace::write_parquet`] writes either layout, in SI units at full
+//! precision, so a round trip gives back the same trace bit for bit.
 
 use std::io::Write;
 
 mod format;
+mod parquet;
 mod read;
 pub use format::push_fixed;
 pub use read::{parse_trace, read_trace_file, ReadOptions, ReadReport, TraceError, MIN_SAMPLES};
@@ -74,7 +89,7 @@ pub struct Trace {
     pub effort_kind: EffortKind,
 }
 
-/// CSV layout of a trace file.
+/// Layout of a trace file (CSV or Parquet).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Layout {
     /// `time_s,channel,value`, one sample per row (asynchronous channels).

@@ -138,6 +138,66 @@ pub enum TraceError {
         /// Range of the position channel (mm).
         range_mm: f64,
     },
+    /// A Parquet file cannot be decoded: not Parquet, truncated, corrupt or unsupported.
+    #[error("{source_name}: not a readable Parquet file: {reason}")]
+    Parquet {
+        /// The file.
+        source_name: String,
+        /// What the decoder reported.
+        reason: String,
+    },
+    /// A Parquet column is missing or of a type that cannot hold what it should.
+    #[error("{source_name}: column `{column}`: {reason}")]
+    BadColumn {
+        /// The file.
+        source_name: String,
+        /// Column name.
+        column: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A Parquet cell that must hold a value does not (a null time, a null or empty channel).
+    #[error("{source_name}: row {row}: column `{column}` {reason}")]
+    BadCell {
+        /// The file.
+        source_name: String,
+        /// 1-based data row.
+        row: u64,
+        /// Column name.
+        column: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A Parquet value is NaN or infinite ([`TraceError::NonFinite`] of a row, not a line).
+    #[error("{source_name}: row {row}: column `{column}`: {value} is not finite")]
+    NonFiniteInRow {
+        /// The file.
+        source_name: String,
+        /// 1-based data row.
+        row: u64,
+        /// Column name.
+        column: String,
+        /// The value found.
+        value: f64,
+    },
+    /// Time does not strictly increase within a channel of a Parquet file
+    /// ([`TraceError::TimeNotIncreasing`] of a row, not a line).
+    #[error(
+        "{source_name}: row {row}: channel `{channel}`: time {time_s} s does not come after the \
+         previous sample at {previous_time_s} s (time must strictly increase within a channel)"
+    )]
+    TimeNotIncreasingInRow {
+        /// The file.
+        source_name: String,
+        /// Channel name.
+        channel: String,
+        /// 1-based data row.
+        row: u64,
+        /// The offending time (s).
+        time_s: f64,
+        /// The previous time of this channel (s).
+        previous_time_s: f64,
+    },
 }
 
 /// Options for reading a trace.
@@ -157,7 +217,7 @@ pub struct ReadReport {
     pub ignored_rows: u64,
     /// Names of the ignored channels (at most 16 listed).
     pub ignored_channels: Vec<String>,
-    /// Lines in the file.
+    /// Lines in the file (CSV), or data rows (Parquet).
     pub lines: u64,
     /// The layout detected.
     pub layout: Option<super::Layout>,
@@ -167,10 +227,10 @@ pub struct ReadReport {
 pub const MIN_SAMPLES: usize = 4;
 const BLOCK_BYTES: usize = 32 << 20;
 
-/// Read a trace file (CSV, either layout).
+/// Read a trace file: CSV or Parquet (told by the magic bytes `PAR1`), either layout.
 ///
 /// # Errors
-/// Any [`TraceError`]: unreadable file, bad header, malformed or non-finite numbers, time not
+/// Any [`TraceError`]: unreadable file, bad header or Parquet columns, malformed or non-finite numbers, time not
 /// increasing within a channel, a missing channel, too few samples, or no motion.
 pub fn read_trace_file(path: &Path, opts: &ReadOptions) -> Result<(Trace, ReadReport), TraceError> {
     read_file_in_blocks(path, opts, BLOCK_BYTES)
@@ -187,7 +247,11 @@ fn read_file_in_blocks(
         source_name: name.clone(),
         error,
     };
-    let file = File::open(path).map_err(io)?;
+    let mut file = File::open(path).map_err(io)?;
+    if super::parquet::starts_with_magic(&mut file).map_err(io)? {
+        return super::parquet::read_parquet(file, &name, opts);
+    }
+    super::parquet::refuse_misnamed(path, &name)?;
     let size_hint = file.metadata().map(|m| m.len()).unwrap_or(0);
     let mut reader = BlockParser::new(name.clone(), opts, size_hint);
     // A reading thread fills the next block while the workers parse this one. Blocks hold
@@ -268,7 +332,8 @@ fn line_terminator(buf: &[u8]) -> u8 {
     }
 }
 
-/// Parse a trace held in memory; `source_name` labels errors.
+/// Parse a trace held in memory (CSV, or Parquet when it starts with `PAR1`); `source_name`
+/// labels errors.
 ///
 /// # Errors
 /// As [`read_trace_file`].
@@ -277,6 +342,10 @@ pub fn parse_trace(
     source_name: &str,
     opts: &ReadOptions,
 ) -> Result<(Trace, ReadReport), TraceError> {
+    if bytes.starts_with(super::parquet::MAGIC) {
+        let buf = bytes::Bytes::copy_from_slice(bytes);
+        return super::parquet::read_parquet(buf, source_name, opts);
+    }
     let mut reader = BlockParser::new(source_name.to_string(), opts, bytes.len() as u64);
     let consumed = reader.feed(bytes, true)?;
     debug_assert_eq!(consumed, bytes.len());
@@ -651,29 +720,7 @@ impl BlockParser {
             }
         };
         let position_m = self.pos;
-        for (ch, label) in [(&position_m, "position"), (&effort, effort_kind.column())] {
-            if ch.len() < MIN_SAMPLES {
-                return Err(TraceError::TooFewSamples {
-                    source_name: name,
-                    channel: label.into(),
-                    found: ch.len(),
-                    needed: MIN_SAMPLES,
-                });
-            }
-        }
-        let (lo, hi) = position_m
-            .value
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                (a.min(v), b.max(v))
-            });
-        // Below a nanometre nothing measurable moved.
-        if hi - lo <= 1e-9 {
-            return Err(TraceError::NoMotion {
-                source_name: name,
-                range_mm: (hi - lo) * 1e3,
-            });
-        }
+        check_channels(&name, &position_m, &effort, effort_kind)?;
         let report = ReadReport {
             ignored_rows: self.ignored_rows,
             ignored_channels: self.ignored_names,
@@ -689,6 +736,39 @@ impl BlockParser {
             report,
         ))
     }
+}
+
+/// The checks every reader ends with: enough samples in both channels, and motion.
+pub(super) fn check_channels(
+    name: &str,
+    position_m: &Channel,
+    effort: &Channel,
+    effort_kind: EffortKind,
+) -> Result<(), TraceError> {
+    for (ch, label) in [(position_m, "position"), (effort, effort_kind.column())] {
+        if ch.len() < MIN_SAMPLES {
+            return Err(TraceError::TooFewSamples {
+                source_name: name.to_string(),
+                channel: label.into(),
+                found: ch.len(),
+                needed: MIN_SAMPLES,
+            });
+        }
+    }
+    let (lo, hi) = position_m
+        .value
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    // Below a nanometre nothing measurable moved.
+    if hi - lo <= 1e-9 {
+        return Err(TraceError::NoMotion {
+            source_name: name.to_string(),
+            range_mm: (hi - lo) * 1e3,
+        });
+    }
+    Ok(())
 }
 
 /// Put the file-global line number into an error raised with a piece-local one.

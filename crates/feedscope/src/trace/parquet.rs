@@ -1,0 +1,1548 @@
+//! Reading and writing trace Parquet files: the same columns and the same two layouts as CSV
+//! (see the [module doc](super)), with the same validation.
+//!
+//! Reading streams record batches of [`BATCH_ROWS`] rows with only the needed columns projected,
+//! and converts each batch straight into the `Vec<f64>` of its channel (units to SI as the CSV
+//! reader does: mm → m, ms → s). Memory stays at the parsed samples plus one batch and the
+//! decoder's current row group. Errors name the file and, for bad values, the 1-based data row.
+
+use std::fs::File;
+use std::io::{Read, Seek, Write};
+use std::path::Path;
+use std::sync::Arc;
+
+use arrow_array::cast::AsArray;
+use arrow_array::types::{Float32Type, Float64Type, Int32Type, Int64Type, Int8Type};
+use arrow_array::{Array, ArrayRef, DictionaryArray, Float64Array, Int8Array, RecordBatch};
+use arrow_array::{StringArray, StringViewArray};
+use arrow_schema::{DataType, Field, Schema};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use parquet::arrow::{ArrowWriter, ProjectionMask};
+use parquet::basic::Compression;
+use parquet::file::properties::WriterProperties;
+use parquet::file::reader::ChunkReader;
+use parquet::schema::types::ColumnPath;
+
+use super::read::check_channels;
+use super::{Channel, EffortKind, Layout, ReadOptions, ReadReport, Trace, TraceError};
+
+/// The four bytes every Parquet file starts (and ends) with.
+pub(super) const MAGIC: &[u8; 4] = b"PAR1";
+
+/// Rows per record batch, read and written: large enough that per-batch work is noise, small
+/// enough (64 Ki rows ≈ 1.5 MB of decoded columns) to stay in cache-friendly sizes.
+const BATCH_ROWS: usize = 1 << 16;
+
+/// True when the file starts with the Parquet magic; the file is rewound either way.
+pub(super) fn starts_with_magic(file: &mut File) -> std::io::Result<bool> {
+    let mut head = [0u8; 4];
+    let mut filled = 0;
+    while filled < head.len() {
+        match file.read(&mut head[filled..]) {
+            Ok(0) => break,
+            Ok(n) => filled += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    file.rewind()?;
+    Ok(filled == head.len() && &head == MAGIC)
+}
+
+/// A file named `*.parquet` that lacks the magic is refused rather than parsed as CSV, which
+/// would only report a confusing bad header.
+pub(super) fn refuse_misnamed(path: &Path, name: &str) -> Result<(), TraceError> {
+    let is_parquet_name = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("parquet"));
+    if is_parquet_name {
+        return Err(TraceError::Parquet {
+            source_name: name.to_string(),
+            reason: "the name ends in .parquet but the file does not start with the Parquet \
+                     magic bytes `PAR1`"
+                .into(),
+        });
+    }
+    Ok(())
+}
+
+/// Where each needed column sits in the projected batches, and how to scale it.
+#[derive(Debug, Clone)]
+enum Plan {
+    Wide {
+        time: Col,
+        position: Col,
+        effort: Col,
+        effort_kind: EffortKind,
+    },
+    Long {
+        time: Col,
+        channel: usize,
+        value: Col,
+    },
+}
+
+/// A numeric column: its index in the projected batch, its name in the file, its scale to SI.
+#[derive(Debug, Clone)]
+struct Col {
+    index: usize,
+    name: String,
+    scale: f64,
+}
+
+/// Channel codes of long-layout rows: the three channels, then rows to skip or refuse.
+const POS_MM: u8 = 0;
+const POS_M: u8 = 1;
+const CUR: u8 = 2;
+const TOR: u8 = 3;
+const IGNORED: u8 = 4;
+const NULL_CHANNEL: u8 = 5;
+const EMPTY_CHANNEL: u8 = 6;
+
+fn channel_code(name: &str) -> u8 {
+    match name {
+        "position_mm" => POS_MM,
+        "position_m" => POS_M,
+        "current_a" => CUR,
+        "torque_nm" => TOR,
+        "" => EMPTY_CHANNEL,
+        _ => IGNORED,
+    }
+}
+
+fn is_numeric(t: &DataType) -> bool {
+    matches!(
+        t,
+        DataType::Float64 | DataType::Float32 | DataType::Int32 | DataType::Int64
+    )
+}
+
+fn is_string(t: &DataType) -> bool {
+    matches!(t, DataType::Utf8 | DataType::LargeUtf8 | DataType::Utf8View)
+}
+
+/// Read a trace from an open Parquet file or a buffer (its magic already checked).
+///
+/// The decoder (parquet 60) still panics on some corrupt pages instead of returning an error
+/// (e.g. an over-long varint in a page's run-length data: "Num of bytes exceed
+/// MAX_VLQ_BYTE_LEN"; upstream treats each such panic as a bug). A damaged file is bad input,
+/// not a programmer's mistake, so such a panic is caught here and becomes
+/// [`TraceError::Parquet`]; the panic hook has printed its message to stderr by then.
+pub(super) fn read_parquet<R: ChunkReader + 'static>(
+    file: R,
+    name: &str,
+    opts: &ReadOptions,
+) -> Result<(Trace, ReadReport), TraceError> {
+    // Nothing outlives the closure but its result, so no broken state can be observed after
+    // an unwind.
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| decode(file, name, opts)))
+        .unwrap_or_else(|payload| {
+            let what = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown failure".into());
+            Err(TraceError::Parquet {
+                source_name: name.to_string(),
+                reason: format!("the decoder failed on corrupt data ({what})"),
+            })
+        })
+}
+
+fn decode<R: ChunkReader + 'static>(
+    file: R,
+    name: &str,
+    opts: &ReadOptions,
+) -> Result<(Trace, ReadReport), TraceError> {
+    let corrupt = |e: parquet::errors::ParquetError| TraceError::Parquet {
+        source_name: name.to_string(),
+        reason: e.to_string(),
+    };
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(corrupt)?;
+    let total_rows = usize::try_from(builder.metadata().file_metadata().num_rows()).unwrap_or(0);
+    let (plan, roots) = plan(builder.schema(), name, opts)?;
+    let mask = ProjectionMask::roots(builder.parquet_schema(), roots);
+    let reader = builder
+        .with_projection(mask)
+        .with_batch_size(BATCH_ROWS)
+        .build()
+        .map_err(corrupt)?;
+    let mut state = State::new(name, &plan, total_rows);
+    for batch in reader {
+        let batch = batch.map_err(|e| TraceError::Parquet {
+            source_name: name.to_string(),
+            reason: e.to_string(),
+        })?;
+        state.batch(&batch, &plan)?;
+    }
+    state.finish(&plan, opts)
+}
+
+/// Find the columns, check their types, and choose the layout and the effort channel (the same
+/// rules as the CSV header). Returns the plan and the root columns to project.
+fn plan(schema: &Schema, name: &str, opts: &ReadOptions) -> Result<(Plan, Vec<usize>), TraceError> {
+    let names: Vec<String> = schema
+        .fields()
+        .iter()
+        .map(|f| f.name().trim().to_ascii_lowercase())
+        .collect();
+    let listed = || {
+        if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        }
+    };
+    let find = |wanted: &[&str]| names.iter().position(|n| wanted.contains(&n.as_str()));
+    let numeric = |index: usize, scale: f64| -> Result<(usize, Col), TraceError> {
+        let field = &schema.fields()[index];
+        if !is_numeric(field.data_type()) {
+            return Err(TraceError::BadColumn {
+                source_name: name.to_string(),
+                column: field.name().clone(),
+                reason: format!(
+                    "type {} is not numeric (expected Float64, Float32, Int32 or Int64)",
+                    field.data_type()
+                ),
+            });
+        }
+        Ok((
+            index,
+            Col {
+                index,
+                name: field.name().clone(),
+                scale,
+            },
+        ))
+    };
+    let time = find(&["time_s", "time_ms"]).ok_or_else(|| TraceError::BadColumn {
+        source_name: name.to_string(),
+        column: "time_s".into(),
+        reason: format!(
+            "missing: neither `time_s` nor `time_ms` among the columns ({})",
+            listed()
+        ),
+    })?;
+    let time_scale = if names[time] == "time_ms" { 1e-3 } else { 1.0 };
+    let position = find(&["position_mm", "position_m"]);
+    let channel = find(&["channel"]);
+    let value = find(&["value"]);
+    let mut picked: Vec<(usize, Col)>;
+    let plan = match (position, channel, value) {
+        (None, Some(channel), Some(value)) => {
+            let field = &schema.fields()[channel];
+            let ok = match field.data_type() {
+                DataType::Dictionary(_, v) => is_string(v),
+                t => is_string(t),
+            };
+            if !ok {
+                return Err(TraceError::BadColumn {
+                    source_name: name.to_string(),
+                    column: field.name().clone(),
+                    reason: format!(
+                        "type {} is not a string (expected Utf8, LargeUtf8 or a dictionary of \
+                         them)",
+                        field.data_type()
+                    ),
+                });
+            }
+            picked = vec![numeric(time, time_scale)?, numeric(value, 1.0)?];
+            picked.push((
+                channel,
+                Col {
+                    index: channel,
+                    name: field.name().clone(),
+                    scale: 1.0,
+                },
+            ));
+            Plan::Long {
+                time: picked[0].1.clone(),
+                channel,
+                value: picked[1].1.clone(),
+            }
+        }
+        (None, _, _) => {
+            return Err(TraceError::MissingChannel {
+                source_name: name.to_string(),
+                channel: "position_mm".into(),
+                found: format!(
+                    "{} (a wide file needs a `position_mm` or `position_m` column, a long file \
+                     `channel` and `value` columns)",
+                    listed()
+                ),
+            })
+        }
+        (Some(position), _, _) => {
+            let position_scale = if names[position] == "position_mm" {
+                1e-3
+            } else {
+                1.0
+            };
+            let cur = find(&["current_a"]);
+            let tor = find(&["torque_nm"]);
+            let (effort, effort_kind) = match (cur, tor, opts.effort) {
+                (Some(c), None, None | Some(EffortKind::CurrentA)) => (c, EffortKind::CurrentA),
+                (None, Some(t), None | Some(EffortKind::TorqueNm)) => (t, EffortKind::TorqueNm),
+                (Some(c), Some(_), Some(EffortKind::CurrentA)) => (c, EffortKind::CurrentA),
+                (Some(_), Some(t), Some(EffortKind::TorqueNm)) => (t, EffortKind::TorqueNm),
+                (Some(_), Some(_), None) => {
+                    return Err(TraceError::AmbiguousEffort {
+                        source_name: name.to_string(),
+                    })
+                }
+                (_, _, Some(k)) => {
+                    return Err(TraceError::MissingChannel {
+                        source_name: name.to_string(),
+                        channel: k.column().into(),
+                        found: listed(),
+                    })
+                }
+                (None, None, None) => {
+                    return Err(TraceError::MissingChannel {
+                        source_name: name.to_string(),
+                        channel: "current_a or torque_nm".into(),
+                        found: listed(),
+                    })
+                }
+            };
+            picked = vec![
+                numeric(time, time_scale)?,
+                numeric(position, position_scale)?,
+                numeric(effort, 1.0)?,
+            ];
+            Plan::Wide {
+                time: picked[0].1.clone(),
+                position: picked[1].1.clone(),
+                effort: picked[2].1.clone(),
+                effort_kind,
+            }
+        }
+    };
+    // The projected batch holds the picked columns in file order; renumber to match.
+    let mut roots: Vec<usize> = picked.iter().map(|(i, _)| *i).collect();
+    roots.sort_unstable();
+    roots.dedup();
+    let at = |i: usize| roots.iter().position(|&r| r == i).unwrap_or(i);
+    let plan = match plan {
+        Plan::Wide {
+            mut time,
+            mut position,
+            mut effort,
+            effort_kind,
+        } => {
+            time.index = at(time.index);
+            position.index = at(position.index);
+            effort.index = at(effort.index);
+            Plan::Wide {
+                time,
+                position,
+                effort,
+                effort_kind,
+            }
+        }
+        Plan::Long {
+            mut time,
+            channel,
+            mut value,
+        } => {
+            time.index = at(time.index);
+            value.index = at(value.index);
+            Plan::Long {
+                time,
+                channel: at(channel),
+                value,
+            }
+        }
+    };
+    Ok((plan, roots))
+}
+
+/// The values of a numeric column as `f64`: borrowed for Float64, converted into `scratch`
+/// otherwise. `None` for any other type (excluded by [`plan`]).
+fn f64_values<'a>(col: &'a dyn Array, scratch: &'a mut Vec<f64>) -> Option<&'a [f64]> {
+    if let Some(a) = col.as_primitive_opt::<Float64Type>() {
+        return Some(a.values());
+    }
+    scratch.clear();
+    if let Some(a) = col.as_primitive_opt::<Float32Type>() {
+        scratch.extend(a.values().iter().map(|&v| f64::from(v)));
+    } else if let Some(a) = col.as_primitive_opt::<Int32Type>() {
+        scratch.extend(a.values().iter().map(|&v| f64::from(v)));
+    } else if let Some(a) = col.as_primitive_opt::<Int64Type>() {
+        // Exact up to 2^53; a time stamp or position beyond that is not a trace.
+        scratch.extend(a.values().iter().map(|&v| v as f64));
+    } else {
+        return None;
+    }
+    Some(scratch)
+}
+
+/// The channels being filled and the counters of the report.
+struct State<'n> {
+    name: &'n str,
+    pos: Channel,
+    cur: Channel,
+    tor: Channel,
+    rows: u64,
+    ignored_rows: u64,
+    ignored_names: Vec<String>,
+    scratch: [Vec<f64>; 3],
+    codes: Vec<u8>,
+}
+
+impl<'n> State<'n> {
+    fn new(name: &'n str, plan: &Plan, total_rows: usize) -> Self {
+        let mut s = Self {
+            name,
+            pos: Channel::default(),
+            cur: Channel::default(),
+            tor: Channel::default(),
+            rows: 0,
+            ignored_rows: 0,
+            ignored_names: Vec::new(),
+            scratch: Default::default(),
+            codes: Vec::new(),
+        };
+        // The row count is in the footer: reserve once instead of growing by doubling. Wide
+        // files have at most one sample per channel per row; long files usually split evenly.
+        let (p, e) = match plan {
+            Plan::Wide { .. } => (total_rows, total_rows),
+            Plan::Long { .. } => (total_rows / 2, total_rows / 2),
+        };
+        let eff = match plan {
+            Plan::Wide {
+                effort_kind: EffortKind::TorqueNm,
+                ..
+            } => &mut s.tor,
+            _ => &mut s.cur,
+        };
+        eff.time_s.reserve(e);
+        eff.value.reserve(e);
+        s.pos.time_s.reserve(p);
+        s.pos.value.reserve(p);
+        s
+    }
+
+    fn unreadable(&self, col: &str) -> TraceError {
+        TraceError::BadColumn {
+            source_name: self.name.to_string(),
+            column: col.to_string(),
+            reason: "the decoded column has an unexpected type".into(),
+        }
+    }
+
+    fn batch(&mut self, batch: &RecordBatch, plan: &Plan) -> Result<(), TraceError> {
+        match plan {
+            Plan::Wide {
+                time,
+                position,
+                effort,
+                effort_kind,
+            } => self.wide(batch, time, position, effort, *effort_kind)?,
+            Plan::Long {
+                time,
+                channel,
+                value,
+            } => self.long(batch, time, *channel, value)?,
+        }
+        self.rows += batch.num_rows() as u64;
+        Ok(())
+    }
+
+    fn wide(
+        &mut self,
+        batch: &RecordBatch,
+        time: &Col,
+        position: &Col,
+        effort: &Col,
+        effort_kind: EffortKind,
+    ) -> Result<(), TraceError> {
+        let [s_t, s_p, s_e] = &mut self.scratch;
+        let (tc, pc, ec) = (
+            batch.column(time.index),
+            batch.column(position.index),
+            batch.column(effort.index),
+        );
+        let (Some(tv), Some(pv), Some(ev)) = (
+            f64_values(tc.as_ref(), s_t),
+            f64_values(pc.as_ref(), s_p),
+            f64_values(ec.as_ref(), s_e),
+        ) else {
+            return Err(self.unreadable(&time.name));
+        };
+        let (tn, pn, en) = (tc.nulls(), pc.nulls(), ec.nulls());
+        let base = self.rows;
+        let name = self.name;
+        let eff = match effort_kind {
+            EffortKind::CurrentA => &mut self.cur,
+            EffortKind::TorqueNm => &mut self.tor,
+        };
+        let pos = &mut self.pos;
+        for i in 0..tv.len() {
+            let row = base + i as u64 + 1;
+            if tn.is_some_and(|b| b.is_null(i)) {
+                return Err(TraceError::BadCell {
+                    source_name: name.to_string(),
+                    row,
+                    column: time.name.clone(),
+                    reason: "is null (every row needs a time)".into(),
+                });
+            }
+            let t_raw = tv[i];
+            if !t_raw.is_finite() {
+                return Err(TraceError::NonFiniteInRow {
+                    source_name: name.to_string(),
+                    row,
+                    column: time.name.clone(),
+                    value: t_raw,
+                });
+            }
+            let t = t_raw * time.scale;
+            for (ch, v_raw, null, col, label) in [
+                (&mut *pos, pv[i], pn, position, "position"),
+                (&mut *eff, ev[i], en, effort, effort_kind.column()),
+            ] {
+                if null.is_some_and(|b| b.is_null(i)) {
+                    continue; // no sample of this channel at this time
+                }
+                if !v_raw.is_finite() {
+                    return Err(TraceError::NonFiniteInRow {
+                        source_name: name.to_string(),
+                        row,
+                        column: col.name.clone(),
+                        value: v_raw,
+                    });
+                }
+                if let Some(&prev) = ch.time_s.last() {
+                    if t <= prev {
+                        return Err(TraceError::TimeNotIncreasingInRow {
+                            source_name: name.to_string(),
+                            channel: label.into(),
+                            row,
+                            time_s: t,
+                            previous_time_s: prev,
+                        });
+                    }
+                }
+                ch.time_s.push(t);
+                ch.value.push(v_raw * col.scale);
+            }
+        }
+        Ok(())
+    }
+
+    fn long(
+        &mut self,
+        batch: &RecordBatch,
+        time: &Col,
+        channel: usize,
+        value: &Col,
+    ) -> Result<(), TraceError> {
+        let n = batch.num_rows();
+        self.channel_codes(batch.column(channel))?;
+        let [s_t, s_v, _] = &mut self.scratch;
+        let (tc, vc) = (batch.column(time.index), batch.column(value.index));
+        let (Some(tv), Some(vv)) = (f64_values(tc.as_ref(), s_t), f64_values(vc.as_ref(), s_v))
+        else {
+            return Err(self.unreadable(&time.name));
+        };
+        let (tn, vn) = (tc.nulls(), vc.nulls());
+        let base = self.rows;
+        let name = self.name;
+        for i in 0..n {
+            let code = self.codes[i];
+            let row = base + i as u64 + 1;
+            let (ch, scale, label) = match code {
+                POS_MM => (&mut self.pos, 1e-3, "position"),
+                POS_M => (&mut self.pos, 1.0, "position"),
+                CUR => (&mut self.cur, 1.0, "current_a"),
+                TOR => (&mut self.tor, 1.0, "torque_nm"),
+                IGNORED => continue,
+                NULL_CHANNEL => return Err(bad_cell(name, row, "channel", "is null")),
+                _ => return Err(bad_cell(name, row, "channel", "is empty (no channel name)")),
+            };
+            if tn.is_some_and(|b| b.is_null(i)) {
+                return Err(TraceError::BadCell {
+                    source_name: name.to_string(),
+                    row,
+                    column: time.name.clone(),
+                    reason: "is null (every row needs a time)".into(),
+                });
+            }
+            if vn.is_some_and(|b| b.is_null(i)) {
+                return Err(TraceError::BadCell {
+                    source_name: name.to_string(),
+                    row,
+                    column: value.name.clone(),
+                    reason: "is null (every sample row of the long layout needs a value)".into(),
+                });
+            }
+            let (t_raw, v_raw) = (tv[i], vv[i]);
+            if !t_raw.is_finite() {
+                return Err(TraceError::NonFiniteInRow {
+                    source_name: name.to_string(),
+                    row,
+                    column: time.name.clone(),
+                    value: t_raw,
+                });
+            }
+            if !v_raw.is_finite() {
+                return Err(TraceError::NonFiniteInRow {
+                    source_name: name.to_string(),
+                    row,
+                    column: value.name.clone(),
+                    value: v_raw,
+                });
+            }
+            let t = t_raw * time.scale;
+            if let Some(&prev) = ch.time_s.last() {
+                if t <= prev {
+                    return Err(TraceError::TimeNotIncreasingInRow {
+                        source_name: name.to_string(),
+                        channel: label.into(),
+                        row,
+                        time_s: t,
+                        previous_time_s: prev,
+                    });
+                }
+            }
+            ch.time_s.push(t);
+            ch.value.push(v_raw * scale);
+        }
+        Ok(())
+    }
+
+    /// Fill `self.codes` with one channel code per row, counting ignored rows and names.
+    fn channel_codes(&mut self, col: &ArrayRef) -> Result<(), TraceError> {
+        let n = col.len();
+        self.codes.clear();
+        self.codes.reserve(n);
+        if let Some(d) = col.as_any_dictionary_opt() {
+            // Decide once per dictionary entry, then map the keys.
+            let values = d.values();
+            let mut entry: Vec<u8> = Vec::with_capacity(values.len());
+            let mut names: Vec<String> = Vec::with_capacity(values.len());
+            for_each_string(values.as_ref(), |s| {
+                entry.push(s.map_or(NULL_CHANNEL, channel_code));
+                names.push(s.unwrap_or_default().to_string());
+            })
+            .ok_or_else(|| self.unreadable("channel"))?;
+            if entry.is_empty() {
+                // No entries: every key is null (`normalized_keys` would panic).
+                self.codes.resize(n, NULL_CHANNEL);
+                return Ok(());
+            }
+            let mut used = vec![0u64; entry.len()];
+            let keys = d.normalized_keys();
+            let nulls = d.nulls();
+            for (i, &k) in keys.iter().enumerate() {
+                let code = if nulls.is_some_and(|b| b.is_null(i)) {
+                    NULL_CHANNEL
+                } else {
+                    entry[k]
+                };
+                if code == IGNORED {
+                    used[k] += 1;
+                }
+                self.codes.push(code);
+            }
+            for (k, &u) in used.iter().enumerate() {
+                if u > 0 {
+                    self.ignore(&names[k], u);
+                }
+            }
+            return Ok(());
+        }
+        let mut ignored: Vec<(String, u64)> = Vec::new();
+        let codes = &mut self.codes;
+        for_each_string(col.as_ref(), |s| {
+            let code = s.map_or(NULL_CHANNEL, channel_code);
+            if code == IGNORED {
+                let s = s.unwrap_or_default();
+                match ignored.iter_mut().find(|(n, _)| n == s) {
+                    Some((_, c)) => *c += 1,
+                    None => ignored.push((s.to_string(), 1)),
+                }
+            }
+            codes.push(code);
+        })
+        .ok_or_else(|| self.unreadable("channel"))?;
+        for (name, count) in ignored {
+            self.ignore(&name, count);
+        }
+        Ok(())
+    }
+
+    fn ignore(&mut self, name: &str, rows: u64) {
+        self.ignored_rows += rows;
+        if self.ignored_names.len() < 16 && !self.ignored_names.iter().any(|n| n == name) {
+            self.ignored_names.push(name.to_string());
+        }
+    }
+
+    fn finish(self, plan: &Plan, opts: &ReadOptions) -> Result<(Trace, ReadReport), TraceError> {
+        let name = self.name;
+        let (effort, effort_kind, layout) = match plan {
+            Plan::Wide { effort_kind, .. } => {
+                let ch = match effort_kind {
+                    EffortKind::CurrentA => self.cur,
+                    EffortKind::TorqueNm => self.tor,
+                };
+                (ch, *effort_kind, Layout::Wide)
+            }
+            Plan::Long { .. } => {
+                // The effort choice of the CSV reader's long layout.
+                let seen = || {
+                    let mut s: Vec<String> = [
+                        (&self.pos, "position"),
+                        (&self.cur, "current_a"),
+                        (&self.tor, "torque_nm"),
+                    ]
+                    .iter()
+                    .filter(|(c, _)| !c.is_empty())
+                    .map(|(_, n)| n.to_string())
+                    .collect();
+                    s.extend(self.ignored_names.iter().cloned());
+                    if s.is_empty() {
+                        "none".to_string()
+                    } else {
+                        s.join(", ")
+                    }
+                };
+                let missing = |channel: &str| TraceError::MissingChannel {
+                    source_name: name.to_string(),
+                    channel: channel.into(),
+                    found: seen(),
+                };
+                let choice = match (self.cur.is_empty(), self.tor.is_empty(), opts.effort) {
+                    (_, _, Some(k)) => k,
+                    (false, true, None) => EffortKind::CurrentA,
+                    (true, false, None) => EffortKind::TorqueNm,
+                    (false, false, None) => {
+                        return Err(TraceError::AmbiguousEffort {
+                            source_name: name.to_string(),
+                        })
+                    }
+                    (true, true, None) => return Err(missing("current_a or torque_nm")),
+                };
+                let empty = match choice {
+                    EffortKind::CurrentA => self.cur.is_empty(),
+                    EffortKind::TorqueNm => self.tor.is_empty(),
+                };
+                if empty {
+                    return Err(missing(choice.column()));
+                }
+                if self.pos.is_empty() {
+                    return Err(missing("position_mm"));
+                }
+                let ch = match choice {
+                    EffortKind::CurrentA => self.cur,
+                    EffortKind::TorqueNm => self.tor,
+                };
+                (ch, choice, Layout::Long)
+            }
+        };
+        let position_m = self.pos;
+        check_channels(name, &position_m, &effort, effort_kind)?;
+        Ok((
+            Trace {
+                position_m,
+                effort,
+                effort_kind,
+            },
+            ReadReport {
+                ignored_rows: self.ignored_rows,
+                ignored_channels: self.ignored_names,
+                lines: self.rows,
+                layout: Some(layout),
+            },
+        ))
+    }
+}
+
+fn bad_cell(name: &str, row: u64, column: &str, reason: &str) -> TraceError {
+    TraceError::BadCell {
+        source_name: name.to_string(),
+        row,
+        column: column.to_string(),
+        reason: reason.to_string(),
+    }
+}
+
+/// Call `f` with each string of a Utf8, LargeUtf8 or Utf8View array (`None` for a null);
+/// `None` when the array is of another type.
+fn for_each_string(col: &dyn Array, mut f: impl FnMut(Option<&str>)) -> Option<()> {
+    if let Some(a) = col.as_string_opt::<i32>() {
+        a.iter().for_each(&mut f);
+    } else if let Some(a) = col.as_string_opt::<i64>() {
+        a.iter().for_each(&mut f);
+    } else if let Some(a) = col.as_any().downcast_ref::<StringViewArray>() {
+        a.iter().for_each(&mut f);
+    } else {
+        return None;
+    }
+    Some(())
+}
+
+impl Trace {
+    /// Write the trace as Parquet (Snappy-compressed), the Parquet counterpart of
+    /// [`Trace::write_csv`] with the same two layouts:
+    /// - wide: columns `time_s`, `position_m`, and `current_a` or `torque_nm`, all Float64;
+    ///   needs both channels on the same timestamps;
+    /// - long: `time_s` (Float64), `channel` (dictionary-encoded string: `position_m`,
+    ///   `current_a` or `torque_nm`), `value` (Float64), both channels merged in time order.
+    ///
+    /// Unlike CSV nothing is rounded: values are stored in SI at full `f64` precision (hence
+    /// `position_m`, not `position_mm`), so [`read_trace_file`](super::read_trace_file) gives
+    /// back exactly this trace.
+    ///
+    /// # Errors
+    /// I/O and encoder errors; `InvalidInput` when the wide layout is asked for channels with
+    /// different timestamps.
+    pub fn write_parquet<W: Write + Send>(&self, w: W, layout: Layout) -> std::io::Result<()> {
+        let effort = self.effort_kind.column();
+        // Dictionary pages only pay for the channel names; time and value are all distinct.
+        let props = WriterProperties::builder()
+            .set_compression(Compression::SNAPPY)
+            .set_dictionary_enabled(false)
+            .set_column_dictionary_enabled(ColumnPath::from("channel"), true)
+            .build();
+        let f64_col = |s: &[f64]| -> ArrayRef { Arc::new(Float64Array::from(s.to_vec())) };
+        match layout {
+            Layout::Wide => {
+                if self.position_m.time_s != self.effort.time_s {
+                    return Err(std::io::Error::new(
+                        std::io::ErrorKind::InvalidInput,
+                        "the wide layout needs position and effort on the same timestamps",
+                    ));
+                }
+                let schema = Arc::new(Schema::new(vec![
+                    Field::new("time_s", DataType::Float64, false),
+                    Field::new("position_m", DataType::Float64, false),
+                    Field::new(effort, DataType::Float64, false),
+                ]));
+                let mut writer = ArrowWriter::try_new(w, schema.clone(), Some(props))
+                    .map_err(std::io::Error::other)?;
+                let n = self.position_m.len();
+                let mut k = 0;
+                while k < n {
+                    let end = (k + BATCH_ROWS).min(n);
+                    let batch = RecordBatch::try_new(
+                        schema.clone(),
+                        vec![
+                            f64_col(&self.position_m.time_s[k..end]),
+                            f64_col(&self.position_m.value[k..end]),
+                            f64_col(&self.effort.value[k..end]),
+                        ],
+                    )
+                    .map_err(std::io::Error::other)?;
+                    writer.write(&batch).map_err(std::io::Error::other)?;
+                    k = end;
+                }
+                writer.close().map_err(std::io::Error::other)?;
+            }
+            Layout::Long => {
+                let dict = DataType::Dictionary(Box::new(DataType::Int8), Box::new(DataType::Utf8));
+                let schema = Arc::new(Schema::new(vec![
+                    Field::new("time_s", DataType::Float64, false),
+                    Field::new("channel", dict, false),
+                    Field::new("value", DataType::Float64, false),
+                ]));
+                let names: ArrayRef = Arc::new(StringArray::from(vec!["position_m", effort]));
+                let mut writer = ArrowWriter::try_new(w, schema.clone(), Some(props))
+                    .map_err(std::io::Error::other)?;
+                let (p, e) = (&self.position_m, &self.effort);
+                let (mut i, mut j) = (0, 0);
+                let mut time = Vec::with_capacity(BATCH_ROWS);
+                let mut key: Vec<i8> = Vec::with_capacity(BATCH_ROWS);
+                let mut value = Vec::with_capacity(BATCH_ROWS);
+                while i < p.len() || j < e.len() {
+                    // The merge of `write_csv`: position first on equal times.
+                    let take_p = j >= e.len() || (i < p.len() && p.time_s[i] <= e.time_s[j]);
+                    if take_p {
+                        time.push(p.time_s[i]);
+                        key.push(0);
+                        value.push(p.value[i]);
+                        i += 1;
+                    } else {
+                        time.push(e.time_s[j]);
+                        key.push(1);
+                        value.push(e.value[j]);
+                        j += 1;
+                    }
+                    let last = i == p.len() && j == e.len();
+                    if time.len() == BATCH_ROWS || last {
+                        let channel = DictionaryArray::<Int8Type>::try_new(
+                            Int8Array::from(std::mem::take(&mut key)),
+                            names.clone(),
+                        )
+                        .map_err(std::io::Error::other)?;
+                        let batch = RecordBatch::try_new(
+                            schema.clone(),
+                            vec![
+                                Arc::new(Float64Array::from(std::mem::take(&mut time))),
+                                Arc::new(channel),
+                                Arc::new(Float64Array::from(std::mem::take(&mut value))),
+                            ],
+                        )
+                        .map_err(std::io::Error::other)?;
+                        writer.write(&batch).map_err(std::io::Error::other)?;
+                        time.reserve(BATCH_ROWS);
+                        key.reserve(BATCH_ROWS);
+                        value.reserve(BATCH_ROWS);
+                    }
+                }
+                writer.close().map_err(std::io::Error::other)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trace::{parse_trace, read_trace_file};
+    use arrow_array::types::Int32Type;
+    use arrow_array::{Float32Array, Int32Array, Int64Array, LargeStringArray};
+    use std::path::PathBuf;
+
+    fn read(path: &Path) -> Result<(Trace, ReadReport), TraceError> {
+        read_trace_file(path, &ReadOptions::default())
+    }
+
+    /// Both channels on one clock (`sync`) or 0.4 ms apart; position 0 → 60 mm → 0 with a
+    /// ripple, current a ripple around ±1 A. Values are rounded to what the CSV writer keeps
+    /// (6 decimals of s, mm and A) so that the CSV round trip is exact up to parsing.
+    fn trace(n: usize, sync: bool) -> Trace {
+        let round6 = |x: f64| (x * 1e6).round() / 1e6;
+        let mut pos = Channel::default();
+        let mut cur = Channel::default();
+        for k in 0..n {
+            let t = round6(k as f64 * 1e-3 + 0.125);
+            let u = k as f64 / n as f64;
+            let z_mm = 60.0 * (1.0 - (2.0 * u - 1.0).abs()) + 0.01 * (7.3 * u).sin();
+            pos.time_s.push(t);
+            pos.value.push(round6(z_mm) * 1e-3);
+            let te = if sync { t } else { round6(t + 4e-4) };
+            cur.time_s.push(te);
+            cur.value.push(round6(
+                (1.0 - 2.0 * (u > 0.5) as u8 as f64) + 0.1 * (31.0 * u).cos(),
+            ));
+        }
+        Trace {
+            position_m: pos,
+            effort: cur,
+            effort_kind: EffortKind::CurrentA,
+        }
+    }
+
+    fn write_parquet(path: &Path, t: &Trace, layout: Layout) {
+        t.write_parquet(File::create(path).unwrap(), layout)
+            .unwrap();
+    }
+
+    fn write_columns(path: &Path, cols: Vec<(&str, ArrayRef)>) {
+        let batch = RecordBatch::try_from_iter(cols).unwrap();
+        let mut w =
+            ArrowWriter::try_new(File::create(path).unwrap(), batch.schema(), None).unwrap();
+        w.write(&batch).unwrap();
+        w.close().unwrap();
+    }
+
+    fn f64s(v: &[f64]) -> ArrayRef {
+        Arc::new(Float64Array::from(v.to_vec()))
+    }
+
+    fn opt_f64s(v: &[Option<f64>]) -> ArrayRef {
+        Arc::new(Float64Array::from(v.to_vec()))
+    }
+
+    fn strs(v: &[&str]) -> ArrayRef {
+        Arc::new(StringArray::from(v.to_vec()))
+    }
+
+    /// `a` and `b` agree to 1e-9 relative: the CSV keeps 6 decimals, and the trace above has
+    /// no more, so only the decimal parse (≤ 1 ulp) separates them.
+    fn close(a: &[f64], b: &[f64]) {
+        assert_eq!(a.len(), b.len());
+        for (k, (x, y)) in a.iter().zip(b).enumerate() {
+            assert!(
+                (x - y).abs() <= 1e-9 * x.abs().max(y.abs()),
+                "sample {k}: {x} vs {y}"
+            );
+        }
+    }
+
+    /// A good wide file of `rows` rows in `dir`, returned with its bytes.
+    fn good_file(dir: &Path, rows: usize) -> (PathBuf, Vec<u8>) {
+        let p = dir.join("good.parquet");
+        write_parquet(&p, &trace(rows, true), Layout::Wide);
+        let bytes = std::fs::read(&p).unwrap();
+        (p, bytes)
+    }
+
+    #[test]
+    fn round_trip_both_layouts_against_memory_and_csv() {
+        let d = tempfile::tempdir().unwrap();
+        // 150 000 rows: several record batches (64 Ki rows each) and a batch boundary
+        // inside each channel.
+        for (sync, layouts) in [
+            (true, &[Layout::Wide, Layout::Long][..]),
+            (false, &[Layout::Long][..]),
+        ] {
+            let t = trace(150_000, sync);
+            for &layout in layouts {
+                let pq = d.path().join("t.parquet");
+                let csv = d.path().join("t.csv");
+                write_parquet(&pq, &t, layout);
+                t.write_csv(File::create(&csv).unwrap(), layout).unwrap();
+                let (from_pq, report) = read(&pq).unwrap();
+                let (from_csv, _) = read(&csv).unwrap();
+                // Parquet keeps every bit.
+                assert_eq!(from_pq, t, "{layout:?} sync={sync}");
+                assert_eq!(report.layout, Some(layout));
+                let rows = if layout == Layout::Wide {
+                    150_000
+                } else {
+                    300_000
+                };
+                assert_eq!(report.lines, rows);
+                assert_eq!(report.ignored_rows, 0);
+                assert_eq!(from_csv.effort_kind, from_pq.effort_kind);
+                for (a, b) in [
+                    (&from_csv.position_m, &from_pq.position_m),
+                    (&from_csv.effort, &from_pq.effort),
+                ] {
+                    close(&a.time_s, &b.time_s);
+                    close(&a.value, &b.value);
+                }
+            }
+        }
+        // The wide layout needs one clock, as for CSV.
+        let err = trace(100, false)
+            .write_parquet(Vec::new(), Layout::Wide)
+            .unwrap_err();
+        assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
+    }
+
+    #[test]
+    fn simulated_trace_round_trips() {
+        let cfg = crate::sim::SimConfig::from_toml_str(
+            "seed = 7\n[motion]\nlead_in_s = 0.2\nlead_out_s = 0.2\n\
+             [[motion.stroke]]\nto_mm = 5\nfeed_mm_min = 600\n",
+        )
+        .unwrap();
+        let out = crate::sim::simulate(&cfg, &mut |_| {}).unwrap();
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("sim.parquet");
+        write_parquet(&p, &out.trace, Layout::Long);
+        assert_eq!(read(&p).unwrap().0, out.trace);
+    }
+
+    #[test]
+    fn torque_round_trips() {
+        let mut t = trace(1000, true);
+        t.effort_kind = EffortKind::TorqueNm;
+        let d = tempfile::tempdir().unwrap();
+        for layout in [Layout::Wide, Layout::Long] {
+            let p = d.path().join("t.parquet");
+            write_parquet(&p, &t, layout);
+            assert_eq!(read(&p).unwrap().0, t);
+        }
+    }
+
+    #[test]
+    fn wide_nulls_are_missing_samples() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("w.parquet");
+        let time: Vec<f64> = (0..8).map(|k| k as f64 * 0.5).collect();
+        let pos: Vec<Option<f64>> = (0..8).map(|k| (k % 2 == 0).then_some(k as f64)).collect();
+        let cur: Vec<Option<f64>> = (0..8)
+            .map(|k| (k % 2 == 1).then_some(k as f64 * 0.1))
+            .collect();
+        write_columns(
+            &p,
+            vec![
+                ("time_s", f64s(&time)),
+                ("position_mm", opt_f64s(&pos)),
+                ("current_a", opt_f64s(&cur)),
+            ],
+        );
+        let (t, r) = read(&p).unwrap();
+        assert_eq!(t.position_m.time_s, [0.0, 1.0, 2.0, 3.0]);
+        assert_eq!(t.effort.time_s, [0.5, 1.5, 2.5, 3.5]);
+        close(&t.position_m.value, &[0.0, 2e-3, 4e-3, 6e-3]);
+        close(&t.effort.value, &[0.1, 0.3, 0.5, 0.7]);
+        assert_eq!(r.layout, Some(Layout::Wide));
+        assert_eq!(r.lines, 8);
+    }
+
+    #[test]
+    fn integer_and_float32_columns_time_ms_and_extra_columns() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("w.parquet");
+        write_columns(
+            &p,
+            vec![
+                ("comment", strs(&["a", "b", "c", "d", "e"])),
+                (
+                    "time_ms",
+                    Arc::new(Int64Array::from(vec![0i64, 2, 4, 6, 8])),
+                ),
+                (
+                    "Position_MM",
+                    Arc::new(Float32Array::from(vec![0.0f32, 0.5, 1.0, 1.5, 2.0])),
+                ),
+                ("speed_mm_min", f64s(&[1.0; 5])),
+                (
+                    "torque_nm",
+                    Arc::new(Int32Array::from(vec![3i32, -3, 4, -4, 5])),
+                ),
+            ],
+        );
+        let (t, _) = read(&p).unwrap();
+        assert_eq!(t.effort_kind, EffortKind::TorqueNm);
+        // ms → s and mm → m by the same multiplications as the CSV reader.
+        assert_eq!(
+            t.position_m.time_s,
+            [0.0, 2.0 * 1e-3, 4.0 * 1e-3, 6.0 * 1e-3, 8.0 * 1e-3]
+        );
+        assert_eq!(
+            t.position_m.value,
+            [0.0, 0.5 * 1e-3, 1e-3, 1.5 * 1e-3, 2.0 * 1e-3]
+        );
+        assert_eq!(t.effort.value, [3.0, -3.0, 4.0, -4.0, 5.0]);
+    }
+
+    /// Long-layout columns: time 0, 0.1, …; channels cycling position_mm, current_a, speed.
+    fn long_columns(rows: usize, channel: ArrayRef) -> Vec<(&'static str, ArrayRef)> {
+        let time: Vec<f64> = (0..rows).map(|k| k as f64 * 0.1).collect();
+        let value: Vec<f64> = (0..rows).map(|k| k as f64).collect();
+        vec![
+            ("time_s", f64s(&time)),
+            ("channel", channel),
+            ("value", f64s(&value)),
+            ("note", strs(&vec!["x"; rows])),
+        ]
+    }
+
+    fn cycle(rows: usize) -> Vec<&'static str> {
+        (0..rows)
+            .map(|k| ["position_mm", "current_a", "speed"][k % 3])
+            .collect()
+    }
+
+    #[test]
+    fn long_channel_as_utf8_large_utf8_or_dictionary() {
+        let d = tempfile::tempdir().unwrap();
+        let rows = 15;
+        let names = cycle(rows);
+        let dict: DictionaryArray<Int32Type> = names.iter().copied().collect();
+        let mut results = Vec::new();
+        for (k, channel) in [
+            strs(&names),
+            Arc::new(LargeStringArray::from(names.clone())) as ArrayRef,
+            Arc::new(dict) as ArrayRef,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let p = d.path().join(format!("l{k}.parquet"));
+            write_columns(&p, long_columns(rows, channel));
+            let (t, r) = read(&p).unwrap();
+            assert_eq!(r.layout, Some(Layout::Long));
+            assert_eq!(r.ignored_rows, 5);
+            assert_eq!(r.ignored_channels, ["speed"]);
+            assert_eq!(t.position_m.len(), 5);
+            // Row 4 holds the second current sample, its time written as 4.0 * 0.1: no unit
+            // conversion, so the same bits come back.
+            assert_eq!(t.effort.time_s[1].to_bits(), (4.0 * 0.1f64).to_bits());
+            results.push(t);
+        }
+        assert_eq!(results[0], results[1]);
+        assert_eq!(results[0], results[2]);
+    }
+
+    #[test]
+    fn long_position_in_metres_and_millimetres_mix_like_csv() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("l.parquet");
+        let ch = [
+            "position_m",
+            "current_a",
+            "position_mm",
+            "current_a",
+            "position_m",
+            "current_a",
+            "position_mm",
+            "current_a",
+        ];
+        write_columns(
+            &p,
+            vec![
+                ("time_ms", f64s(&[0., 1., 2., 3., 4., 5., 6., 7.])),
+                ("channel", strs(&ch)),
+                ("value", f64s(&[0.001, 1., 2., 1., 0.003, 1., 4., 1.])),
+            ],
+        );
+        let (t, _) = read(&p).unwrap();
+        close(&t.position_m.value, &[0.001, 0.002, 0.003, 0.004]);
+        close(&t.effort.time_s, &[0.001, 0.003, 0.005, 0.007]);
+    }
+
+    // ---- malformed files: each gives its error, names the file, never panics ----
+
+    fn err(path: &Path) -> TraceError {
+        let e = read(path).unwrap_err();
+        assert!(
+            e.to_string().contains(&path.display().to_string()),
+            "the message does not name the file: {e}"
+        );
+        e
+    }
+
+    #[test]
+    fn truncated_files() {
+        let d = tempfile::tempdir().unwrap();
+        let (_, bytes) = good_file(d.path(), 1000);
+        let p = d.path().join("cut.parquet");
+        for keep in [4, 8, bytes.len() / 2, bytes.len() - 1] {
+            std::fs::write(&p, &bytes[..keep]).unwrap();
+            match err(&p) {
+                TraceError::Parquet { .. } => {}
+                e => panic!("{keep} bytes: {e}"),
+            }
+        }
+    }
+
+    #[test]
+    fn magic_then_garbage() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("g.parquet");
+        let mut junk = b"PAR1".to_vec();
+        junk.extend((0..5000u32).map(|k| (k.wrapping_mul(2_654_435_761) >> 13) as u8));
+        std::fs::write(&p, &junk).unwrap();
+        assert!(matches!(err(&p), TraceError::Parquet { .. }));
+        // Magic at both ends, garbage footer length and metadata.
+        junk.extend_from_slice(&[0xff, 0xff, 0, 0]);
+        junk.extend_from_slice(b"PAR1");
+        std::fs::write(&p, &junk).unwrap();
+        assert!(matches!(err(&p), TraceError::Parquet { .. }));
+    }
+
+    #[test]
+    fn corrupted_bytes_give_errors_not_panics() {
+        // Overwrite each byte of a small file in turn (three patterns): the read may succeed
+        // (a changed digit of a value) or fail, but must not panic.
+        for layout in [Layout::Wide, Layout::Long] {
+            let mut bytes = Vec::new();
+            trace(200, true).write_parquet(&mut bytes, layout).unwrap();
+            assert!(parse_trace(&bytes, "c.parquet", &ReadOptions::default()).is_ok());
+            for k in 4..bytes.len() {
+                for pattern in [0xff, 0x00, bytes[k] ^ 0x55] {
+                    let mut b = bytes.clone();
+                    if b[k] == pattern {
+                        continue;
+                    }
+                    b[k] = pattern;
+                    let _ = parse_trace(&b, "c.parquet", &ReadOptions::default());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn parquet_name_without_magic_is_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("t.parquet");
+        std::fs::write(&p, "time_s,position_mm,current_a\n0,0,1\n").unwrap();
+        match err(&p) {
+            TraceError::Parquet { reason, .. } => assert!(reason.contains("PAR1"), "{reason}"),
+            e => panic!("{e}"),
+        }
+        // A CSV that is not named .parquet is still CSV.
+        let c = d.path().join("t.csv");
+        trace(100, true)
+            .write_csv(File::create(&c).unwrap(), Layout::Wide)
+            .unwrap();
+        read(&c).unwrap();
+    }
+
+    #[test]
+    fn missing_columns() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("m.parquet");
+        let t = f64s(&[0., 1., 2., 3.]);
+        write_columns(&p, vec![("time_s", t.clone()), ("current_a", t.clone())]);
+        match err(&p) {
+            TraceError::MissingChannel { channel, found, .. } => {
+                assert_eq!(channel, "position_mm");
+                assert!(found.contains("time_s, current_a"), "{found}");
+            }
+            e => panic!("{e}"),
+        }
+        write_columns(&p, vec![("t", t.clone()), ("position_mm", t.clone())]);
+        match err(&p) {
+            TraceError::BadColumn { column, .. } => assert_eq!(column, "time_s"),
+            e => panic!("{e}"),
+        }
+        write_columns(&p, vec![("time_s", t.clone()), ("position_mm", t.clone())]);
+        assert!(matches!(err(&p), TraceError::MissingChannel { channel, .. }
+            if channel == "current_a or torque_nm"));
+        // Asked for torque, only current present.
+        write_columns(
+            &p,
+            vec![
+                ("time_s", t.clone()),
+                ("position_mm", t.clone()),
+                ("current_a", t),
+            ],
+        );
+        let opts = ReadOptions {
+            effort: Some(EffortKind::TorqueNm),
+            threads: 0,
+        };
+        assert!(matches!(
+            read_trace_file(&p, &opts).unwrap_err(),
+            TraceError::MissingChannel { channel, .. } if channel == "torque_nm"
+        ));
+    }
+
+    #[test]
+    fn string_typed_numeric_column() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("s.parquet");
+        write_columns(
+            &p,
+            vec![
+                ("time_s", f64s(&[0., 1., 2., 3.])),
+                ("position_mm", strs(&["0", "1", "2", "3"])),
+                ("current_a", f64s(&[0., 1., 2., 3.])),
+            ],
+        );
+        let e = err(&p);
+        assert!(e.to_string().contains("`position_mm`"), "{e}");
+        assert!(matches!(e, TraceError::BadColumn { column, .. } if column == "position_mm"));
+        // A numeric channel column is as wrong.
+        write_columns(
+            &p,
+            vec![
+                ("time_s", f64s(&[0., 1.])),
+                ("channel", f64s(&[0., 1.])),
+                ("value", f64s(&[0., 1.])),
+            ],
+        );
+        assert!(matches!(err(&p), TraceError::BadColumn { column, .. } if column == "channel"));
+    }
+
+    #[test]
+    fn nan_value_names_the_row() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("n.parquet");
+        let mut cur = vec![1.0; 10];
+        cur[6] = f64::NAN;
+        write_columns(
+            &p,
+            vec![
+                ("time_s", f64s(&(0..10).map(f64::from).collect::<Vec<_>>())),
+                (
+                    "position_mm",
+                    f64s(&(0..10).map(f64::from).collect::<Vec<_>>()),
+                ),
+                ("current_a", f64s(&cur)),
+            ],
+        );
+        let e = err(&p);
+        assert!(e.to_string().contains("row 7"), "{e}");
+        assert!(
+            matches!(e, TraceError::NonFiniteInRow { row: 7, column, .. } if column == "current_a")
+        );
+        // An infinite time in the long layout.
+        let mut time: Vec<f64> = (0..12).map(|k| k as f64 * 0.1).collect();
+        time[9] = f64::INFINITY;
+        write_columns(
+            &p,
+            vec![
+                ("time_s", f64s(&time)),
+                ("channel", strs(&cycle(12))),
+                ("value", f64s(&[0.0; 12])),
+            ],
+        );
+        assert!(matches!(
+            err(&p),
+            TraceError::NonFiniteInRow { row: 10, .. }
+        ));
+    }
+
+    #[test]
+    fn time_backwards_names_the_row_across_batches() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("b.parquet");
+        let mut t = trace(100_000, true);
+        // Row 70 001 is in the second record batch.
+        t.position_m.time_s[70_000] = t.position_m.time_s[69_999];
+        t.effort.time_s = t.position_m.time_s.clone();
+        write_parquet(&p, &t, Layout::Wide);
+        let e = err(&p);
+        assert!(e.to_string().contains("row 70001"), "{e}");
+        assert!(!e.to_string().contains("line"), "{e}");
+        assert!(matches!(
+            e,
+            TraceError::TimeNotIncreasingInRow { row: 70_001, channel, .. } if channel == "position"
+        ));
+        // Long layout: only the channel's own previous sample counts.
+        write_columns(
+            &p,
+            vec![
+                ("time_s", f64s(&[0., 0.1, 0.2, 0.15, 0.3, 0.25, 0.4])),
+                (
+                    "channel",
+                    strs(&[
+                        "position_mm",
+                        "current_a",
+                        "position_mm",
+                        "current_a",
+                        "position_mm",
+                        "position_mm",
+                        "current_a",
+                    ]),
+                ),
+                ("value", f64s(&[0.0; 7])),
+            ],
+        );
+        assert!(matches!(
+            err(&p),
+            TraceError::TimeNotIncreasingInRow { row: 6, channel, .. } if channel == "position"
+        ));
+    }
+
+    #[test]
+    fn null_time_and_channel() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("n.parquet");
+        write_columns(
+            &p,
+            vec![
+                ("time_s", opt_f64s(&[Some(0.), Some(1.), None, Some(3.)])),
+                ("position_mm", f64s(&[0., 1., 2., 3.])),
+                ("current_a", f64s(&[0., 1., 2., 3.])),
+            ],
+        );
+        assert!(
+            matches!(err(&p), TraceError::BadCell { row: 3, column, .. } if column == "time_s")
+        );
+        let channel: ArrayRef = Arc::new(StringArray::from(vec![
+            Some("position_mm"),
+            None,
+            Some("current_a"),
+        ]));
+        write_columns(
+            &p,
+            vec![
+                ("time_s", f64s(&[0., 1., 2.])),
+                ("channel", channel),
+                ("value", f64s(&[0., 1., 2.])),
+            ],
+        );
+        assert!(
+            matches!(err(&p), TraceError::BadCell { row: 2, column, .. } if column == "channel")
+        );
+    }
+
+    #[test]
+    fn zero_rows() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("z.parquet");
+        write_columns(
+            &p,
+            vec![
+                ("time_s", f64s(&[])),
+                ("position_mm", f64s(&[])),
+                ("current_a", f64s(&[])),
+            ],
+        );
+        assert!(matches!(
+            err(&p),
+            TraceError::TooFewSamples {
+                found: 0,
+                needed: 4,
+                ..
+            }
+        ));
+        write_columns(
+            &p,
+            vec![
+                ("time_s", f64s(&[])),
+                ("channel", strs(&[])),
+                ("value", f64s(&[])),
+            ],
+        );
+        assert!(matches!(err(&p), TraceError::MissingChannel { found, .. } if found == "none"));
+    }
+
+    #[test]
+    fn ambiguous_effort_unless_chosen() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("a.parquet");
+        let v = f64s(&[0., 1., 2., 3., 4.]);
+        write_columns(
+            &p,
+            vec![
+                ("time_s", v.clone()),
+                ("position_mm", v.clone()),
+                ("current_a", v.clone()),
+                ("torque_nm", f64s(&[9.; 5])),
+            ],
+        );
+        assert!(matches!(err(&p), TraceError::AmbiguousEffort { .. }));
+        let opts = ReadOptions {
+            effort: Some(EffortKind::TorqueNm),
+            threads: 0,
+        };
+        let (t, _) = read_trace_file(&p, &opts).unwrap();
+        assert_eq!(t.effort.value, [9.; 5]);
+        // Long layout with both channels present.
+        let ch: Vec<&str> = (0..10)
+            .map(|k| ["position_mm", "current_a", "torque_nm"][k % 3])
+            .collect();
+        write_columns(
+            &p,
+            vec![
+                ("time_s", f64s(&(0..10).map(f64::from).collect::<Vec<_>>())),
+                ("channel", strs(&ch)),
+                ("value", f64s(&(0..10).map(f64::from).collect::<Vec<_>>())),
+            ],
+        );
+        assert!(matches!(err(&p), TraceError::AmbiguousEffort { .. }));
+    }
+
+    #[test]
+    fn too_few_samples_and_no_motion() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("f.parquet");
+        let v = f64s(&[0., 1., 2.]);
+        write_columns(
+            &p,
+            vec![
+                ("time_s", v.clone()),
+                ("position_mm", v.clone()),
+                ("current_a", v),
+            ],
+        );
+        assert!(matches!(
+            err(&p),
+            TraceError::TooFewSamples { found: 3, .. }
+        ));
+        let v = f64s(&[0., 1., 2., 3.]);
+        write_columns(
+            &p,
+            vec![
+                ("time_s", v.clone()),
+                ("position_mm", f64s(&[5.0; 4])),
+                ("current_a", v),
+            ],
+        );
+        assert!(matches!(err(&p), TraceError::NoMotion { .. }));
+    }
+}
