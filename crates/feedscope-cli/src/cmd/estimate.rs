@@ -305,9 +305,11 @@ fn format_stroke(s: &StrokeFriction) -> Vec<Vec<u8>> {
                 b.push(b',');
                 push_fixed(&mut b, s.time_s[j], 6);
                 b.push(b',');
-                push_fixed(&mut b, s.velocity_m_s[j] * 1e3, 6);
+                // Velocity to 0.1 µm/s and acceleration to 1 µm/s²: far below what a spline
+                // of sampled positions resolves, so more digits would only carry noise.
+                push_fixed(&mut b, s.velocity_m_s[j] * 1e3, 4);
                 b.push(b',');
-                push_fixed(&mut b, s.accel_m_s2[j] * 1e3, 6);
+                push_fixed(&mut b, s.accel_m_s2[j] * 1e3, 3);
                 b.push(b',');
                 push_fixed(&mut b, s.effort[j], 6);
                 b.push(b',');

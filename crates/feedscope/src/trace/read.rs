@@ -1,6 +1,6 @@
 //! Reading trace CSV files fast and strictly.
 //!
-//! The file is read in blocks of a few tens of megabytes; each block is cut at line ends into
+//! The file is read in blocks of a few megabytes (by a reading thread, ahead of the parser); each block is cut at line ends into
 //! one piece per worker thread and the pieces are parsed in parallel, then appended in order.
 //! Memory stays at the parsed samples (16 bytes each) plus one block. Errors carry the file
 //! name and the 1-based line number counted over the whole file (comments and header included).
@@ -225,7 +225,7 @@ pub struct ReadReport {
 
 /// Fewest samples a channel needs (a not-a-knot cubic needs four knots).
 pub const MIN_SAMPLES: usize = 4;
-const BLOCK_BYTES: usize = 32 << 20;
+const BLOCK_BYTES: usize = 8 << 20;
 
 /// Read a trace file: CSV or Parquet (told by the magic bytes `PAR1`), either layout.
 ///
