@@ -6,6 +6,7 @@
 #![deny(clippy::float_cmp)]
 
 pub mod axis;
+pub mod calendar;
 pub mod dynamics;
 pub mod estimate;
 pub mod history;
