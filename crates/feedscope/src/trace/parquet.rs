@@ -481,23 +481,9 @@ impl<'n> State<'n> {
         for i in 0..tv.len() {
             let row = base + i as u64 + 1;
             if tn.is_some_and(|b| b.is_null(i)) {
-                return Err(TraceError::BadCell {
-                    source_name: name.to_string(),
-                    row,
-                    column: time.name.clone(),
-                    reason: "is null (every row needs a time)".into(),
-                });
+                return Err(bad_cell(name, row, &time.name, NULL_TIME));
             }
-            let t_raw = tv[i];
-            if !t_raw.is_finite() {
-                return Err(TraceError::NonFiniteInRow {
-                    source_name: name.to_string(),
-                    row,
-                    column: time.name.clone(),
-                    value: t_raw,
-                });
-            }
-            let t = t_raw * time.scale;
+            let t = finite(name, row, &time.name, tv[i])? * time.scale;
             for (ch, v_raw, null, col, label) in [
                 (&mut *pos, pv[i], pn, position, "position"),
                 (&mut *eff, ev[i], en, effort, effort_kind.column()),
@@ -505,27 +491,8 @@ impl<'n> State<'n> {
                 if null.is_some_and(|b| b.is_null(i)) {
                     continue; // no sample of this channel at this time
                 }
-                if !v_raw.is_finite() {
-                    return Err(TraceError::NonFiniteInRow {
-                        source_name: name.to_string(),
-                        row,
-                        column: col.name.clone(),
-                        value: v_raw,
-                    });
-                }
-                if let Some(&prev) = ch.time_s.last() {
-                    if t <= prev {
-                        return Err(TraceError::TimeNotIncreasingInRow {
-                            source_name: name.to_string(),
-                            channel: label.into(),
-                            row,
-                            time_s: t,
-                            previous_time_s: prev,
-                        });
-                    }
-                }
-                ch.time_s.push(t);
-                ch.value.push(v_raw * col.scale);
+                let v = finite(name, row, &col.name, v_raw)? * col.scale;
+                push_sample(ch, t, v, name, row, label)?;
             }
         }
         Ok(())
@@ -562,52 +529,19 @@ impl<'n> State<'n> {
                 _ => return Err(bad_cell(name, row, "channel", "is empty (no channel name)")),
             };
             if tn.is_some_and(|b| b.is_null(i)) {
-                return Err(TraceError::BadCell {
-                    source_name: name.to_string(),
-                    row,
-                    column: time.name.clone(),
-                    reason: "is null (every row needs a time)".into(),
-                });
+                return Err(bad_cell(name, row, &time.name, NULL_TIME));
             }
             if vn.is_some_and(|b| b.is_null(i)) {
-                return Err(TraceError::BadCell {
-                    source_name: name.to_string(),
+                return Err(bad_cell(
+                    name,
                     row,
-                    column: value.name.clone(),
-                    reason: "is null (every sample row of the long layout needs a value)".into(),
-                });
+                    &value.name,
+                    "is null (every sample row of the long layout needs a value)",
+                ));
             }
-            let (t_raw, v_raw) = (tv[i], vv[i]);
-            if !t_raw.is_finite() {
-                return Err(TraceError::NonFiniteInRow {
-                    source_name: name.to_string(),
-                    row,
-                    column: time.name.clone(),
-                    value: t_raw,
-                });
-            }
-            if !v_raw.is_finite() {
-                return Err(TraceError::NonFiniteInRow {
-                    source_name: name.to_string(),
-                    row,
-                    column: value.name.clone(),
-                    value: v_raw,
-                });
-            }
-            let t = t_raw * time.scale;
-            if let Some(&prev) = ch.time_s.last() {
-                if t <= prev {
-                    return Err(TraceError::TimeNotIncreasingInRow {
-                        source_name: name.to_string(),
-                        channel: label.into(),
-                        row,
-                        time_s: t,
-                        previous_time_s: prev,
-                    });
-                }
-            }
-            ch.time_s.push(t);
-            ch.value.push(v_raw * scale);
+            let t = finite(name, row, &time.name, tv[i])? * time.scale;
+            let v = finite(name, row, &value.name, vv[i])? * scale;
+            push_sample(ch, t, v, name, row, label)?;
         }
         Ok(())
     }
@@ -758,6 +692,47 @@ impl<'n> State<'n> {
             },
         ))
     }
+}
+
+const NULL_TIME: &str = "is null (every row needs a time)";
+
+/// `v` when finite, else the error naming the row and column.
+fn finite(name: &str, row: u64, column: &str, v: f64) -> Result<f64, TraceError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(TraceError::NonFiniteInRow {
+            source_name: name.to_string(),
+            row,
+            column: column.to_string(),
+            value: v,
+        })
+    }
+}
+
+/// Append a sample (SI units) to a channel whose time must strictly increase.
+fn push_sample(
+    ch: &mut Channel,
+    t: f64,
+    v: f64,
+    name: &str,
+    row: u64,
+    label: &str,
+) -> Result<(), TraceError> {
+    if let Some(&prev) = ch.time_s.last() {
+        if t <= prev {
+            return Err(TraceError::TimeNotIncreasingInRow {
+                source_name: name.to_string(),
+                channel: label.into(),
+                row,
+                time_s: t,
+                previous_time_s: prev,
+            });
+        }
+    }
+    ch.time_s.push(t);
+    ch.value.push(v);
+    Ok(())
 }
 
 fn bad_cell(name: &str, row: u64, column: &str, reason: &str) -> TraceError {
