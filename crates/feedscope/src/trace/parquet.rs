@@ -23,7 +23,7 @@ use parquet::file::properties::WriterProperties;
 use parquet::file::reader::ChunkReader;
 use parquet::schema::types::ColumnPath;
 
-use super::read::check_channels;
+use super::read::{check_channels, choose_effort, EffortChoice};
 use super::{Channel, EffortKind, Layout, ReadOptions, ReadReport, Trace, TraceError};
 
 /// The four bytes every Parquet file starts (and ends) with.
@@ -280,24 +280,21 @@ fn plan(schema: &Schema, name: &str, opts: &ReadOptions) -> Result<(Plan, Vec<us
             };
             let cur = find(&["current_a"]);
             let tor = find(&["torque_nm"]);
-            let (effort, effort_kind) = match (cur, tor, opts.effort) {
-                (Some(c), None, None | Some(EffortKind::CurrentA)) => (c, EffortKind::CurrentA),
-                (None, Some(t), None | Some(EffortKind::TorqueNm)) => (t, EffortKind::TorqueNm),
-                (Some(c), Some(_), Some(EffortKind::CurrentA)) => (c, EffortKind::CurrentA),
-                (Some(_), Some(t), Some(EffortKind::TorqueNm)) => (t, EffortKind::TorqueNm),
-                (Some(_), Some(_), None) => {
+            let (effort, effort_kind) = match choose_effort(cur, tor, opts.effort) {
+                Ok(picked) => picked,
+                Err(EffortChoice::Ambiguous) => {
                     return Err(TraceError::AmbiguousEffort {
                         source_name: name.to_string(),
                     })
                 }
-                (_, _, Some(k)) => {
+                Err(EffortChoice::Missing(k)) => {
                     return Err(TraceError::MissingChannel {
                         source_name: name.to_string(),
                         channel: k.column().into(),
                         found: listed(),
                     })
                 }
-                (None, None, None) => {
+                Err(EffortChoice::Neither) => {
                     return Err(TraceError::MissingChannel {
                         source_name: name.to_string(),
                         channel: "current_a or torque_nm".into(),

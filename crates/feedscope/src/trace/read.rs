@@ -577,24 +577,21 @@ impl BlockParser {
         };
         let cur = names.iter().position(|n| n == "current_a");
         let tor = names.iter().position(|n| n == "torque_nm");
-        let (effort, effort_kind) = match (cur, tor, self.effort_choice) {
-            (Some(c), None, None | Some(EffortKind::CurrentA)) => (c, EffortKind::CurrentA),
-            (None, Some(t), None | Some(EffortKind::TorqueNm)) => (t, EffortKind::TorqueNm),
-            (Some(c), Some(_), Some(EffortKind::CurrentA)) => (c, EffortKind::CurrentA),
-            (Some(_), Some(t), Some(EffortKind::TorqueNm)) => (t, EffortKind::TorqueNm),
-            (Some(_), Some(_), None) => {
+        let (effort, effort_kind) = match choose_effort(cur, tor, self.effort_choice) {
+            Ok(picked) => picked,
+            Err(EffortChoice::Ambiguous) => {
                 return Err(TraceError::AmbiguousEffort {
                     source_name: self.name.clone(),
                 })
             }
-            (_, _, Some(k)) => {
+            Err(EffortChoice::Missing(k)) => {
                 return Err(TraceError::MissingChannel {
                     source_name: self.name.clone(),
                     channel: k.column().into(),
                     found: names.join(", "),
                 })
             }
-            (None, None, None) => {
+            Err(EffortChoice::Neither) => {
                 return Err(bad("no `current_a` or `torque_nm` column".into()));
             }
         };
@@ -769,6 +766,36 @@ pub(super) fn check_channels(
         });
     }
     Ok(())
+}
+
+/// Why no effort column could be picked.
+pub(super) enum EffortChoice {
+    /// Both current and torque are present and none was chosen.
+    Ambiguous,
+    /// The chosen kind is absent.
+    Missing(EffortKind),
+    /// Neither is present.
+    Neither,
+}
+
+/// The effort column (any index type) from the current and torque columns found and the
+/// user's choice: the one present, or the chosen one.
+pub(super) fn choose_effort<T>(
+    cur: Option<T>,
+    tor: Option<T>,
+    choice: Option<EffortKind>,
+) -> Result<(T, EffortKind), EffortChoice> {
+    match (cur, tor, choice) {
+        (Some(c), _, Some(EffortKind::CurrentA)) | (Some(c), None, None) => {
+            Ok((c, EffortKind::CurrentA))
+        }
+        (_, Some(t), Some(EffortKind::TorqueNm)) | (None, Some(t), None) => {
+            Ok((t, EffortKind::TorqueNm))
+        }
+        (Some(_), Some(_), None) => Err(EffortChoice::Ambiguous),
+        (_, _, Some(k)) => Err(EffortChoice::Missing(k)),
+        (None, None, None) => Err(EffortChoice::Neither),
+    }
 }
 
 /// Put the file-global line number into an error raised with a piece-local one.
