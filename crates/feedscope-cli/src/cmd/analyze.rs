@@ -33,8 +33,8 @@ use crate::plot::{self, Heatmap, LineChart, Series, Style};
 /// order_scan.csv (Table 2) and SVG plots.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Trace CSV (as for `estimate`), or the friction CSV written by `feedscope estimate`
-    /// (its JSON summary beside it supplies the aliasing limits).
+    /// Trace file (CSV or Parquet, as for `estimate`), or the friction CSV written by
+    /// `feedscope estimate` (its JSON summary beside it supplies the aliasing limits).
     pub input: PathBuf,
     /// Axis parameters (TOML or JSON); the geometry keys name the kinematic orders.
     #[arg(long)]

@@ -56,7 +56,8 @@ pub enum Format {
 /// a JSON summary per stroke and an SVG plot of friction against position.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Trace CSV: long layout `time_s,channel,value` or wide `time_s,position_mm,current_a`.
+    /// Trace file: CSV in the long layout `time_s,channel,value` or the wide layout
+    /// `time_s,position_mm,current_a`, or Parquet with the same columns.
     pub trace: PathBuf,
     /// Axis parameters (TOML, or JSON with the same keys).
     #[arg(long)]

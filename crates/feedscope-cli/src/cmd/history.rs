@@ -70,7 +70,7 @@ pub enum HistoryCommand {
 
 #[derive(Debug, clap::Args)]
 pub struct AddArgs {
-    /// Trace CSV of the test.
+    /// Trace file of the test (CSV or Parquet, as for `estimate`).
     pub trace: PathBuf,
     /// Axis parameters (TOML or JSON).
     #[arg(long)]

@@ -31,7 +31,7 @@ use crate::plot;
 /// (no reversal, one speed only, no acceleration).
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Trace CSV of the triangular-wave test.
+    /// Trace file of the triangular-wave test (CSV or Parquet, as for `estimate`).
     pub trace: PathBuf,
     /// Axis parameters (TOML, or JSON with the same keys): lead, torque constant.
     #[arg(long)]
