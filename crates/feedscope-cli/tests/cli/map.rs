@@ -5,7 +5,7 @@ use std::path::Path;
 use feedscope::sim::{simulate, DynamicsMode, SimConfig, StrokeConfig};
 use feedscope::trace::Layout;
 
-use crate::util::{feedscope, run, stderr, stdout};
+use crate::util::{expect_bad_input, feedscope, run, stderr, stdout};
 
 const FEEDS: [f64; 4] = [15.0, 45.0, 135.0, 400.0];
 
@@ -230,58 +230,23 @@ fn map_strict_and_all_failed_exit_1() {
 fn map_bad_input_exit_2() {
     let d = tempfile::tempdir().unwrap();
     setup(d.path(), "");
+    let map = |extra: &[&str], needles: &[&str]| {
+        let mut args = vec!["map", "index.csv", "--axis", "axis.toml"];
+        args.extend_from_slice(extra);
+        expect_bad_input(d.path(), &args, needles);
+    };
     // A position outside the mapped travel (26-44 mm) is named.
-    let mut c = feedscope(d.path());
-    c.args([
-        "map",
-        "index.csv",
-        "--axis",
-        "axis.toml",
-        "--out",
-        "m",
-        "--positions",
-        "30,80",
-    ]);
-    let o = run(c);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("80"), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("outside the mapped travel"),
-        "{}",
-        stderr(&o)
+    map(
+        &["--out", "m", "--positions", "30,80"],
+        &["80", "outside the mapped travel"],
     );
     // Outside the axis travel: refused before any estimation.
-    let mut c = feedscope(d.path());
-    c.args([
-        "map",
-        "index.csv",
-        "--axis",
-        "axis.toml",
-        "--positions",
-        "-5",
-    ]);
-    let o = run(c);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("-5 mm is outside the axis travel"),
-        "{}",
-        stderr(&o)
+    map(
+        &["--positions", "-5"],
+        &["-5 mm is outside the axis travel"],
     );
     // A table feed beyond the measured feeds without --extrapolate.
-    let mut c = feedscope(d.path());
-    c.args([
-        "map",
-        "index.csv",
-        "--axis",
-        "axis.toml",
-        "--out",
-        "m",
-        "--table-feeds",
-        "15,1000",
-    ]);
-    let o = run(c);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("1000"), "{}", stderr(&o));
+    map(&["--out", "m", "--table-feeds", "15,1000"], &["1000"]);
     let mut c = feedscope(d.path());
     c.args([
         "map",
@@ -311,11 +276,11 @@ fn map_bad_input_exit_2() {
         "file,feed_mm_min,repeat\na.csv,fast,1\n",
     )
     .unwrap();
-    let mut c = feedscope(d.path());
-    c.args(["map", "bad_index.csv", "--axis", "axis.toml"]);
-    let o = run(c);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("bad_index.csv:2"), "{}", stderr(&o));
+    expect_bad_input(
+        d.path(),
+        &["map", "bad_index.csv", "--axis", "axis.toml"],
+        &["bad_index.csv:2"],
+    );
 }
 
 #[test]

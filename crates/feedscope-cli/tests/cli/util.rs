@@ -24,3 +24,17 @@ pub fn stderr(o: &Output) -> String {
 pub fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
+
+/// Run `feedscope ARGS` in `dir` and expect a refusal of bad input: exit code 2, no panic, and
+/// every one of `needles` in stderr.
+pub fn expect_bad_input(dir: &Path, args: &[&str], needles: &[&str]) {
+    let mut c = feedscope(dir);
+    c.args(args);
+    let o = run(c);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "feedscope {args:?}: {err}");
+    assert!(!err.contains("panicked"), "feedscope {args:?}: {err}");
+    for n in needles {
+        assert!(err.contains(n), "feedscope {args:?}: `{n}` not in: {err}");
+    }
+}
