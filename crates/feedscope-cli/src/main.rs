@@ -12,6 +12,14 @@ mod store;
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn main() -> std::process::ExitCode {
+    // A damaged Parquet file can make the decoder panic; that panic is caught and reported as
+    // an error naming the file, so its message would only look like a crash.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !feedscope::trace::decoding_untrusted_parquet() {
+            default_hook(info);
+        }
+    }));
     let cli = cmd::Cli::parse();
     cmd::run(cli)
 }

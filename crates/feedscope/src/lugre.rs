@@ -124,7 +124,9 @@ impl LuGreParams {
     }
 }
 
-fn sign(v: f64) -> f64 {
+/// −1, 0 or +1 by the sign of `v` (0 at rest, unlike `f64::signum`): the sgn of the friction
+/// models.
+pub(crate) fn sign(v: f64) -> f64 {
     if v > 0.0 {
         1.0
     } else if v < 0.0 {

@@ -157,3 +157,47 @@ fn trace_name_must_be_a_plain_file_name() {
         assert!(!d.path().join("o").exists());
     }
 }
+
+/// Damage that makes the Parquet decoder itself panic (it does on some corrupt pages) is
+/// reported like any other bad input: exit 2 and the file named, without a panic message.
+#[test]
+fn decoder_panic_on_damaged_parquet_is_a_clean_error() {
+    use feedscope::trace::{parse_trace, ReadOptions};
+    let d = tempfile::tempdir().unwrap();
+    let sync = format!("{SIM}[sampling]\nmode = \"synchronous\"\nsynchronous_rate_hz = 50\n");
+    std::fs::write(d.path().join("sim.toml"), sync).unwrap();
+    simulate(d.path(), "w", "trace.parquet", &["--layout", "wide"]);
+    let good = std::fs::read(d.path().join("w/trace.parquet")).unwrap();
+    // The first single-byte damage, from the end (page data and footer), that the decoder
+    // answers with a panic; the reader turns it into this error.
+    let damaged = (4..good.len())
+        .rev()
+        .flat_map(|k| [0xff, 0x00].map(|v| (k, v)))
+        .map(|(k, v)| {
+            let mut b = good.clone();
+            b[k] = v;
+            b
+        })
+        .find(|b| {
+            parse_trace(b, "d.parquet", &ReadOptions::default())
+                .is_err_and(|e| e.to_string().contains("the decoder failed"))
+        })
+        .expect("some damage makes parquet 60 panic; if none does, this test can go");
+    std::fs::write(d.path().join("d.parquet"), damaged).unwrap();
+    let mut c = feedscope(d.path());
+    c.args([
+        "estimate",
+        "d.parquet",
+        "--axis",
+        "w/axis.toml",
+        "-o",
+        "f.csv",
+    ]);
+    let o = run(c);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("d.parquet"), "{err}");
+    assert!(err.contains("the decoder failed"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!d.path().join("f.csv").exists());
+}

@@ -63,6 +63,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::axis::AxisParams;
 use crate::estimate::{estimate, Direction, EstimateError, EstimateParams};
+use crate::lugre::sign;
 use crate::spline::{alpha_for_cutoff, smoothing_moments, CubicSpline, SplineError};
 use crate::stribeck::StribeckParams;
 use crate::trace::{EffortKind, Trace};
@@ -321,16 +322,6 @@ pub struct Identification {
     pub computed_torque_nm: Vec<f64>,
     /// Things the user should know (unresolved v_s, large standard errors, …).
     pub warnings: Vec<String>,
-}
-
-fn sign(v: f64) -> f64 {
-    if v > 0.0 {
-        1.0
-    } else if v < 0.0 {
-        -1.0
-    } else {
-        0.0
-    }
 }
 
 fn check_params(p: &IdentParams) -> Result<(), IdentError> {

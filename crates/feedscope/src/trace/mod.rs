@@ -35,6 +35,7 @@ mod format;
 mod parquet;
 mod read;
 pub use format::push_fixed;
+pub use parquet::decoding_untrusted_parquet;
 pub use read::{parse_trace, read_trace_file, ReadOptions, ReadReport, TraceError, MIN_SAMPLES};
 
 /// What the effort channel measures.

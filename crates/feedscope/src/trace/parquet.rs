@@ -117,6 +117,17 @@ fn is_numeric(t: &DataType) -> bool {
     )
 }
 
+thread_local! {
+    static GUARDED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// True while this thread decodes a Parquet trace under a guard that turns a decoder panic
+/// into [`TraceError::Parquet`]. A panic hook can use it to skip printing such a panic: the
+/// user then sees only the error naming the damaged file.
+pub fn decoding_untrusted_parquet() -> bool {
+    GUARDED.get()
+}
+
 fn is_string(t: &DataType) -> bool {
     matches!(t, DataType::Utf8 | DataType::LargeUtf8 | DataType::Utf8View)
 }
@@ -127,7 +138,9 @@ fn is_string(t: &DataType) -> bool {
 /// (e.g. an over-long varint in a page's run-length data: "Num of bytes exceed
 /// MAX_VLQ_BYTE_LEN"; upstream treats each such panic as a bug). A damaged file is bad input,
 /// not a programmer's mistake, so such a panic is caught here and becomes
-/// [`TraceError::Parquet`]; the panic hook has printed its message to stderr by then.
+/// [`TraceError::Parquet`]. While the decoder runs, [`decoding_untrusted_parquet`] is true on
+/// this thread, so a program's panic hook can stay silent for a panic that is about to become
+/// that error.
 pub(super) fn read_parquet<R: ChunkReader + 'static>(
     file: R,
     name: &str,
@@ -135,18 +148,21 @@ pub(super) fn read_parquet<R: ChunkReader + 'static>(
 ) -> Result<(Trace, ReadReport), TraceError> {
     // Nothing outlives the closure but its result, so no broken state can be observed after
     // an unwind.
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| decode(file, name, opts)))
-        .unwrap_or_else(|payload| {
-            let what = payload
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| payload.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown failure".into());
-            Err(TraceError::Parquet {
-                source_name: name.to_string(),
-                reason: format!("the decoder failed on corrupt data ({what})"),
-            })
+    GUARDED.set(true);
+    let decoded =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| decode(file, name, opts)));
+    GUARDED.set(false);
+    decoded.unwrap_or_else(|payload| {
+        let what = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown failure".into());
+        Err(TraceError::Parquet {
+            source_name: name.to_string(),
+            reason: format!("the decoder failed on corrupt data ({what})"),
         })
+    })
 }
 
 fn decode<R: ChunkReader + 'static>(

@@ -1,9 +1,10 @@
 //! Reading trace CSV files fast and strictly.
 //!
-//! The file is read in blocks of a few megabytes (by a reading thread, ahead of the parser); each block is cut at line ends into
-//! one piece per worker thread and the pieces are parsed in parallel, then appended in order.
-//! Memory stays at the parsed samples (16 bytes each) plus one block. Errors carry the file
-//! name and the 1-based line number counted over the whole file (comments and header included).
+//! A reading thread reads the file in blocks of a few megabytes, ahead of the parser; each
+//! block is cut at line ends into one piece per worker thread and the pieces are parsed in
+//! parallel, then appended in order. Memory stays at the parsed samples (16 bytes each) plus two
+//! blocks. Errors carry the file name and the 1-based line number counted over the whole file
+//! (comments and header included).
 
 use std::fs::File;
 use std::io::Read;
@@ -230,8 +231,9 @@ const BLOCK_BYTES: usize = 8 << 20;
 /// Read a trace file: CSV or Parquet (told by the magic bytes `PAR1`), either layout.
 ///
 /// # Errors
-/// Any [`TraceError`]: unreadable file, bad header or Parquet columns, malformed or non-finite numbers, time not
-/// increasing within a channel, a missing channel, too few samples, or no motion.
+/// Any [`TraceError`]: unreadable file, bad header or Parquet columns, malformed or non-finite
+/// numbers, time not increasing within a channel, a missing channel, too few samples, or no
+/// motion.
 pub fn read_trace_file(path: &Path, opts: &ReadOptions) -> Result<(Trace, ReadReport), TraceError> {
     read_file_in_blocks(path, opts, BLOCK_BYTES)
 }
