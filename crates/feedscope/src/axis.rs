@@ -100,6 +100,10 @@ pub struct AxisParams {
     /// Upper end of the usable travel (mm), used by test planning.
     #[serde(default)]
     pub travel_max_mm: Option<f64>,
+    /// Rapid traverse rate of the axis (G00, mm/min). Optional: it sharpens the recognition
+    /// of rapid moves in a trace and bounds the speed a position sample may imply.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rapid_rate_mm_min: Option<f64>,
     /// Extra orders with known causes (e.g. rolling-tool marks).
     #[serde(default, rename = "declared_order")]
     pub declared_orders: Vec<DeclaredOrder>,
@@ -218,6 +222,9 @@ impl AxisParams {
                     "must be finite and greater than travel_min_mm",
                 ));
             }
+        }
+        if let Some(v) = self.rapid_rate_mm_min {
+            positive("rapid_rate_mm_min", v)?;
         }
         for d in &self.declared_orders {
             positive("declared_order.order", d.order)?;

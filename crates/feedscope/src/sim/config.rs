@@ -50,6 +50,7 @@ impl Default for SimConfig {
             guide_balls_per_raceway: Some(19.0),
             travel_min_mm: Some(0.0),
             travel_max_mm: Some(410.0),
+            rapid_rate_mm_min: None,
             declared_orders: vec![crate::axis::DeclaredOrder {
                 order: 0.56,
                 cause: "rolling-tool mark".to_string(),
