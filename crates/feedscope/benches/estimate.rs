@@ -145,7 +145,7 @@ fn bench_estimate(c: &mut Criterion) {
         if n == 1_000_000 {
             // The paper's exact interpolation, without position smoothing.
             let exact = EstimateParams {
-                position_cutoff_order: None,
+                position_smoothing: feedscope::estimate::PositionSmoothing::Off,
                 ..EstimateParams::default()
             };
             g.bench_with_input(

@@ -176,7 +176,13 @@ fn strokes_from_estimate_csv(path: &Path, text: &str, lead_m: f64) -> Result<Vec
                     points: 0,
                     raw_samples_per_lead: f64::INFINITY,
                     max_order: f64::INFINITY,
+                    kind: feedscope::estimate::MoveKind::Measuring,
                     position_cutoff_order: None,
+                    position_cutoff_hz: None,
+                    settle_margin_s: 0.0,
+                    noise_floor: Default::default(),
+                    program_line: None,
+                    programmed_feed_mm_min: None,
                     warnings: vec![format!(
                         "no summary {} found: the aliasing limit is unknown",
                         summary_path.display()

@@ -6,7 +6,8 @@ use anyhow::{Context, Result};
 use clap::ValueEnum;
 use feedscope::axis::{AxisParams, ConfigFormat};
 use feedscope::estimate::{
-    estimate_map_streaming, EstimateParams, StrokeFriction, StrokeSummary, TimeOfPosition, Zone,
+    estimate_map_streaming, EstimateParams, Move, MoveKind, PositionSmoothing, StrokeFriction,
+    StrokeSummary, TimeOfPosition, Zone,
 };
 use feedscope::spline::EndCondition;
 use feedscope::trace::{read_trace_file, EffortKind, ReadOptions, ReadReport, Trace};
@@ -83,6 +84,15 @@ pub struct Args {
     /// How the run time t(z) at each resampled position is found.
     #[arg(long, value_enum, default_value_t = TimeArg::Invert)]
     pub time_of_position: TimeArg,
+    /// Position smoothing before differentiation: `auto` chooses a cut-off per stroke from
+    /// its sampling rate, position quantum, effort noise and settling time; a number is a
+    /// fixed cut-off in Hz; `off` always interpolates (paper 000).
+    #[arg(long, default_value = "auto", value_parser = parse_cutoff)]
+    pub position_cutoff_hz: PositionSmoothing,
+    /// Also estimate rapids and jogs (marked with their kind in the summary); they
+    /// are left out by default.
+    #[arg(long)]
+    pub include_rapids: bool,
     /// Which effort channel to use when the file has both current and torque.
     #[arg(long, value_enum)]
     pub effort: Option<EffortArg>,
@@ -110,6 +120,8 @@ pub struct Summary {
     pub axis: AxisParams,
     pub params: EstimateParams,
     pub strokes: Vec<StrokeSummary>,
+    pub moves: Vec<Move>,
+    pub notes: Vec<String>,
     pub zones: Vec<Zone>,
     pub skipped: Vec<String>,
     pub ignored_rows: u64,
@@ -266,7 +278,7 @@ pub fn estimate_to_csv(
     });
     // A writer error explains a failed send better than the send itself.
     let out = out?;
-    let (zones, skipped) = streamed?;
+    let outline = streamed?;
     pb.finish_and_clear();
     Ok(Outcome {
         csv: out,
@@ -276,8 +288,10 @@ pub fn estimate_to_csv(
             axis: axis.clone(),
             params: params.clone(),
             strokes: summaries,
-            zones,
-            skipped,
+            moves: outline.moves,
+            notes: outline.notes,
+            zones: outline.zones,
+            skipped: outline.skipped,
             ignored_rows: report.ignored_rows,
             ignored_channels: report.ignored_channels.clone(),
         },
@@ -325,25 +339,60 @@ fn format_stroke(s: &StrokeFriction) -> Vec<Vec<u8>> {
 /// The stroke table for people.
 pub fn print_table(summary: &Summary) {
     println!(
-        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>9}  {:>9}",
-        "stroke", "dir", "feed", "from", "to", "mean F_f", "samples", "max"
+        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>9}  {:>8}  {:>8}  {:>7}",
+        "stroke", "dir", "feed", "from", "to", "mean F_f", "floor", "cut-off", "samples", "max"
     );
     println!(
-        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>9}  {:>9}",
-        "", "", "(mm/min)", "(mm)", "(mm)", "(N)", "per lead", "order"
+        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>9}  {:>8}  {:>8}  {:>7}",
+        "", "", "(mm/min)", "(mm)", "(mm)", "(N)", "(N RMS)", "(Hz)", "per lead", "order"
     );
     for s in &summary.strokes {
+        let kind = if s.kind == MoveKind::Measuring {
+            String::new()
+        } else {
+            format!("  ({})", s.kind.as_str())
+        };
         println!(
-            "{:>6}  {:<8}  {:>10.1}  {:>9.2}  {:>9.2}  {:>12.2}  {:>9.1}  {:>9.1}",
+            "{:>6}  {:<8}  {:>10.1}  {:>9.2}  {:>9.2}  {:>12.2}  {:>9.2}  {:>8}  {:>8.1}  {:>7.1}{kind}",
             s.stroke,
             s.direction.as_str(),
             s.feed_mm_min,
             s.start_mm,
             s.end_mm,
             s.mean_friction_n,
+            s.noise_floor.total_n,
+            s.position_cutoff_hz
+                .map_or_else(|| "-".to_string(), |f| format!("{f:.1}")),
             s.raw_samples_per_lead,
             s.max_order
         );
+    }
+    let left_out: Vec<&Move> = summary
+        .moves
+        .iter()
+        .filter(|m| m.strokes.is_empty())
+        .collect();
+    if !left_out.is_empty() {
+        println!();
+        println!("moves left out (no friction estimated):");
+        for m in left_out {
+            println!(
+                "  {:<11}  {:<8}  {:>10.1} mm/min  {:>9.2} → {:>9.2} mm  t = {:.3}-{:.3} s{}",
+                m.kind.as_str(),
+                m.direction.as_str(),
+                m.feed_mm_min,
+                m.start_mm,
+                m.end_mm,
+                m.start_time_s,
+                m.end_time_s,
+                m.program_line
+                    .map(|l| format!("  (program line {l})"))
+                    .unwrap_or_default()
+            );
+        }
+    }
+    for n in &summary.notes {
+        eprintln!("note: {n}");
     }
     for s in &summary.strokes {
         for w in &s.warnings {
@@ -362,8 +411,24 @@ pub fn print_table(summary: &Summary) {
     }
 }
 
+/// `auto`, `off` or a cut-off in Hz.
+pub fn parse_cutoff(text: &str) -> Result<PositionSmoothing, String> {
+    match text.trim() {
+        "auto" => Ok(PositionSmoothing::Auto),
+        "off" | "none" => Ok(PositionSmoothing::Off),
+        other => match other.parse::<f64>() {
+            Ok(f) if f.is_finite() && f > 0.0 && f <= 1e6 => Ok(PositionSmoothing::CutoffHz(f)),
+            _ => Err(format!(
+                "`{other}` is not `auto`, `off` or a cut-off in Hz (a number above 0)"
+            )),
+        },
+    }
+}
+
 fn params_from(args: &Args) -> EstimateParams {
     EstimateParams {
+        position_smoothing: args.position_cutoff_hz,
+        include_rapids: args.include_rapids,
         samples_per_lead: args.samples_per_lead,
         end_condition: match args.end_condition {
             EndArg::NotAKnot => EndCondition::NotAKnot,

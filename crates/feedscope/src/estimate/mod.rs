@@ -46,6 +46,8 @@
 //! assert!((s.summary.mean_friction_n - 150.0).abs() < 1e-6);
 //! ```
 
+pub mod floor;
+pub mod moves;
 pub mod segment;
 
 use rayon::prelude::*;
@@ -54,7 +56,9 @@ use serde::{Deserialize, Serialize};
 use crate::axis::AxisParams;
 use crate::spline::{CubicSpline, EndCondition, SplineError};
 use crate::trace::{EffortKind, Trace};
-pub use segment::{Direction, SegmentParams, StrokeSpan, Zone, ZoneKind};
+pub use floor::NoiseFloor;
+pub use moves::{Move, MoveKind, ProgrammedMove};
+pub use segment::{Direction, MoveSpan, SegmentParams, StrokeSpan, Zone, ZoneKind};
 
 /// How the run time t(z) of step 3 is obtained.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -67,6 +71,21 @@ pub enum TimeOfPosition {
     KnotSpline,
 }
 
+/// How the position is prepared for differentiation (see [`floor`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PositionSmoothing {
+    /// Chosen per stroke from its samples (default): the interpolating spline of paper 000
+    /// when it is quiet enough, else a Reinsch smoother whose cut-off (Hz) balances the
+    /// position noise against the effort noise and the settling time ([`floor`]).
+    #[default]
+    Auto,
+    /// A Reinsch smoother with this cut-off (Hz) on every stroke that samples above it.
+    CutoffHz(f64),
+    /// Always the interpolating spline (paper 000).
+    Off,
+}
+
 /// Estimation settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EstimateParams {
@@ -76,14 +95,14 @@ pub struct EstimateParams {
     pub end_condition: EndCondition,
     /// How t(z) is obtained. Default: exact inversion.
     pub time_of_position: TimeOfPosition,
-    /// Position smoothing before differentiation, as a cut-off order (cycles per lead).
-    /// Twice differentiating a quantised or noisy position amplifies its noise as 1/h²,
-    /// which swamps the inertia term at kHz sampling. When a stroke's raw position samples
-    /// resolve orders well above this cut-off (Nyquist order > 1.25 × cut-off), z(t) is a
-    /// Reinsch smoothing spline whose half-power point is at this order at the stroke's
-    /// feed; otherwise it interpolates exactly (paper 000). Default 64, twice the highest
-    /// order paper 000 found significant (28.5). `None` always interpolates.
-    pub position_cutoff_order: Option<f64>,
+    /// Position smoothing before differentiation. Default: chosen per stroke.
+    pub position_smoothing: PositionSmoothing,
+    /// Also estimate the steady parts of rapids and jogs (marked with their kind). Default
+    /// false: only measuring strokes are estimated.
+    pub include_rapids: bool,
+    /// The NC program's motion blocks, when known: they label the moves (see [`moves`]).
+    #[serde(skip)]
+    pub program: Vec<ProgrammedMove>,
     /// Stroke segmentation.
     pub segment: SegmentParams,
 }
@@ -94,7 +113,9 @@ impl Default for EstimateParams {
             samples_per_lead: 1024,
             end_condition: EndCondition::NotAKnot,
             time_of_position: TimeOfPosition::Invert,
-            position_cutoff_order: Some(64.0),
+            position_smoothing: PositionSmoothing::Auto,
+            include_rapids: false,
+            program: Vec::new(),
             segment: SegmentParams::default(),
         }
     }
@@ -115,6 +136,20 @@ pub enum EstimateError {
         /// Fewest knots accepted.
         min_knots: usize,
     },
+    /// The axis moved, but only in rapids, jogs or positioning moves.
+    #[error(
+        "no measuring stroke: the trace holds {rapid} rapid, {jog} jog and {positioning} \
+         positioning move(s) but no steady move at a programmed feed (rapids are found by \
+         rapid_rate_mm_min in the axis file or inferred; include them with --include-rapids)"
+    )]
+    NoMeasuringStroke {
+        /// Rapid moves found.
+        rapid: usize,
+        /// Moves that no program block explains.
+        jog: usize,
+        /// Moves without a steady feed.
+        positioning: usize,
+    },
     /// Steady strokes were found, but none held enough effort samples to estimate.
     #[error(
         "{strokes} steady stroke(s) found, but none holds {min_samples} or more effort samples \
@@ -125,6 +160,14 @@ pub enum EstimateError {
         strokes: usize,
         /// Fewest effort samples a stroke needs.
         min_samples: usize,
+    },
+    /// Steady strokes were found, but none could be estimated.
+    #[error("{strokes} steady stroke(s) found, but none could be estimated: {reason}")]
+    NoneEstimated {
+        /// Strokes found.
+        strokes: usize,
+        /// Why the first was left out.
+        reason: String,
     },
     /// `samples_per_lead` is zero.
     #[error("samples_per_lead must be at least 1")]
@@ -156,6 +199,8 @@ pub enum EstimateError {
 pub struct StrokeSummary {
     /// Stroke number (0-based, time order).
     pub stroke: usize,
+    /// What the move is (measuring unless rapids were included).
+    pub kind: MoveKind,
     /// Direction of travel.
     pub direction: Direction,
     /// Measured plateau feed of the stroke (mm/min), the commanded feed up to override.
@@ -182,12 +227,27 @@ pub struct StrokeSummary {
     pub points: usize,
     /// Raw samples per lead: the smaller of the position and the effort channel.
     pub raw_samples_per_lead: f64,
-    /// Highest order (cycles per lead) that can be trusted: raw samples per lead / 2.5.
-    /// Nyquist is samples per lead / 2, but the interpolating spline's response falls off and
-    /// images fold back in the top fifth of that band, so 0.8 × Nyquist is kept as the limit.
+    /// Highest order (cycles per lead) that can be trusted: raw samples per lead / 2.5, and
+    /// no higher than the position cut-off's order when the position was smoothed. Nyquist is
+    /// samples per lead / 2, but the interpolating spline's response falls off and images fold
+    /// back in the top fifth of that band, so 0.8 × Nyquist is kept as the limit; above the
+    /// cut-off the table acceleration, and so the inertia term of Eq. 5, is not resolved.
     pub max_order: f64,
-    /// Cut-off order of the position smoothing, when it was applied.
+    /// Cut-off of the position smoothing (Hz), when it was applied.
+    pub position_cutoff_hz: Option<f64>,
+    /// The same cut-off as an order at the stroke's feed (cycles per lead).
     pub position_cutoff_order: Option<f64>,
+    /// Time left out after the acceleration ramp and before the deceleration so that the
+    /// smoother's transient has settled (s; 0 without smoothing).
+    pub settle_margin_s: f64,
+    /// Predicted noise floor of the friction (N RMS) and its parts.
+    pub noise_floor: NoiseFloor,
+    /// NC program line of the block that commanded the stroke, when a program was given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub program_line: Option<usize>,
+    /// Programmed axis feed of that block (mm/min).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub programmed_feed_mm_min: Option<f64>,
     /// Things a user should know about this stroke.
     pub warnings: Vec<String>,
 }
@@ -220,11 +280,28 @@ pub struct Estimate {
     pub strokes: Vec<StrokeFriction>,
     /// What lies between the strokes.
     pub zones: Vec<Zone>,
+    /// Every move of the axis with its kind.
+    pub moves: Vec<Move>,
     /// Strokes found but not estimated, with the reason.
     pub skipped: Vec<String>,
+    /// What the move classification wants a user to know (inferred rapids, program match).
+    pub notes: Vec<String>,
 }
 
-/// Estimate friction along the travel for every steady stroke of a trace.
+/// What [`estimate_streaming`] returns besides the strokes.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Outline {
+    /// What lies between the strokes.
+    pub zones: Vec<Zone>,
+    /// Every move of the axis with its kind.
+    pub moves: Vec<Move>,
+    /// Strokes found but not estimated, with the reason.
+    pub skipped: Vec<String>,
+    /// Notes of the move classification.
+    pub notes: Vec<String>,
+}
+
+/// Estimate friction along the travel for every measuring stroke of a trace.
 ///
 /// # Errors
 /// [`EstimateError::NoStroke`] when no steady stroke exists; spline or non-finite errors when
@@ -236,7 +313,7 @@ pub fn estimate(
 ) -> Result<Estimate, EstimateError> {
     let mut strokes = Vec::new();
     // One batch holding every stroke: all run in parallel.
-    let (zones, skipped) = estimate_streaming(
+    let outline = estimate_streaming(
         trace,
         axis,
         params,
@@ -249,8 +326,10 @@ pub fn estimate(
     Ok(Estimate {
         effort_kind: trace.effort_kind,
         strokes,
-        zones,
-        skipped,
+        zones: outline.zones,
+        moves: outline.moves,
+        skipped: outline.skipped,
+        notes: outline.notes,
     })
 }
 
@@ -258,30 +337,127 @@ pub fn estimate(
 /// bound memory) with [`estimate_stroke`].
 #[derive(Debug, Clone)]
 pub struct Plan {
-    /// The strokes' knot ranges.
+    /// The knot ranges of the strokes to estimate; a stroke's number is its index here.
     pub spans: Vec<StrokeSpan>,
+    /// Every move with its kind; `strokes` holds the numbers of its spans.
+    pub moves: Vec<Move>,
+    /// Notes of the classification.
+    pub notes: Vec<String>,
 }
 
-/// Segment a trace into strokes.
+/// Segment a trace into moves, classify them and pick the strokes to estimate.
 ///
 /// # Errors
-/// [`EstimateError::NoStroke`], [`EstimateError::BadSamplesPerLead`].
-pub fn plan(trace: &Trace, params: &EstimateParams) -> Result<Plan, EstimateError> {
+/// [`EstimateError::NoStroke`], [`EstimateError::NoMeasuringStroke`],
+/// [`EstimateError::BadSamplesPerLead`].
+pub fn plan(
+    trace: &Trace,
+    axis: &AxisParams,
+    params: &EstimateParams,
+) -> Result<Plan, EstimateError> {
     if params.samples_per_lead == 0 {
         return Err(EstimateError::BadSamplesPerLead);
     }
-    let spans = segment::find_strokes(&trace.position_m, &params.segment);
+    let move_spans = segment::find_moves(&trace.position_m, &params.segment);
+    let (mut moves, note) =
+        moves::classify(&trace.position_m, &move_spans, axis.rapid_rate_mm_min);
+    let mut notes: Vec<String> = note.into_iter().collect();
+    if !params.program.is_empty() {
+        notes.extend(moves::label_with_program(&mut moves, &params.program));
+    }
+    let mut spans = Vec::new();
+    let mut steady = 0;
+    for (m, ms) in moves.iter_mut().zip(&move_spans) {
+        steady += ms.strokes.len();
+        let wanted = match m.kind {
+            MoveKind::Measuring => true,
+            MoveKind::Rapid | MoveKind::Jog => params.include_rapids,
+            MoveKind::Positioning => false,
+        };
+        if wanted {
+            for sp in &ms.strokes {
+                m.strokes.push(spans.len());
+                spans.push(sp.clone());
+            }
+        }
+    }
     if spans.is_empty() {
-        return Err(EstimateError::NoStroke {
-            min_stroke_mm: params.segment.min_stroke_mm,
-            min_knots: params.segment.min_knots,
+        if steady == 0 {
+            return Err(EstimateError::NoStroke {
+                min_stroke_mm: params.segment.min_stroke_mm,
+                min_knots: params.segment.min_knots,
+            });
+        }
+        let count = |k| moves.iter().filter(|m| m.kind == k).count();
+        return Err(EstimateError::NoMeasuringStroke {
+            rapid: count(MoveKind::Rapid),
+            jog: count(MoveKind::Jog),
+            positioning: count(MoveKind::Positioning),
         });
     }
-    Ok(Plan { spans })
+    Ok(Plan {
+        spans,
+        moves,
+        notes,
+    })
 }
 
-/// Estimate one stroke (step 1-7). `Ok(None)` when the effort channel has fewer than four
-/// samples inside it.
+/// Why a stroke found by segmentation was not estimated.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Skip {
+    /// Fewer than four effort samples inside it.
+    TooFewEffortSamples,
+    /// The settling margins after the ramps leave too little steady travel (mm).
+    TooShortToSettle {
+        /// Travel left after the margins (mm).
+        left_mm: f64,
+        /// Settling margin at each end (s).
+        margin_s: f64,
+    },
+}
+
+impl std::fmt::Display for Skip {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::TooFewEffortSamples => write!(f, "too few effort samples inside it"),
+            Self::TooShortToSettle { left_mm, margin_s } => write!(
+                f,
+                "too short to settle: the smoothed position needs {margin_s:.3} s after the \
+                 acceleration ramp and before the deceleration, which leaves {left_mm:.2} mm"
+            ),
+        }
+    }
+}
+
+/// What [`estimate_stroke`] made of a stroke.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StrokeOutcome {
+    /// Its friction.
+    Estimated(Box<StrokeFriction>),
+    /// Why it was left out.
+    Skipped(Skip),
+}
+
+/// Force per unit of effort (N per A or N per N·m), Eq. 5's first term.
+fn effort_gain(axis: &AxisParams, kind: EffortKind) -> f64 {
+    match kind {
+        EffortKind::CurrentA => axis.force_per_torque_n_per_nm() * axis.torque_constant_nm_per_a,
+        EffortKind::TorqueNm => axis.force_per_torque_n_per_nm(),
+    }
+}
+
+/// RMS of the values about their mean.
+fn rms_about_mean(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    (v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+/// Estimate one stroke (step 1-7), with the position treatment chosen from its samples
+/// ([`floor`]).
 ///
 /// # Errors
 /// Spline failures and non-finite results.
@@ -291,53 +467,152 @@ pub fn estimate_stroke(
     params: &EstimateParams,
     index: usize,
     span: &StrokeSpan,
-) -> Result<Option<StrokeFriction>, EstimateError> {
+) -> Result<StrokeOutcome, EstimateError> {
     let pos = &trace.position_m;
-    let tz = &pos.time_s[span.first..=span.last];
-    let zz = &pos.value[span.first..=span.last];
-    let (t_lo, t_hi) = (tz[0], tz[tz.len() - 1]);
-    // Effort knots inside the position window: no extrapolation of either channel.
+    let ts = &pos.time_s[span.first..=span.last];
+    let zs_raw = &pos.value[span.first..=span.last];
+    let (t_lo, t_hi) = (ts[0], ts[ts.len() - 1]);
     let te_all = &trace.effort.time_s;
     let e0 = te_all.partition_point(|&t| t < t_lo);
     let e1 = te_all.partition_point(|&t| t <= t_hi);
     if e1 < e0 + crate::trace::MIN_SAMPLES {
-        return Ok(None);
+        return Ok(StrokeOutcome::Skipped(Skip::TooFewEffortSamples));
     }
-    let te = &te_all[e0..e1];
-    let ee = &trace.effort.value[e0..e1];
     let lead = axis.lead_m();
+    let m_eq = axis.equivalent_mass_kg();
+    let b_eq = axis.equivalent_damping_n_s_per_m();
+    let gain = effort_gain(axis, trace.effort_kind);
+    let dir = span.direction;
+    let s = dir.sign();
+
+    // What the stroke's own samples say about their noise (floor module, step 1).
+    let h = (t_hi - t_lo) / (ts.len() - 1) as f64;
+    let ee_span = &trace.effort.value[e0..e1];
+    let noise = floor::SampleNoise {
+        interval_s: h,
+        position_var_m2: floor::channel_variance(ts, zs_raw),
+        effort_n: gain * floor::channel_variance(&te_all[e0..e1], ee_span).sqrt(),
+    };
+    let interp_quant = floor::interpolated_quantisation_n(m_eq, noise.position_var_m2, h);
+    let choice = match params.position_smoothing {
+        PositionSmoothing::Auto => floor::choose(
+            &noise,
+            m_eq,
+            gain * rms_about_mean(ee_span),
+            t_hi - t_lo,
+        ),
+        PositionSmoothing::CutoffHz(f) if f > 0.0 && f < 0.5 / h => {
+            floor::Differentiation::Smooth {
+                cutoff_hz: f,
+                quantisation_n: floor::smoothed_quantisation_n(
+                    m_eq,
+                    noise.position_var_m2,
+                    h,
+                    f,
+                ),
+            }
+        }
+        _ => floor::Differentiation::Interpolate {
+            quantisation_n: interp_quant,
+        },
+    };
+    let (cutoff_hz, quantisation_n) = match choice {
+        floor::Differentiation::Interpolate { quantisation_n } => (None, quantisation_n),
+        floor::Differentiation::Smooth {
+            cutoff_hz,
+            quantisation_n,
+        } => (Some(cutoff_hz), quantisation_n),
+    };
+
+    // The smoother reaches a settling margin beyond the stroke on both sides (never across a
+    // reversal), so that its natural ends lie outside the output.
+    let (tau, margin_s) = match cutoff_hz {
+        Some(f) => {
+            let tau = floor::settle_time_constant_s(f);
+            (tau, floor::SETTLE_TIME_CONSTANTS * tau)
+        }
+        None => (0.0, 0.0),
+    };
+    let extra = if cutoff_hz.is_some() {
+        (margin_s / h).ceil() as usize + 2
+    } else {
+        0
+    };
+    let k0 = span.first.saturating_sub(extra).max(span.move_first);
+    let k1 = (span.last + extra).min(span.move_last).max(span.last);
+    let tz = &pos.time_s[k0..=k1];
+    let zz = &pos.value[k0..=k1];
     let spline_err = |error| EstimateError::Spline {
         stroke: index,
         channel: "position",
         error,
     };
-    // Position samples per lead decide whether smoothing can help (see `position_cutoff_order`).
-    let spl_z = (tz.len() - 1) as f64 * lead / (zz[zz.len() - 1] - zz[0]).abs().max(1e-12);
-    let cutoff = params
-        .position_cutoff_order
-        .filter(|&c| c > 0.0 && 0.5 * spl_z > 1.25 * c);
     let mut z_smooth = Vec::new();
-    let zs = match cutoff {
-        Some(order) => {
-            let h = (t_hi - t_lo) / (tz.len() - 1) as f64;
-            let f_c = order * span.plateau_speed_m_s / lead;
-            let alpha = crate::spline::alpha_for_cutoff(h, f_c);
+    let zs = match cutoff_hz {
+        Some(f_c) => {
+            let h_w = (tz[tz.len() - 1] - tz[0]) / (tz.len() - 1) as f64;
+            let alpha = crate::spline::alpha_for_cutoff(h_w, f_c);
             let m = crate::spline::smoothing_moments(tz, zz, alpha, &mut z_smooth)
                 .map_err(spline_err)?;
             CubicSpline::from_moments(tz, &z_smooth, m).map_err(spline_err)?
         }
         None => CubicSpline::new(tz, zz, params.end_condition).map_err(spline_err)?,
     };
-    let zz: &[f64] = if cutoff.is_some() { &z_smooth } else { zz };
+    let zz: &[f64] = if cutoff_hz.is_some() { &z_smooth } else { zz };
+
+    // Output window: the stroke, and with smoothing only where the ramps have settled.
+    let (mut w_lo, mut w_hi) = (t_lo, t_hi);
+    let mut inertia_n = 0.0;
+    if cutoff_hz.is_some() {
+        let n = ts.len() - 1;
+        let (q1, q3) = (n / 4, 3 * n / 4);
+        let v_mid = s * (zs_raw[q3] - zs_raw[q1]) / (ts[q3] - ts[q1]).max(1e-300);
+        let reach = 0.98 * v_mid;
+        let (i_first, i_last) = (span.first - k0, span.last - k0);
+        let speed = |i: usize| s * zs.eval_in(i.min(tz.len() - 2), tz[i]).1;
+        let ramp_end = (i_first..=i_last).find(|&i| speed(i) >= reach);
+        let decel_start = (i_first..=i_last).rev().find(|&i| speed(i) >= reach);
+        let (Some(i_a), Some(i_b)) = (ramp_end, decel_start) else {
+            return Ok(StrokeOutcome::Skipped(Skip::TooShortToSettle {
+                left_mm: 0.0,
+                margin_s,
+            }));
+        };
+        w_lo = tz[i_a] + margin_s;
+        w_hi = tz[i_b] - margin_s;
+        let left_mm = (w_hi - w_lo) * v_mid * 1e3;
+        if w_hi <= w_lo || left_mm < params.segment.min_stroke_mm {
+            return Ok(StrokeOutcome::Skipped(Skip::TooShortToSettle {
+                left_mm: left_mm.max(0.0),
+                margin_s,
+            }));
+        }
+        // The largest jerk of the smoothed ramps, whose transient the margin lets decay to
+        // e^(−N): m_eq·j·τ·e^(−N) at the window's edges, spread over it as an RMS.
+        let m = zs.moments();
+        let jerk = |range: std::ops::Range<usize>| {
+            range
+                .map(|i| ((m[i + 1] - m[i]) / (tz[i + 1] - tz[i])).abs())
+                .fold(0.0, f64::max)
+        };
+        let j = jerk(0..i_a.min(m.len() - 1)).max(jerk(i_b.min(m.len() - 1)..m.len() - 1));
+        let edge = m_eq * j * tau * (-floor::SETTLE_TIME_CONSTANTS).exp();
+        inertia_n = edge * (tau / (w_hi - w_lo)).min(1.0).sqrt();
+    }
+    // Effort knots over the whole spline window: no extrapolation of either channel, and the
+    // effort spline's ends outside the output too.
+    let e0 = te_all.partition_point(|&t| t < tz[0]);
+    let e1 = te_all.partition_point(|&t| t <= tz[tz.len() - 1]);
+    let te = &te_all[e0..e1];
+    let ee = &trace.effort.value[e0..e1];
     let es =
         CubicSpline::new(te, ee, params.end_condition).map_err(|error| EstimateError::Spline {
             stroke: index,
             channel: trace.effort_kind.column(),
             error,
         })?;
-    let (w_lo, w_hi) = (te[0].max(t_lo), te[te.len() - 1].min(t_hi));
-    let dir = span.direction;
-    let s = dir.sign();
+    w_lo = w_lo.max(te[0]);
+    w_hi = w_hi.min(te[te.len() - 1]);
     let step = lead / f64::from(params.samples_per_lead);
     // Position range covered by the window, on the spline (exact at knots, else evaluated).
     let (z_a, z_b) = (zs.eval(w_lo), zs.eval(w_hi));
@@ -349,14 +624,16 @@ pub fn estimate_stroke(
     let count = ((k_last - k_first) as f64 * s) as i64 + 1;
     let mut warnings = Vec::new();
     if count < 2 {
-        return Ok(None);
+        return Ok(StrokeOutcome::Skipped(Skip::TooFewEffortSamples));
     }
     let count = count as usize;
+    let feed_m_s = span.plateau_speed_m_s;
     let mut out = StrokeFriction {
         summary: StrokeSummary {
             stroke: index,
+            kind: MoveKind::Measuring,
             direction: dir,
-            feed_mm_min: span.plateau_speed_m_s * 60e3,
+            feed_mm_min: feed_m_s * 60e3,
             start_mm: 0.0,
             end_mm: 0.0,
             length_mm: 0.0,
@@ -364,12 +641,17 @@ pub fn estimate_stroke(
             end_time_s: 0.0,
             mean_friction_n: 0.0,
             friction_std_n: 0.0,
-            position_samples: tz.len(),
-            effort_samples: te.len(),
+            position_samples: ts.len(),
+            effort_samples: ee_span.len(),
             points: count,
             raw_samples_per_lead: 0.0,
             max_order: 0.0,
-            position_cutoff_order: cutoff,
+            position_cutoff_hz: cutoff_hz,
+            position_cutoff_order: cutoff_hz.map(|f| f * lead / feed_m_s),
+            settle_margin_s: margin_s,
+            noise_floor: NoiseFloor::new(quantisation_n, noise.effort_n, inertia_n),
+            program_line: None,
+            programmed_feed_mm_min: None,
             warnings: Vec::new(),
         },
         position_m: Vec::with_capacity(count),
@@ -378,12 +660,6 @@ pub fn estimate_stroke(
         accel_m_s2: Vec::with_capacity(count),
         effort: Vec::with_capacity(count),
         friction_n: Vec::with_capacity(count),
-    };
-    let m_eq = axis.equivalent_mass_kg();
-    let b_eq = axis.equivalent_damping_n_s_per_m();
-    let gain = match trace.effort_kind {
-        EffortKind::CurrentA => axis.force_per_torque_n_per_nm() * axis.torque_constant_nm_per_a,
-        EffortKind::TorqueNm => axis.force_per_torque_n_per_nm(),
     };
     // t(z) by the paper's knot spline, when asked for: a spline through (s·z_k, t_k), since its
     // abscissae must increase for either direction.
@@ -473,9 +749,11 @@ pub fn estimate_stroke(
         .sum::<f64>()
         / count as f64;
     let travel = (out.position_m[count - 1] - out.position_m[0]).abs();
-    // Raw samples per lead of each channel over its own span inside the stroke.
+    // Raw samples per lead of each channel over the stroke.
     let z_span = |a: f64, b: f64| (zs.eval(b) - zs.eval(a)).abs().max(1e-12);
-    let spl_e = (te.len() - 1) as f64 * lead / z_span(te[0], te[te.len() - 1]);
+    let spl_z = (ts.len() - 1) as f64 * lead / (zs_raw[zs_raw.len() - 1] - zs_raw[0]).abs().max(1e-12);
+    let ee_t = &te_all[e0..e1];
+    let spl_e = (ee_t.len() - 1) as f64 * lead / z_span(ee_t[0], ee_t[ee_t.len() - 1]);
     let spl = spl_z.min(spl_e);
     let sm = &mut out.summary;
     sm.start_mm = out.position_m[0] * 1e3;
@@ -487,16 +765,48 @@ pub fn estimate_stroke(
     sm.friction_std_n = var.sqrt();
     sm.raw_samples_per_lead = spl;
     sm.max_order = spl / 2.5;
+    let feed_mm_min = feed_m_s * 60e3;
     if spl < 8.0 {
         warnings.push(format!(
             "only {spl:.1} raw samples per lead: fluctuation above order {:.1} cannot be \
              trusted; sample faster or feed slower (below {:.0} mm/min for 8 samples per lead)",
             spl / 2.5,
-            span.plateau_speed_m_s * 60e3 * spl / 8.0
+            feed_mm_min * spl / 8.0
+        ));
+    }
+    if let Some(order) = sm.position_cutoff_order {
+        if order < sm.max_order {
+            sm.max_order = order;
+            if order < 10.0 {
+                warnings.push(format!(
+                    "the position is smoothed above {:.1} Hz, order {order:.1} at this feed: \
+                     the table acceleration of higher orders is not resolved, so their \
+                     amplitudes lack the inertia term; finer position quanta, faster sampling \
+                     or a slower feed resolve more",
+                    sm.position_cutoff_hz.unwrap_or(0.0)
+                ));
+            }
+        }
+    }
+    // The floor against the variation it has to be seen against: friction_std² holds both.
+    let fl = sm.noise_floor;
+    let variation = (sm.friction_std_n.powi(2) - fl.total_n.powi(2)).max(0.0).sqrt();
+    if fl.total_n > 0.1 * variation {
+        warnings.push(format!(
+            "predicted noise floor {:.2} N RMS (position quantisation {:.2}, effort noise \
+             {:.2}, inertia {:.2}) is {:.0} % of the friction variation along this stroke \
+             ({:.2} N RMS): the profile is only good to about ±{:.1} N",
+            fl.total_n,
+            fl.quantisation_n,
+            fl.effort_n,
+            fl.inertia_n,
+            100.0 * fl.total_n / variation.max(1e-12),
+            variation,
+            2.0 * fl.total_n
         ));
     }
     sm.warnings = warnings;
-    Ok(Some(out))
+    Ok(StrokeOutcome::Estimated(Box::new(out)))
 }
 
 /// Newton's method for z(x0 + u) = target inside one monotone piece, started from linear
@@ -619,7 +929,7 @@ pub fn estimate_streaming<E: From<EstimateError>>(
     params: &EstimateParams,
     batch: usize,
     sink: impl FnMut(StrokeFriction) -> Result<(), E>,
-) -> Result<(Vec<Zone>, Vec<String>), E> {
+) -> Result<Outline, E> {
     estimate_map_streaming(trace, axis, params, batch, |s| s, sink)
 }
 
@@ -635,30 +945,44 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
     batch: usize,
     map: impl Fn(StrokeFriction) -> T + Sync,
     mut sink: impl FnMut(T) -> Result<(), E>,
-) -> Result<(Vec<Zone>, Vec<String>), E> {
-    let planned = plan(trace, params)?;
+) -> Result<Outline, E> {
+    let planned = plan(trace, axis, params)?;
     let mut skipped = Vec::new();
+    let mut first_skip = None;
     let mut any = false;
     let batch = batch.max(1);
+    let label = |mut s: StrokeFriction, span: &StrokeSpan| {
+        let m = &planned.moves[span.move_index];
+        s.summary.kind = m.kind;
+        s.summary.program_line = m.program_line;
+        s.summary.programmed_feed_mm_min = m.programmed_feed_mm_min;
+        s
+    };
     for (b, chunk) in planned.spans.chunks(batch).enumerate() {
         let base = b * batch;
         let results: Vec<_> = chunk
             .par_iter()
             .enumerate()
             .map(|(k, span)| {
-                estimate_stroke(trace, axis, params, base + k, span).map(|o| o.map(&map))
+                estimate_stroke(trace, axis, params, base + k, span).map(|o| match o {
+                    StrokeOutcome::Estimated(s) => Ok(map(label(*s, span))),
+                    StrokeOutcome::Skipped(why) => Err(why),
+                })
             })
             .collect();
         for (k, r) in results.into_iter().enumerate() {
             match r? {
-                Some(t) => {
+                Ok(t) => {
                     any = true;
                     sink(t)?;
                 }
-                None => {
+                Err(why) => {
                     let span = &chunk[k];
+                    if first_skip.is_none() {
+                        first_skip = Some(why.clone());
+                    }
                     skipped.push(format!(
-                        "stroke {} ({}, {:.1} to {:.1} mm): too few effort samples inside it",
+                        "stroke {} ({}, {:.1} to {:.1} mm): {why}",
                         base + k,
                         span.direction.as_str(),
                         trace.position_m.value[span.first] * 1e3,
@@ -669,16 +993,25 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
         }
     }
     if !any {
-        return Err(EstimateError::NoEffortInStrokes {
-            strokes: planned.spans.len(),
-            min_samples: crate::trace::MIN_SAMPLES,
+        let strokes = planned.spans.len();
+        return Err(match first_skip {
+            Some(why) if why != Skip::TooFewEffortSamples => EstimateError::NoneEstimated {
+                strokes,
+                reason: why.to_string(),
+            },
+            _ => EstimateError::NoEffortInStrokes {
+                strokes,
+                min_samples: crate::trace::MIN_SAMPLES,
+            },
         }
         .into());
     }
-    Ok((
-        segment::zones_between(&trace.position_m, &planned.spans),
+    Ok(Outline {
+        zones: segment::zones_between(&trace.position_m, &planned.spans),
+        moves: planned.moves,
         skipped,
-    ))
+        notes: planned.notes,
+    })
 }
 
 #[cfg(test)]

@@ -63,8 +63,30 @@ pub struct StrokeSpan {
     pub first: usize,
     /// Last position knot (inclusive).
     pub last: usize,
-    /// Plateau speed of the move (m/s, positive).
+    /// Mean speed over the stroke (m/s, positive).
     pub plateau_speed_m_s: f64,
+    /// Index of the enclosing move in [`find_moves`]' list.
+    pub move_index: usize,
+    /// First knot of the enclosing move (its turning point, inclusive): a smoother may reach
+    /// back this far, never across a reversal.
+    pub move_first: usize,
+    /// Last knot of the enclosing move (inclusive).
+    pub move_last: usize,
+}
+
+/// One move between two turning points, with the steady strokes found inside it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MoveSpan {
+    /// Direction of travel.
+    pub direction: Direction,
+    /// First knot (the turning point it starts from).
+    pub first: usize,
+    /// Last knot (the turning point it ends at).
+    pub last: usize,
+    /// Plateau speed P of the move (m/s, positive; 0 when it has too few samples to tell).
+    pub plateau_speed_m_s: f64,
+    /// Its steady strokes, in time order (empty for a move too short to be steady).
+    pub strokes: Vec<StrokeSpan>,
 }
 
 /// What happens in a stretch of the trace that is not a steady stroke.
@@ -210,6 +232,14 @@ fn median(v: &mut [f64]) -> f64 {
 
 /// Find the steady strokes in a position channel (time strictly increasing).
 pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpan> {
+    find_moves(position, params)
+        .into_iter()
+        .flat_map(|m| m.strokes)
+        .collect()
+}
+
+/// Every move between turning points, each with its steady strokes (module docs, steps 1-3).
+pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
     let (t, z) = (&position.time_s, &position.value);
     let n = z.len();
     if n < 2 {
@@ -218,11 +248,11 @@ pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpa
     let quantum = position_quantum_m(z);
     let eps = hysteresis_m(z, quantum);
     let tp = turning_points(z, eps);
-    let mut out = Vec::new();
+    let mut moves: Vec<MoveSpan> = Vec::new();
     let mut speeds = Vec::new();
     for w in tp.windows(2) {
         let (i0, i1) = (w[0], w[1]);
-        if i1 <= i0 + 1 {
+        if i1 <= i0 || (z[i1] - z[i0]).abs() <= eps {
             continue;
         }
         let dir = if z[i1] > z[i0] {
@@ -230,6 +260,18 @@ pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpa
         } else {
             Direction::Backward
         };
+        moves.push(MoveSpan {
+            direction: dir,
+            first: i0,
+            last: i1,
+            plateau_speed_m_s: 0.0,
+            strokes: Vec::new(),
+        });
+        let move_index = moves.len() - 1;
+        let this = &mut moves[move_index];
+        if i1 <= i0 + 1 {
+            continue;
+        }
         let s = dir.sign();
         // Chords span w samples so that each covers at least 8 position quanta: at a slow feed
         // with coarse quantisation, consecutive samples often repeat a position and single-step
@@ -258,6 +300,7 @@ pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpa
             .filter(|v| *v >= 0.25 * p95)
             .collect();
         let plateau = median(&mut fast);
+        this.plateau_speed_m_s = plateau;
         let threshold = params.steady_fraction * plateau;
         // Maximal runs of steady chords.
         let mut c = 0;
@@ -285,15 +328,18 @@ pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpa
             }
             // The feed of the stroke: its mean speed, exact also when single chords are coarse.
             let speed = (z[last] - z[first]).abs() / (t[last] - t[first]);
-            out.push(StrokeSpan {
+            this.strokes.push(StrokeSpan {
                 direction: dir,
                 first,
                 last,
                 plateau_speed_m_s: speed,
+                move_index,
+                move_first: i0,
+                move_last: i1,
             });
         }
     }
-    out
+    moves
 }
 
 /// The stretches of the trace not covered by `strokes` (in time order).

@@ -217,3 +217,4 @@ fn strokes_without_effort_samples_are_named_as_such() {
         "{err}"
     );
 }
+

@@ -3,7 +3,7 @@
 //! Criteria, over points ≥ 2 mm from the stroke ends: RMS error < 10 % of the RMS of the true
 //! fluctuation and ≤ 1.3 × the error that the current noise alone explains (noise-free:
 //! < 2 %); the stroke-mean friction within 1 %.
-use feedscope::estimate::Direction;
+use feedscope::estimate::{estimate, Direction, EstimateParams, PositionSmoothing};
 use feedscope::sim::{FeedModulation, SamplingMode};
 use feedscope::trace::EffortKind;
 
@@ -17,11 +17,22 @@ fn check_noisy(label: &str, cfg: &feedscope::sim::SimConfig) {
     // the two estimates is what the current noise alone explains.
     let mut clean_trace = out.clone();
     clean_trace.trace.effort = out.truth.effort_clean.clone();
-    let clean = est(&clean_trace);
     assert_eq!(noisy.strokes.len(), 2, "{label}: strokes");
-    for (s, c) in noisy.strokes.iter().zip(&clean.strokes) {
+    for s in &noisy.strokes {
+        // The clean reference with the position treatment the noisy estimate chose (the
+        // choice depends on the effort noise).
+        let params = EstimateParams {
+            position_smoothing: s
+                .summary
+                .position_cutoff_hz
+                .map_or(PositionSmoothing::Off, PositionSmoothing::CutoffHz),
+            ..EstimateParams::default()
+        };
+        let clean = estimate(&clean_trace.trace, &out.truth.axis, &params).expect("estimate");
+        let c = &clean.strokes[s.summary.stroke];
         let e = errors(&out, s);
         let explained = rms_between(s, c);
+        let floor = s.summary.noise_floor;
         eprintln!(
             "{label} {:?}: rms {:.3} N, fluctuation {:.2} N ({:.1} %), current-noise {:.3} N \
              (ratio {:.2}), mean {:+.4} %",
@@ -32,6 +43,10 @@ fn check_noisy(label: &str, cfg: &feedscope::sim::SimConfig) {
             explained,
             e.rms_n / explained,
             100.0 * e.mean_rel
+        );
+        eprintln!(
+            "  cut-off {:?} Hz, predicted floor {:.3} N (quantisation {:.3}, effort {:.3})",
+            s.summary.position_cutoff_hz, floor.total_n, floor.quantisation_n, floor.effort_n
         );
         assert!(e.rms_n < 0.10 * e.fluctuation_rms_n, "{label}: {e:?}");
         assert!(

@@ -1,0 +1,438 @@
+//! How smooth the position must be before it is differentiated twice, and how much friction
+//! noise that leaves: the per-stroke choice of the position cut-off and the predicted noise
+//! floor of Eq. 5.
+//!
+//! Eq. 5 subtracts m_eq·z'' from the motor force. z'' comes from a spline through sampled,
+//! quantised positions, so the position's measurement noise (variance σ_z², at least q²/12 for
+//! a quantum q) reaches the friction amplified by (2πf)² and by the equivalent mass. For white
+//! noise sampled every h (one-sided density S = 2h·σ_z²) behind the Reinsch smoother's response
+//! H(f) = 1/(1 + (f/f_c)⁴) (see [`crate::spline::smoothing_moments`]):
+//!
+//! ```text
+//! σ_F,quant = m_eq·(2π)²·sqrt(S·∫ f⁴H(f)² df) = m_eq·(2π)²·sqrt(2h·σ_z²·c₅·f_c⁵),
+//! c₅ = ∫₀^∞ x⁴/(1 + x⁴)² dx = π√2/16
+//! ```
+//!
+//! The effort term is not smoothed (friction ripple lives in it), so its noise σ_e passes
+//! one to one: σ_F,effort = G·σ_e with G the force per unit of effort.
+//!
+//! A cut-off fixed in screw orders cannot work (order 64 is 4 Hz at 60 mm/min and 200 Hz at
+//! 3000 mm/min), so the cut-off is chosen **in time** per stroke, from what the stroke's own
+//! samples say: the sampling interval, the position quantum and noise, the effort noise and
+//! the time the stroke leaves for its ramps to settle:
+//!
+//! 1. the target: the quantisation part may be half the effort noise, or 2 % of the force
+//!    variation along the stroke when the effort is nearly noise-free;
+//! 2. f_noise solves σ_F,quant(f_c) = target: f_c = (target²/(m_eq²·(2π)⁴·2h·σ_z²·c₅))^(1/5);
+//! 3. the smoother's kernel decays as exp(−t/τ) with τ = √2/(2π·f_c); the stroke loses
+//!    [`SETTLE_TIME_CONSTANTS`]·τ after its acceleration ramp and before its deceleration, and
+//!    those margins may take at most half of its steady time T: f_settle = 4·N/(√2·π·T);
+//! 4. f_c = max(f_noise, f_settle), at most 0.4/h (0.8 × Nyquist); when the interpolating
+//!    spline of paper 000 already meets the target, nothing is smoothed.
+//!
+//! Above f_c the table acceleration is not resolved: a friction ripple there is estimated
+//! without its inertia correction, so the trusted orders end at f_c·p/v.
+
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// ∫₀^∞ x⁴/(1 + x⁴)² dx = π√2/16: the noise bandwidth of z'' behind the Reinsch smoother.
+const C5: f64 = PI * std::f64::consts::SQRT_2 / 16.0;
+
+/// Mean variance of an interpolating cubic spline's second derivative, in units of σ²/h⁴, for
+/// white data on evenly spaced knots (measured by Monte Carlo in the tests below).
+const INTERP_ACCEL_VAR: f64 = 14.0;
+
+/// Time constants of the smoother's kernel left between a ramp and the first output point.
+/// The kernel's error after a jerk step decays as e^(−t/τ); 6 leaves e⁻⁶ = 0.25 %.
+pub const SETTLE_TIME_CONSTANTS: f64 = 6.0;
+
+/// The predicted noise floor of the friction of one stroke (N RMS) and its parts.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct NoiseFloor {
+    /// sqrt of the sum of the squared parts (N RMS).
+    pub total_n: f64,
+    /// Position quantum and noise, twice differentiated and times m_eq (N RMS).
+    pub quantisation_n: f64,
+    /// Noise and quantum of the current or torque, as force (N RMS).
+    pub effort_n: f64,
+    /// The inertia term the smoothing cannot follow: the ramp transient left after the
+    /// settling margin, m_eq·j·τ·e^(−N), spread over the stroke (N RMS).
+    pub inertia_n: f64,
+}
+
+impl NoiseFloor {
+    /// Combine the parts.
+    pub fn new(quantisation_n: f64, effort_n: f64, inertia_n: f64) -> Self {
+        Self {
+            total_n: (quantisation_n * quantisation_n
+                + effort_n * effort_n
+                + inertia_n * inertia_n)
+                .sqrt(),
+            quantisation_n,
+            effort_n,
+            inertia_n,
+        }
+    }
+}
+
+/// What the samples of one stroke say about their own noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct SampleNoise {
+    /// Mean position sampling interval h (s).
+    pub interval_s: f64,
+    /// Position measurement variance σ_z² (m²): at least q²/12.
+    pub position_var_m2: f64,
+    /// Effort noise as force, G·σ_e (N).
+    pub effort_n: f64,
+}
+
+/// Robust standard deviation of white noise on a smooth signal sampled at `times`: the
+/// fourth divided differences over five consecutive samples vanish for cubics (so for ramps,
+/// steady feeds and slow ripple) whatever the spacing; each is scaled by its noise gain
+/// sqrt(Σ c_i²) so that white noise of standard deviation σ gives σ, and the median absolute
+/// mean square of the smallest 90 % gives σ (see below). At most `MAX_DIFFS` differences are looked at, evenly spread,
+/// so long strokes cost little. (On evenly spaced samples this is the 1, −4, 6, −4, 1 stencil
+/// over √70.)
+pub(crate) fn robust_noise_std(times: &[f64], values: &[f64]) -> f64 {
+    const MAX_DIFFS: usize = 8192;
+    let n = values.len().min(times.len());
+    if n < 5 {
+        return 0.0;
+    }
+    let count = n - 4;
+    let stride = count.div_ceil(MAX_DIFFS).max(1);
+    let mut d: Vec<f64> = (0..count)
+        .step_by(stride)
+        .filter_map(|k| {
+            let t = &times[k..k + 5];
+            let v = &values[k..k + 5];
+            // Divided-difference weights c_i = 1/Π_{j≠i}(t_i − t_j), in units of the local
+            // spacing so that nothing underflows.
+            let scale = (t[4] - t[0]) / 4.0;
+            if !(scale > 0.0) {
+                return None;
+            }
+            let (mut dd, mut gain) = (0.0, 0.0);
+            for i in 0..5 {
+                let mut p = 1.0;
+                for j in 0..5 {
+                    if j != i {
+                        p *= (t[i] - t[j]) / scale;
+                    }
+                }
+                let c = 1.0 / p;
+                dd += c * v[i];
+                gain += c * c;
+            }
+            let r = (dd / gain.sqrt()).abs();
+            r.is_finite().then_some(r)
+        })
+        .collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    // Mean square of the smallest 90 %: robust to spikes and ramps' kinks, and continuous on
+    // quantised data (whose median jumps in whole quanta). For Gaussian noise it holds
+    // 1 − 2·z·φ(z)/0.9 = 0.6232 of σ² (z = 1.6449, the 90 % point of |x|).
+    let keep = (d.len() * 9).div_ceil(10).max(1);
+    if keep < d.len() {
+        d.select_nth_unstable_by(keep - 1, f64::total_cmp);
+    }
+    let ms = d[..keep].iter().map(|x| x * x).sum::<f64>() / keep as f64;
+    (ms / 0.6232).sqrt()
+}
+
+/// The quantum of a quantised channel: its smallest non-zero step between consecutive values,
+/// when (nearly) every step is a whole multiple of it; 0 for an unquantised channel, whose
+/// smallest step is only its slowest motion.
+pub(crate) fn quantum(values: &[f64]) -> f64 {
+    const MAX_STEPS: usize = 4096;
+    let q = values
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if !q.is_finite() {
+        return 0.0;
+    }
+    let stride = values.len().div_ceil(MAX_STEPS).max(1);
+    let (mut steps, mut whole) = (0usize, 0usize);
+    for k in (1..values.len()).step_by(stride) {
+        let d = (values[k] - values[k - 1]).abs();
+        if d > 0.0 {
+            steps += 1;
+            let r = d / q;
+            // 5 % of a quantum: far above the rounding of decimal text, far below a real step.
+            if (r - r.round()).abs() < 0.05 {
+                whole += 1;
+            }
+        }
+    }
+    if steps == 0 || whole as f64 >= 0.95 * steps as f64 {
+        q
+    } else {
+        0.0
+    }
+}
+
+/// Measurement variance of a channel: the robust white-noise estimate (which holds the
+/// quantisation error of a channel that moves many quanta per sample), at least q²/12 (a
+/// slow quantised ramp's error is a sawtooth that the differences barely see).
+pub(crate) fn channel_variance(times: &[f64], values: &[f64]) -> f64 {
+    let s = robust_noise_std(times, values);
+    let q = quantum(values);
+    (s * s).max(q * q / 12.0)
+}
+
+/// ∫₀^u x⁴/(1 + x⁴)² dx: c₅ for u → ∞ (Simpson's rule below u = 8, the tail in closed form
+/// beyond: the integrand is x⁻⁴ − 2x⁻⁸ + … there).
+fn noise_bandwidth(u: f64) -> f64 {
+    let g = |x: f64| {
+        let x4 = x * x * x * x;
+        x4 / ((1.0 + x4) * (1.0 + x4))
+    };
+    let tail = |a: f64| 1.0 / (3.0 * a * a * a) - 2.0 / (7.0 * a.powi(7));
+    let top = u.min(8.0);
+    let n = 256;
+    let h = top / n as f64;
+    let mut sum = g(0.0) + g(top);
+    for k in 1..n {
+        sum += if k % 2 == 1 { 4.0 } else { 2.0 } * g(k as f64 * h);
+    }
+    let head = sum * h / 3.0;
+    if u > 8.0 {
+        head + tail(8.0) - tail(u)
+    } else {
+        head
+    }
+}
+
+/// σ_F,quant of the Reinsch smoother at cut-off `cutoff_hz` (N RMS), module docs step 2, with
+/// the noise integrated up to the Nyquist frequency 1/(2h) only (the cut-off may lie above it).
+pub fn smoothed_quantisation_n(
+    mass_kg: f64,
+    position_var_m2: f64,
+    interval_s: f64,
+    cutoff_hz: f64,
+) -> f64 {
+    let w2 = (2.0 * PI) * (2.0 * PI);
+    let nyquist = 0.5 / interval_s;
+    let band = noise_bandwidth(nyquist / cutoff_hz) * cutoff_hz.powi(5);
+    mass_kg * w2 * (2.0 * interval_s * position_var_m2 * band).sqrt()
+}
+
+/// σ_F,quant of the interpolating spline (N RMS): m_eq·sqrt(K·σ_z²)/h², K measured for
+/// not-a-knot splines on evenly spaced knots.
+pub fn interpolated_quantisation_n(mass_kg: f64, position_var_m2: f64, interval_s: f64) -> f64 {
+    mass_kg * (INTERP_ACCEL_VAR * position_var_m2).sqrt() / (interval_s * interval_s)
+}
+
+/// The settling time constant τ = √2/(2π·f_c) of the smoother's kernel (s).
+pub fn settle_time_constant_s(cutoff_hz: f64) -> f64 {
+    std::f64::consts::SQRT_2 / (2.0 * PI * cutoff_hz)
+}
+
+/// The chosen position treatment of one stroke.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Differentiation {
+    /// The interpolating spline of paper 000; its quantisation floor (N RMS).
+    Interpolate { quantisation_n: f64 },
+    /// A Reinsch smoother with this cut-off (Hz); its quantisation floor (N RMS).
+    Smooth { cutoff_hz: f64, quantisation_n: f64 },
+}
+
+/// Choose the cut-off (module docs, steps 1-4). `variation_n` is the RMS of the motor force
+/// about its mean along the stroke, `steady_s` the stroke's steady time.
+pub(crate) fn choose(
+    noise: &SampleNoise,
+    mass_kg: f64,
+    variation_n: f64,
+    steady_s: f64,
+) -> Differentiation {
+    let h = noise.interval_s;
+    let var = noise.position_var_m2;
+    let interp = interpolated_quantisation_n(mass_kg, var, h);
+    // Half the effort noise (the total then grows by 12 % only); a nearly noise-free effort
+    // still leaves 0.5 % of the force variation.
+    let target = (0.5 * noise.effort_n).max(0.005 * variation_n);
+    if var <= 0.0 || mass_kg <= 0.0 || interp <= target || !(h > 0.0) {
+        return Differentiation::Interpolate {
+            quantisation_n: interp,
+        };
+    }
+    let floor_at = |f: f64| smoothed_quantisation_n(mass_kg, var, h, f);
+    // Above 1.5 × Nyquist the smoother is as loud as the interpolating spline.
+    let f_max = 0.75 / h;
+    let f_settle = if steady_s > 0.0 {
+        4.0 * SETTLE_TIME_CONSTANTS / (std::f64::consts::SQRT_2 * PI * steady_s)
+    } else {
+        f_max
+    };
+    let cutoff_hz = if f_settle >= f_max {
+        f_max
+    } else if floor_at(f_settle) >= target {
+        f_settle
+    } else {
+        // The floor rises monotonically with the cut-off: bisect (in log) for the target.
+        let (mut lo, mut hi) = (f_settle, f_max);
+        for _ in 0..48 {
+            let mid = (lo * hi).sqrt();
+            if floor_at(mid) > target {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        lo
+    };
+    let smooth = floor_at(cutoff_hz);
+    if smooth >= interp {
+        Differentiation::Interpolate {
+            quantisation_n: interp,
+        }
+    } else {
+        Differentiation::Smooth {
+            cutoff_hz,
+            quantisation_n: smooth,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spline::{alpha_for_cutoff, smoothing_moments, CubicSpline, EndCondition};
+    use rand::{Rng, SeedableRng};
+    use rand_distr::{Distribution, Normal};
+
+    fn white(n: usize, seed: u64) -> Vec<f64> {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let d = Normal::new(0.0, 1.0).unwrap();
+        (0..n).map(|_| d.sample(&mut rng)).collect()
+    }
+
+    /// Mean of z''² over dense points between the knots, away from the ends.
+    fn mean_accel_sq(s: &CubicSpline<'_>, x: &[f64]) -> f64 {
+        let (a, b) = (x[200], x[x.len() - 200]);
+        let m = 20_000;
+        (0..m)
+            .map(|k| {
+                let t = a + (b - a) * (k as f64 + 0.37) / m as f64;
+                s.eval_all(t).2.powi(2)
+            })
+            .sum::<f64>()
+            / m as f64
+    }
+
+    #[test]
+    fn interpolating_spline_noise_gain_matches_constant() {
+        // White data of unit variance on knots 1 apart: E[z''²] = K.
+        let n = 6000;
+        let x: Vec<f64> = (0..n).map(|k| k as f64).collect();
+        let y = white(n, 7);
+        let s = CubicSpline::new(&x, &y, EndCondition::NotAKnot).unwrap();
+        let k = mean_accel_sq(&s, &x);
+        // 5800 knots of chi-square-like averages: a few per cent of sampling scatter.
+        eprintln!("K measured {k}");
+        assert!((k / INTERP_ACCEL_VAR - 1.0).abs() < 0.1, "K measured {k}");
+    }
+
+    #[test]
+    fn smoother_noise_gain_matches_formula() {
+        // h = 2 ms, cut-off 20 Hz, σ = 1: predicted σ_a from the formula with mass 1.
+        let (h, fc) = (0.002, 20.0);
+        let n = 40_000;
+        let x: Vec<f64> = (0..n).map(|k| k as f64 * h).collect();
+        let y = white(n, 11);
+        let mut g = Vec::new();
+        let m = smoothing_moments(&x, &y, alpha_for_cutoff(h, fc), &mut g).unwrap();
+        let s = CubicSpline::from_moments(&x, &g, m).unwrap();
+        let measured = mean_accel_sq(&s, &x).sqrt();
+        let predicted = smoothed_quantisation_n(1.0, 1.0, h, fc);
+        assert!(
+            (measured / predicted - 1.0).abs() < 0.1,
+            "measured {measured}, predicted {predicted}"
+        );
+    }
+
+    #[test]
+    fn noise_bandwidth_tends_to_c5() {
+        assert!((noise_bandwidth(1e6) / C5 - 1.0).abs() < 1e-6);
+        // Below the cut-off the integrand is x⁴: ∫₀^0.1 x⁴ dx = 2e-6 (to 0.1 %).
+        assert!((noise_bandwidth(0.1) / 2e-6 - 1.0).abs() < 1e-3);
+        // Continuous at the switch to the closed-form tail.
+        assert!((noise_bandwidth(8.0 + 1e-9) - noise_bandwidth(8.0)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn robust_noise_ignores_smooth_signal_and_spikes() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        let w = white(20_000, 5);
+        // Jittered sampling (±20 % of 2 ms): the divided differences do not mind.
+        let times: Vec<f64> = (0..20_000)
+            .map(|k| k as f64 * 0.002 + 0.0004 * (rng.random::<f64>() - 0.5))
+            .collect();
+        let v: Vec<f64> = (0..20_000)
+            .map(|k| {
+                let t = times[k];
+                // a ramp, a slow ripple and 0.3 of noise, with a few wild samples
+                let spike = if rng.random::<f64>() < 0.001 { 1e3 } else { 0.0 };
+                5.0 * t + 17.0 * (2.0 * PI * 3.0 * t).sin() + 0.3 * w[k] + spike
+            })
+            .collect();
+        let s = robust_noise_std(&times, &v);
+        assert!((s / 0.3 - 1.0).abs() < 0.05, "{s}");
+    }
+
+    #[test]
+    fn quantised_channel_takes_its_quantum() {
+        // 1 µm steps of a slow ramp: the quantum's q²/12, not the sawtooth's differences.
+        let v: Vec<f64> = (0..5000)
+            .map(|k| (k as f64 * 0.3e-6 / 1e-6).round() * 1e-6)
+            .collect();
+        let t: Vec<f64> = (0..5000).map(|k| k as f64 * 1e-3).collect();
+        let var = channel_variance(&t, &v);
+        assert!(var >= 1e-12 / 12.0 && var < 2.0 * 1e-12 / 12.0, "{var}");
+    }
+
+    #[test]
+    fn cutoff_choice_in_time_not_orders() {
+        // A mill axis at 500 Hz, 1 µm, 1 N of effort noise, 940 kg: a cut-off of some 15-20 Hz
+        // whatever the feed, because nothing in the choice depends on the feed.
+        let noise = SampleNoise {
+            interval_s: 0.002,
+            position_var_m2: 1e-12 / 12.0,
+            effort_n: 1.0,
+        };
+        match choose(&noise, 940.0, 17.0, 6.0) {
+            Differentiation::Smooth {
+                cutoff_hz,
+                quantisation_n,
+            } => {
+                assert!((12.0..22.0).contains(&cutoff_hz), "{cutoff_hz}");
+                assert!((quantisation_n - 0.5).abs() < 1e-6, "{quantisation_n}");
+            }
+            other => panic!("{other:?}"),
+        }
+        // FOCAS-style 72 ms polling: the interpolating spline is already quiet enough.
+        let slow = SampleNoise {
+            interval_s: 0.072,
+            position_var_m2: 1e-12 / 12.0,
+            effort_n: 2.3,
+        };
+        assert!(matches!(
+            choose(&slow, 2000.0, 30.0, 200.0),
+            Differentiation::Interpolate { .. }
+        ));
+        // A short stroke needs a faster settle: the cut-off rises above the noise choice.
+        match choose(&noise, 940.0, 17.0, 0.2) {
+            Differentiation::Smooth { cutoff_hz, .. } => {
+                let f_settle =
+                    4.0 * SETTLE_TIME_CONSTANTS / (std::f64::consts::SQRT_2 * PI * 0.2);
+                assert!((cutoff_hz - f_settle).abs() < 1e-9);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}

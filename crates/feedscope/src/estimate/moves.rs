@@ -1,0 +1,244 @@
+//! Every move of the axis gets a kind: a measuring stroke at a steady programmed feed, a rapid
+//! (G0) or positioning move, or motion that no block of the NC program explains (a jog).
+//!
+//! Only measuring strokes carry friction into profiles, spectra, maps and the history: a rapid
+//! runs at the axis's traverse rate with its own ramps, and a positioning move never holds a
+//! steady feed, so neither is a friction measurement at a programmed feed.
+//!
+//! Without an NC program the kind comes from the motion:
+//! - **rapid**: the move's plateau speed is at least 90 % of the axis file's
+//!   `rapid_rate_mm_min`; without that key, the fastest moves are taken for rapids when they
+//!   run at ≥ 3000 mm/min and at least twice as fast as every other move (a warning says this
+//!   was inferred);
+//! - **positioning**: no steady stroke was found in the move (too short, or never at a steady
+//!   feed);
+//! - **measuring**: everything else.
+//!
+//! With a program (its motion blocks as [`ProgrammedMove`]s) the blocks decide: see [`label_with_program`].
+
+use serde::{Deserialize, Serialize};
+
+use super::segment::{Direction, MoveSpan};
+use crate::trace::Channel;
+
+/// One motion block of an NC program, resolved to absolute axis positions (from
+/// [`crate::nc`] or any other source).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProgrammedMove {
+    /// 1-based line in the program file.
+    pub line: usize,
+    /// G0 (rapid) rather than G1.
+    pub rapid: bool,
+    /// Axis position before the block (mm).
+    pub from_mm: f64,
+    /// Axis position after the block (mm).
+    pub to_mm: f64,
+    /// Programmed feed along this axis (mm/min); none for rapids or when unknown.
+    pub feed_mm_min: Option<f64>,
+}
+
+/// What a move is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MoveKind {
+    /// A steady stroke at a programmed feed: a friction measurement.
+    Measuring,
+    /// A rapid traverse (G0) at or near the axis's rapid rate.
+    Rapid,
+    /// A move that never holds a steady feed (too short, or a triangle of speed).
+    Positioning,
+    /// Motion that no block of the given NC program explains (manual jog, another program).
+    Jog,
+}
+
+impl MoveKind {
+    /// `"measuring"`, `"rapid"`, `"positioning"` or `"jog"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Measuring => "measuring",
+            Self::Rapid => "rapid",
+            Self::Positioning => "positioning",
+            Self::Jog => "jog",
+        }
+    }
+}
+
+/// One move of the axis between two reversals or stops, with its kind.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Move {
+    /// What it is.
+    pub kind: MoveKind,
+    /// Direction of travel.
+    pub direction: Direction,
+    /// Start (s).
+    pub start_time_s: f64,
+    /// End (s).
+    pub end_time_s: f64,
+    /// Position at the start (mm).
+    pub start_mm: f64,
+    /// Position at the end (mm).
+    pub end_mm: f64,
+    /// Plateau speed of the move (mm/min; 0 when too few samples to tell).
+    pub feed_mm_min: f64,
+    /// Numbers of the strokes estimated in it (see the strokes' `stroke` field).
+    pub strokes: Vec<usize>,
+    /// The NC program line that commanded it, when a program was given and matched.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub program_line: Option<usize>,
+    /// The programmed axis feed of that block (mm/min; none for rapids).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub programmed_feed_mm_min: Option<f64>,
+}
+
+/// Fraction of the rapid rate above which a move is a rapid (feed override of rapids and
+/// the servo's following make the plateau a few per cent slow).
+const RAPID_FRACTION: f64 = 0.9;
+/// Without a rapid rate: the slowest speed taken for a rapid (mm/min) ...
+const INFERRED_RAPID_MIN_MM_MIN: f64 = 3000.0;
+/// ... and how much faster than every other move it must be.
+const INFERRED_RAPID_RATIO: f64 = 2.0;
+
+/// Classify the moves by their motion (module docs). Returns the moves (without stroke
+/// numbers) and a note when rapids were inferred without a rapid rate.
+pub(crate) fn classify(
+    position: &Channel,
+    moves: &[MoveSpan],
+    rapid_rate_mm_min: Option<f64>,
+) -> (Vec<Move>, Option<String>) {
+    let feed = |m: &MoveSpan| m.plateau_speed_m_s * 60e3;
+    let mut note = None;
+    let rapid_above = match rapid_rate_mm_min {
+        Some(r) => Some(RAPID_FRACTION * r),
+        None => {
+            let fastest = moves.iter().map(feed).fold(0.0, f64::max);
+            let fast_cut = RAPID_FRACTION * fastest;
+            let others = moves
+                .iter()
+                .map(feed)
+                .filter(|&f| f < fast_cut)
+                .fold(0.0, f64::max);
+            let any_other = moves.iter().any(|m| feed(m) < fast_cut);
+            if fastest >= INFERRED_RAPID_MIN_MM_MIN
+                && any_other
+                && fastest >= INFERRED_RAPID_RATIO * others
+            {
+                note = Some(format!(
+                    "moves at about {fastest:.0} mm/min, more than {INFERRED_RAPID_RATIO}× faster \
+                     than any other (at most {others:.0} mm/min), were taken for rapids and left \
+                     out; set rapid_rate_mm_min in the axis file (or give --program) to be sure"
+                ));
+                Some(fast_cut)
+            } else {
+                None
+            }
+        }
+    };
+    let (t, z) = (&position.time_s, &position.value);
+    let out = moves
+        .iter()
+        .map(|m| {
+            let kind = if rapid_above.is_some_and(|r| feed(m) >= r) {
+                MoveKind::Rapid
+            } else if m.strokes.is_empty() {
+                MoveKind::Positioning
+            } else {
+                MoveKind::Measuring
+            };
+            Move {
+                kind,
+                direction: m.direction,
+                start_time_s: t[m.first],
+                end_time_s: t[m.last],
+                start_mm: z[m.first] * 1e3,
+                end_mm: z[m.last] * 1e3,
+                feed_mm_min: feed(m),
+                strokes: Vec::new(),
+                program_line: None,
+                programmed_feed_mm_min: None,
+            }
+        })
+        .collect();
+    (out, note)
+}
+
+/// How far a measured end position may lie from the programmed one and still match (mm):
+/// the servo's following error at standstill is microns; 0.5 mm allows for a program that
+/// was started from a slightly different position and for position offsets.
+const MATCH_TOLERANCE_MM: f64 = 0.5;
+
+/// Label moves with the blocks of an NC program (already resolved to absolute positions):
+/// each programmed motion block, in order, is matched to the next measured move that ends at
+/// its target within [`MATCH_TOLERANCE_MM`] in its direction. A matched G0 makes the move a
+/// rapid and a matched G1 a measuring stroke (or a positioning move when it held no steady
+/// feed); a measured move that no block explains is a jog. Returns warnings: blocks never
+/// found in the trace, and feeds that differ from the programmed one (override).
+pub(crate) fn label_with_program(moves: &mut [Move], steps: &[ProgrammedMove]) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let mut next = 0usize;
+    let mut unmatched_blocks = Vec::new();
+    let mut matched = vec![false; moves.len()];
+    for step in steps {
+        if (step.to_mm - step.from_mm).abs() < 1e-9 {
+            continue;
+        }
+        let dir = if step.to_mm > step.from_mm {
+            Direction::Forward
+        } else {
+            Direction::Backward
+        };
+        let found = (next..moves.len()).find(|&k| {
+            moves[k].direction == dir && (moves[k].end_mm - step.to_mm).abs() <= MATCH_TOLERANCE_MM
+        });
+        let Some(k) = found else {
+            unmatched_blocks.push(step.line);
+            continue;
+        };
+        // Moves skipped over before this match are unprogrammed motion.
+        next = k + 1;
+        matched[k] = true;
+        let m = &mut moves[k];
+        m.program_line = Some(step.line);
+        m.programmed_feed_mm_min = step.feed_mm_min;
+        m.kind = if step.rapid {
+            MoveKind::Rapid
+        } else if m.kind == MoveKind::Positioning {
+            MoveKind::Positioning
+        } else {
+            MoveKind::Measuring
+        };
+        if let (false, Some(f)) = (step.rapid, step.feed_mm_min) {
+            if m.kind == MoveKind::Measuring && (m.feed_mm_min / f - 1.0).abs() > 0.05 {
+                warnings.push(format!(
+                    "the move ending at {:.3} mm ran at {:.1} mm/min, not the {:.1} mm/min that \
+                     line {} programs (feed override?)",
+                    m.end_mm, m.feed_mm_min, f, step.line
+                ));
+            }
+        }
+    }
+    for (m, &ok) in moves.iter_mut().zip(&matched) {
+        if !ok {
+            m.kind = MoveKind::Jog;
+        }
+    }
+    let jogs = matched.iter().filter(|&&ok| !ok).count();
+    if jogs > 0 {
+        warnings.push(format!(
+            "{jogs} move(s) match no block of the program and are called jog (left out)"
+        ));
+    }
+    if !unmatched_blocks.is_empty() {
+        let shown: Vec<String> = unmatched_blocks
+            .iter()
+            .take(8)
+            .map(|l| l.to_string())
+            .collect();
+        warnings.push(format!(
+            "{} programmed move(s) were not found in the trace (lines {}{})",
+            unmatched_blocks.len(),
+            shown.join(", "),
+            if unmatched_blocks.len() > 8 { ", …" } else { "" }
+        ));
+    }
+    warnings
+}
