@@ -143,37 +143,55 @@ pub(crate) fn robust_noise_std(times: &[f64], values: &[f64]) -> f64 {
     (ms / 0.6232).sqrt()
 }
 
-/// The quantum of a quantised channel: its smallest non-zero step between consecutive values,
-/// when (nearly) every step is a whole multiple of it; 0 for an unquantised channel, whose
-/// smallest step is only its slowest motion.
+/// The quantum of a quantised channel: the largest q that (nearly) every step between
+/// consecutive values is a whole multiple of, tried as the smallest non-zero step divided by
+/// 1 to 10 (steps of 4, 5 and 6 µm have the quantum 1 µm); 0 for an unquantised channel,
+/// whose smallest step is only its slowest motion.
 pub(crate) fn quantum(values: &[f64]) -> f64 {
     const MAX_STEPS: usize = 4096;
-    let q = values
+    let q0 = values
         .windows(2)
         .map(|w| (w[1] - w[0]).abs())
         .filter(|d| *d > 0.0)
         .fold(f64::INFINITY, f64::min);
-    if !q.is_finite() {
+    if !q0.is_finite() {
         return 0.0;
     }
     let stride = values.len().div_ceil(MAX_STEPS).max(1);
-    let (mut steps, mut whole) = (0usize, 0usize);
-    for k in (1..values.len()).step_by(stride) {
-        let d = (values[k] - values[k - 1]).abs();
-        if d > 0.0 {
-            steps += 1;
-            let r = d / q;
-            // 5 % of a quantum: far above the rounding of decimal text, far below a real step.
-            if (r - r.round()).abs() < 0.05 {
-                whole += 1;
-            }
-        }
+    let steps: Vec<f64> = (1..values.len())
+        .step_by(stride)
+        .map(|k| (values[k] - values[k - 1]).abs())
+        .filter(|d| *d > 0.0)
+        .collect();
+    if steps.is_empty() {
+        return q0;
     }
-    if steps == 0 || whole as f64 >= 0.95 * steps as f64 {
-        q
-    } else {
-        0.0
-    }
+    // At a fast feed every step spans many quanta; the steps then differ by whole quanta.
+    let q1 = steps
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 1e-9 * q0)
+        .fold(f64::INFINITY, f64::min);
+    let candidates = (1..=10).map(|d| q0 / d as f64).chain(
+        (1..=10)
+            .map(move |d| q1 / d as f64)
+            .filter(|q| q.is_finite()),
+    );
+    candidates
+        .into_iter()
+        .find(|&q| {
+            // 0.2 % of a quantum: above the rounding of decimal text (a 1 µm quantum printed
+            // to 1 nm is exact), below the spread of an unquantised channel.
+            let whole = steps
+                .iter()
+                .filter(|&&s| {
+                    let r = s / q;
+                    (r - r.round()).abs() < 2e-3
+                })
+                .count();
+            whole as f64 >= 0.95 * steps.len() as f64
+        })
+        .unwrap_or(0.0)
 }
 
 /// Measurement variance of a channel: the robust white-noise estimate (which holds the
@@ -377,7 +395,11 @@ mod tests {
             .map(|k| {
                 let t = times[k];
                 // a ramp, a slow ripple and 0.3 of noise, with a few wild samples
-                let spike = if rng.random::<f64>() < 0.001 { 1e3 } else { 0.0 };
+                let spike = if rng.random::<f64>() < 0.001 {
+                    1e3
+                } else {
+                    0.0
+                };
                 5.0 * t + 17.0 * (2.0 * PI * 3.0 * t).sin() + 0.3 * w[k] + spike
             })
             .collect();
@@ -394,6 +416,21 @@ mod tests {
         let t: Vec<f64> = (0..5000).map(|k| k as f64 * 1e-3).collect();
         let var = channel_variance(&t, &v);
         assert!(var >= 1e-12 / 12.0 && var < 2.0 * 1e-12 / 12.0, "{var}");
+    }
+
+    #[test]
+    fn unquantised_steady_feed_has_no_quantum() {
+        // 130-137 µm per sample of a steady feed with timing jitter: not a 130 µm quantum.
+        let v: Vec<f64> = (0..500)
+            .map(|k| k as f64 * 133e-6 + 3e-6 * ((k as f64 * 12.9898).sin() * 43758.5453).fract())
+            .collect();
+        assert_eq!(quantum(&v), 0.0);
+        // The same feed quantised to 1 µm: steps of 133-136 µm, quantum 1 µm.
+        let q: Vec<f64> = v.iter().map(|x| (x / 1e-6).round() * 1e-6).collect();
+        assert!((quantum(&q) / 1e-6 - 1.0).abs() < 1e-6, "{}", quantum(&q));
+        // Steps of 5 and 6 µm: 1 µm, not the smallest step.
+        let s: Vec<f64> = (0..300).map(|k| (k as f64 * 5.3).round() * 1e-6).collect();
+        assert!((quantum(&s) / 1e-6 - 1.0).abs() < 1e-6, "{}", quantum(&s));
     }
 
     #[test]
@@ -428,8 +465,7 @@ mod tests {
         // A short stroke needs a faster settle: the cut-off rises above the noise choice.
         match choose(&noise, 940.0, 17.0, 0.2) {
             Differentiation::Smooth { cutoff_hz, .. } => {
-                let f_settle =
-                    4.0 * SETTLE_TIME_CONSTANTS / (std::f64::consts::SQRT_2 * PI * 0.2);
+                let f_settle = 4.0 * SETTLE_TIME_CONSTANTS / (std::f64::consts::SQRT_2 * PI * 0.2);
                 assert!((cutoff_hz - f_settle).abs() < 1e-9);
             }
             other => panic!("{other:?}"),

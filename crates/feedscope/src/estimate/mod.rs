@@ -359,8 +359,7 @@ pub fn plan(
         return Err(EstimateError::BadSamplesPerLead);
     }
     let move_spans = segment::find_moves(&trace.position_m, &params.segment);
-    let (mut moves, note) =
-        moves::classify(&trace.position_m, &move_spans, axis.rapid_rate_mm_min);
+    let (mut moves, note) = moves::classify(&trace.position_m, &move_spans, axis.rapid_rate_mm_min);
     let mut notes: Vec<String> = note.into_iter().collect();
     if !params.program.is_empty() {
         notes.extend(moves::label_with_program(&mut moves, &params.program));
@@ -495,21 +494,13 @@ pub fn estimate_stroke(
     };
     let interp_quant = floor::interpolated_quantisation_n(m_eq, noise.position_var_m2, h);
     let choice = match params.position_smoothing {
-        PositionSmoothing::Auto => floor::choose(
-            &noise,
-            m_eq,
-            gain * rms_about_mean(ee_span),
-            t_hi - t_lo,
-        ),
+        PositionSmoothing::Auto => {
+            floor::choose(&noise, m_eq, gain * rms_about_mean(ee_span), t_hi - t_lo)
+        }
         PositionSmoothing::CutoffHz(f) if f > 0.0 && f < 0.5 / h => {
             floor::Differentiation::Smooth {
                 cutoff_hz: f,
-                quantisation_n: floor::smoothed_quantisation_n(
-                    m_eq,
-                    noise.position_var_m2,
-                    h,
-                    f,
-                ),
+                quantisation_n: floor::smoothed_quantisation_n(m_eq, noise.position_var_m2, h, f),
             }
         }
         _ => floor::Differentiation::Interpolate {
@@ -751,7 +742,8 @@ pub fn estimate_stroke(
     let travel = (out.position_m[count - 1] - out.position_m[0]).abs();
     // Raw samples per lead of each channel over the stroke.
     let z_span = |a: f64, b: f64| (zs.eval(b) - zs.eval(a)).abs().max(1e-12);
-    let spl_z = (ts.len() - 1) as f64 * lead / (zs_raw[zs_raw.len() - 1] - zs_raw[0]).abs().max(1e-12);
+    let spl_z =
+        (ts.len() - 1) as f64 * lead / (zs_raw[zs_raw.len() - 1] - zs_raw[0]).abs().max(1e-12);
     let ee_t = &te_all[e0..e1];
     let spl_e = (ee_t.len() - 1) as f64 * lead / z_span(ee_t[0], ee_t[ee_t.len() - 1]);
     let spl = spl_z.min(spl_e);
@@ -790,7 +782,9 @@ pub fn estimate_stroke(
     }
     // The floor against the variation it has to be seen against: friction_std² holds both.
     let fl = sm.noise_floor;
-    let variation = (sm.friction_std_n.powi(2) - fl.total_n.powi(2)).max(0.0).sqrt();
+    let variation = (sm.friction_std_n.powi(2) - fl.total_n.powi(2))
+        .max(0.0)
+        .sqrt();
     if fl.total_n > 0.1 * variation {
         warnings.push(format!(
             "predicted noise floor {:.2} N RMS (position quantisation {:.2}, effort noise \

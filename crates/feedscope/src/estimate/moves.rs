@@ -237,7 +237,11 @@ pub(crate) fn label_with_program(moves: &mut [Move], steps: &[ProgrammedMove]) -
             "{} programmed move(s) were not found in the trace (lines {}{})",
             unmatched_blocks.len(),
             shown.join(", "),
-            if unmatched_blocks.len() > 8 { ", …" } else { "" }
+            if unmatched_blocks.len() > 8 {
+                ", …"
+            } else {
+                ""
+            }
         ));
     }
     warnings

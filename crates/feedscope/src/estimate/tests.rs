@@ -217,4 +217,3 @@ fn strokes_without_effort_samples_are_named_as_such() {
         "{err}"
     );
 }
-
