@@ -37,6 +37,7 @@ use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
 /// ∫₀^∞ x⁴/(1 + x⁴)² dx = π√2/16: the noise bandwidth of z'' behind the Reinsch smoother.
+#[cfg(test)]
 const C5: f64 = PI * std::f64::consts::SQRT_2 / 16.0;
 
 /// Mean variance of an interpolating cubic spline's second derivative, in units of σ²/h⁴, for
@@ -110,7 +111,7 @@ pub(crate) fn robust_noise_std(times: &[f64], values: &[f64]) -> f64 {
             // Divided-difference weights c_i = 1/Π_{j≠i}(t_i − t_j), in units of the local
             // spacing so that nothing underflows.
             let scale = (t[4] - t[0]) / 4.0;
-            if !(scale > 0.0) {
+            if scale.is_nan() || scale <= 0.0 {
                 return None;
             }
             let (mut dd, mut gain) = (0.0, 0.0);
@@ -274,7 +275,7 @@ pub(crate) fn choose(
     // Half the effort noise (the total then grows by 12 % only); a nearly noise-free effort
     // still leaves 0.5 % of the force variation.
     let target = (0.5 * noise.effort_n).max(0.005 * variation_n);
-    if var <= 0.0 || mass_kg <= 0.0 || interp <= target || !(h > 0.0) {
+    if var <= 0.0 || mass_kg <= 0.0 || interp <= target || h.is_nan() || h <= 0.0 {
         return Differentiation::Interpolate {
             quantisation_n: interp,
         };
