@@ -6,7 +6,7 @@
 //! steady feed, so neither is a friction measurement at a programmed feed.
 //!
 //! Without an NC program the kind comes from the motion:
-//! - **rapid**: the move's plateau speed is at least 90 % of the axis file's
+//! - **rapid**: the move's top speed is at least 90 % of the axis file's
 //!   `rapid_rate_mm_min`; without that key, the fastest moves are taken for rapids when they
 //!   run at ≥ 3000 mm/min and at least twice as fast as every other move (a warning says this
 //!   was inferred);
@@ -105,7 +105,9 @@ pub(crate) fn classify(
     moves: &[MoveSpan],
     rapid_rate_mm_min: Option<f64>,
 ) -> (Vec<Move>, Option<String>) {
-    let feed = |m: &MoveSpan| m.plateau_speed_m_s * 60e3;
+    // Rapids are told by their top speed: a long rapid spends much of its time on its ramps,
+    // which pull the plateau (a median) below the rapid rate.
+    let feed = |m: &MoveSpan| m.top_speed_m_s * 60e3;
     let mut note = None;
     let rapid_above = match rapid_rate_mm_min {
         Some(r) => Some(RAPID_FRACTION * r),
@@ -151,7 +153,7 @@ pub(crate) fn classify(
                 end_time_s: t[m.last],
                 start_mm: z[m.first] * 1e3,
                 end_mm: z[m.last] * 1e3,
-                feed_mm_min: feed(m),
+                feed_mm_min: steady_feed_mm_min(position, m),
                 strokes: Vec::new(),
                 program_line: None,
                 programmed_feed_mm_min: None,
@@ -159,6 +161,23 @@ pub(crate) fn classify(
         })
         .collect();
     (out, note)
+}
+
+/// The feed of a move: the mean speed over its steady strokes (exact also when single chords
+/// are coarse), else its plateau speed (mm/min).
+fn steady_feed_mm_min(position: &Channel, m: &MoveSpan) -> f64 {
+    let (t, z) = (&position.time_s, &position.value);
+    let (dist, dur) = m.strokes.iter().fold((0.0, 0.0), |(d, s), sp| {
+        (
+            d + (z[sp.last] - z[sp.first]).abs(),
+            s + t[sp.last] - t[sp.first],
+        )
+    });
+    if dur > 0.0 {
+        dist / dur * 60e3
+    } else {
+        m.plateau_speed_m_s * 60e3
+    }
 }
 
 /// How far a measured end position may lie from the programmed one and still match (mm):

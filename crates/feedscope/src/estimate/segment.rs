@@ -85,6 +85,8 @@ pub struct MoveSpan {
     pub last: usize,
     /// Plateau speed P of the move (m/s, positive; 0 when it has too few samples to tell).
     pub plateau_speed_m_s: f64,
+    /// Its top speed: the 95th percentile of its chord speeds (m/s).
+    pub top_speed_m_s: f64,
     /// Its steady strokes, in time order (empty for a move too short to be steady).
     pub strokes: Vec<StrokeSpan>,
 }
@@ -230,6 +232,47 @@ fn median(v: &mut [f64]) -> f64 {
     *m
 }
 
+/// Whether a run of chord speeds holds its feed, rather than only passing through its top
+/// speed: a move too short to reach its programmed feed (a triangle of speed, typically a
+/// short rapid) rises to one peak and falls again. The run is cut into 20 blocks (fewer for a
+/// short run, at least 5) whose median
+/// speeds are compared: it is a triangle when the blocks rise to a single peak and fall after
+/// it (each step within 1 % of monotone), the first and last block lie below 80 % of the peak,
+/// and at most 2 blocks are within 2 % of it. A feed held for a tenth of the run already
+/// makes 2 blocks flat; a modulated feed rises and falls more than once.
+fn holds_a_plateau(speeds: &[f64]) -> bool {
+    // Fewer chords than blocks (a short move at a slow sampling rate): one chord a block.
+    let blocks_n = speeds.len().min(20);
+    if blocks_n < 5 {
+        return true;
+    }
+    let mut blocks: Vec<f64> = (0..blocks_n)
+        .map(|b| {
+            let (i, j) = (
+                b * speeds.len() / blocks_n,
+                (b + 1) * speeds.len() / blocks_n,
+            );
+            let mut v = speeds[i..j].to_vec();
+            median(&mut v)
+        })
+        .collect();
+    let (peak_at, peak) =
+        blocks
+            .iter()
+            .copied()
+            .enumerate()
+            .fold(
+                (0, f64::NEG_INFINITY),
+                |a, (k, v)| if v > a.1 { (k, v) } else { a },
+            );
+    let rising = blocks[..=peak_at].windows(2).all(|w| w[1] >= 0.99 * w[0]);
+    let falling = blocks[peak_at..].windows(2).all(|w| w[1] <= 1.01 * w[0]);
+    let ends_low = blocks[0] < 0.8 * peak && blocks[blocks_n - 1] < 0.8 * peak;
+    let near_peak = blocks.iter().filter(|&&v| v >= 0.98 * peak).count();
+    blocks.clear();
+    !(rising && falling && ends_low && near_peak <= 2)
+}
+
 /// Find the steady strokes in a position channel (time strictly increasing).
 pub fn find_strokes(position: &Channel, params: &SegmentParams) -> Vec<StrokeSpan> {
     find_moves(position, params)
@@ -265,6 +308,7 @@ pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
             first: i0,
             last: i1,
             plateau_speed_m_s: 0.0,
+            top_speed_m_s: 0.0,
             strokes: Vec::new(),
         });
         let move_index = moves.len() - 1;
@@ -301,6 +345,7 @@ pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
             .collect();
         let plateau = median(&mut fast);
         this.plateau_speed_m_s = plateau;
+        this.top_speed_m_s = p95;
         let threshold = params.steady_fraction * plateau;
         // Maximal runs of steady chords.
         let mut c = 0;
@@ -314,10 +359,13 @@ pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
                 c += 1;
             }
             let c1 = c - 1; // last steady chord
-                            // Chord c joins knots i0+c and i0+c+w. A steady chord may straddle the start (or
-                            // end) of the motion, so the stroke keeps only knots inside every steady chord's
-                            // reach: from the end of the first to the start of the last (for w = 1 this is
-                            // the whole run), then trims.
+            if !holds_a_plateau(&speeds[c0..=c1]) {
+                continue;
+            }
+            // Chord c joins knots i0+c and i0+c+w. A steady chord may straddle the start (or
+            // end) of the motion, so the stroke keeps only knots inside every steady chord's
+            // reach: from the end of the first to the start of the last (for w = 1 this is
+            // the whole run), then trims.
             let first = i0 + c0 + (w - 1) + params.trim_knots;
             let last = (i0 + c1 + 1).saturating_sub(params.trim_knots);
             if last < first || last + 1 - first < params.min_knots.max(4) {

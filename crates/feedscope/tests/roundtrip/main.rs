@@ -2,5 +2,6 @@
 //! compare with the truth.
 mod estimate;
 mod map;
+mod nc;
 mod profile;
 mod util;
