@@ -64,6 +64,15 @@ pub fn write_atomic(dest: &Path, bytes: &[u8]) -> Result<()> {
     f.commit()
 }
 
+/// Print on stderr what a trace read warns about: position samples dropped as glitches (one
+/// line: the count, the speed limit, the first few times with their lines or rows), as
+/// `warning: SOURCE: ...`. Prints nothing for a clean read.
+pub fn print_read_warnings(source: &str, report: &feedscope::trace::ReadReport) {
+    if let Some(w) = report.glitch_warning() {
+        eprintln!("warning: {source}: {w}");
+    }
+}
+
 /// A progress bar on stderr (hidden when stderr is not a terminal).
 pub fn bar(len: u64, what: &str) -> indicatif::ProgressBar {
     let pb = indicatif::ProgressBar::new(len);

@@ -11,7 +11,7 @@ use feedscope::profile::{
     analyze_stroke, fit_piecewise, order_scan_table, AnalysisParams, StrokeAnalysis,
     StrokeFriction as StrokeView,
 };
-use feedscope::trace::{read_trace_file, ReadOptions};
+use feedscope::trace::{read_trace_file_with, GlitchParams, ReadOptions};
 use serde::Serialize;
 
 use super::estimate::load_axis;
@@ -227,7 +227,12 @@ fn load_strokes(args: &Args, axis: &AxisParams) -> Result<(Vec<StrokeFriction>, 
             source,
         ));
     }
-    let (trace, _) = read_trace_file(&args.input, &ReadOptions::default())?;
+    let (trace, report) = read_trace_file_with(
+        &args.input,
+        &ReadOptions::default(),
+        &GlitchParams::for_axis(axis),
+    )?;
+    crate::output::print_read_warnings(&source, &report);
     let params = EstimateParams {
         samples_per_lead: args.samples_per_lead,
         ..EstimateParams::default()

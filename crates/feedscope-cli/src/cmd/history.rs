@@ -13,7 +13,7 @@ use feedscope::history::{
 use feedscope::ident::{identify, IdentParams, Identification};
 use feedscope::order::SpectrumAnalyzer;
 use feedscope::profile::{analyze_stroke, AnalysisParams, StrokeFriction as StrokeView};
-use feedscope::trace::{read_trace_file, ReadOptions, Trace};
+use feedscope::trace::{read_trace_file_with, GlitchParams, ReadOptions, Trace};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
@@ -570,7 +570,12 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
             .map_or(0.0, |d| d.as_secs_f64()),
     };
     let mut store = open_store(db)?;
-    let (trace, _) = read_trace_file(&a.trace, &ReadOptions::default())?;
+    let (trace, report) = read_trace_file_with(
+        &a.trace,
+        &ReadOptions::default(),
+        &GlitchParams::for_axis(&axis),
+    )?;
+    crate::output::print_read_warnings(&a.trace.display().to_string(), &report);
     let mut t = analyze_test(&TestInput {
         trace: &trace,
         bytes: &bytes,

@@ -7,7 +7,7 @@ use feedscope::estimate::EstimateParams;
 use feedscope::ident::{
     fit_groups, identify, ForceSide, Group, IdentParams, Identification, TorqueFit, TorqueStdError,
 };
-use feedscope::trace::{read_trace_file, EffortKind, ReadOptions};
+use feedscope::trace::{read_trace_file_with, EffortKind, GlitchParams, ReadOptions};
 use serde::Serialize;
 
 use super::estimate::{load_axis, EffortArg, Format};
@@ -180,7 +180,13 @@ fn params_from(a: &Args) -> IdentParams {
     }
 }
 
-fn read(path: &std::path::Path, effort: Option<EffortArg>) -> Result<feedscope::trace::Trace> {
+/// Read a trace with the position screened at the axis' speed limit; a warning about dropped
+/// glitches is printed and also returned, for the output's warnings.
+fn read(
+    path: &std::path::Path,
+    effort: Option<EffortArg>,
+    axis: &feedscope::axis::AxisParams,
+) -> Result<(feedscope::trace::Trace, Option<String>)> {
     let opts = ReadOptions {
         effort: effort.map(|e| match e {
             EffortArg::Current => EffortKind::CurrentA,
@@ -188,7 +194,13 @@ fn read(path: &std::path::Path, effort: Option<EffortArg>) -> Result<feedscope::
         }),
         threads: 0,
     };
-    Ok(read_trace_file(path, &opts)?.0)
+    let (trace, report) = read_trace_file_with(path, &opts, &GlitchParams::for_axis(axis))?;
+    let source = path.display().to_string();
+    crate::output::print_read_warnings(&source, &report);
+    Ok((
+        trace,
+        report.glitch_warning().map(|w| format!("{source}: {w}")),
+    ))
 }
 
 /// Measured and computed torque over time, at most ~4000 points per series.
@@ -333,7 +345,7 @@ pub fn run(args: Args) -> Result<()> {
             .clone()
             .unwrap_or_else(|| args.output.with_extension("svg"))
     });
-    let trace = read(&args.trace, args.effort)?;
+    let (trace, read_warning) = read(&args.trace, args.effort, &axis)?;
     let source = args.trace.display().to_string();
     let id = identify(&trace, &axis, &params)
         .map_err(|e| BadInput(e.to_string()))
@@ -342,10 +354,12 @@ pub fn run(args: Args) -> Result<()> {
     drop(trace);
     let lead_m = axis.lead_m();
     let set = ParamSet::new(&id.fit, lead_m);
-    let mut warnings = id.warnings.clone();
+    let mut warnings: Vec<String> = read_warning.into_iter().collect();
+    warnings.extend(id.warnings.iter().cloned());
     let compare = match &args.compare {
         Some(path) => {
-            let groups_trace = read(path, args.effort)?;
+            let (groups_trace, read_warning) = read(path, args.effort, &axis)?;
+            warnings.extend(read_warning);
             let g = fit_groups(&groups_trace, &axis, &params, &EstimateParams::default())
                 .map_err(|e| BadInput(e.to_string()))
                 .with_context(|| {

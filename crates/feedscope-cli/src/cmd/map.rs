@@ -184,6 +184,9 @@ pub fn run(args: Args) -> Result<()> {
         &|_| pb.inc(1),
     );
     pb.finish_and_clear();
+    for w in &est.read_warnings {
+        eprintln!("warning: run {}: {}", w.run, w.message);
+    }
     for f in &est.failed {
         eprintln!("run {} failed: {}", f.run.name, f.error);
     }

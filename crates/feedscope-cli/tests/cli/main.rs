@@ -3,6 +3,7 @@ mod analyze;
 mod dynamics;
 mod estimate;
 mod fit_stribeck;
+mod glitch;
 mod history;
 mod identify;
 mod import;

@@ -106,7 +106,8 @@ pub use ppocm::{
     build_map, DirectionMap, FeedGroup, FrictionMap, IntervalRepeatability, RepeatCurve,
 };
 pub use set::{
-    estimate_set, estimate_set_with, RunFailure, RunFriction, SetEstimate, TestRun, TestSet,
+    estimate_set, estimate_set_with, RunFailure, RunFriction, RunWarning, SetEstimate, TestRun,
+    TestSet,
 };
 pub use stribeck_map::{
     nonconventional_spans, stribeck_profile, NonConventionalSpan, StribeckAtPosition,

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::MapError;
 use crate::axis::AxisParams;
 use crate::estimate::{estimate, EstimateParams, StrokeFriction};
-use crate::trace::{read_trace_file, ReadOptions, Trace};
+use crate::trace::{read_trace_file_with, GlitchParams, ReadOptions, Trace};
 
 /// One run of a test set: a trace recorded at one nominal feed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -134,7 +134,8 @@ pub struct RunFriction {
     pub run: TestRun,
     /// Its strokes (positions on the absolute grid k·p/m, friction signed as Eq. 5).
     pub strokes: Vec<StrokeFriction>,
-    /// What was left out and why (strokes at another feed, skipped strokes).
+    /// What was left out and why (position samples dropped as glitches when the trace was
+    /// read, strokes at another feed, skipped strokes).
     pub warnings: Vec<String>,
 }
 
@@ -154,10 +155,25 @@ pub struct SetEstimate {
     pub ok: Vec<RunFriction>,
     /// Failed runs.
     pub failed: Vec<RunFailure>,
+    /// Warnings from reading the traces (position samples dropped as glitches, see
+    /// [`crate::trace::glitch`]), of runs that worked or failed, in index order. A run that
+    /// worked also has its warning first in [`RunFriction::warnings`].
+    pub read_warnings: Vec<RunWarning>,
+}
+
+/// A warning about one run of a test set.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunWarning {
+    /// The run's name as written in the index.
+    pub run: String,
+    /// The warning, for people.
+    pub message: String,
 }
 
 /// Estimate every run of a test set in parallel, reading each trace with
-/// [`read_trace_file`]. `progress` is called once per finished run (from worker threads).
+/// [`read_trace_file_with`] and the position screened at the axis' speed limit
+/// ([`GlitchParams::for_axis`]). `progress` is called once per finished run (from worker
+/// threads).
 ///
 /// Never fails as a whole: a run whose file is missing or malformed, or that has no usable
 /// stroke, becomes a [`RunFailure`].
@@ -174,11 +190,12 @@ pub fn estimate_set(
         threads: 1,
         ..read.clone()
     };
-    estimate_set_with(
+    let glitch = GlitchParams::for_axis(axis);
+    estimate_runs(
         &set.runs,
         |run| {
-            read_trace_file(&run.file, &read)
-                .map(|(t, _)| t)
+            read_trace_file_with(&run.file, &read, &glitch)
+                .map(|(t, report)| (t, report.glitch_warning()))
                 .map_err(|e| e.to_string())
         },
         axis,
@@ -204,19 +221,61 @@ pub fn estimate_set_with<L>(
 where
     L: Fn(&TestRun) -> Result<Trace, String> + Sync,
 {
-    let results: Vec<Result<RunFriction, RunFailure>> = runs
+    estimate_runs(
+        runs,
+        |run| load(run).map(|t| (t, None)),
+        axis,
+        params,
+        stroke_feed_tolerance,
+        progress,
+    )
+}
+
+/// [`estimate_set_with`] with a loader that may also return a warning about the read.
+fn estimate_runs<L>(
+    runs: &[TestRun],
+    load: L,
+    axis: &AxisParams,
+    params: &EstimateParams,
+    stroke_feed_tolerance: f64,
+    progress: &(dyn Fn(&TestRun) + Sync),
+) -> SetEstimate
+where
+    L: Fn(&TestRun) -> Result<(Trace, Option<String>), String> + Sync,
+{
+    let results: Vec<(Option<String>, Result<RunFriction, RunFailure>)> = runs
         .par_iter()
         .map(|run| {
-            let r = estimate_run(run, &load, axis, params, stroke_feed_tolerance);
+            let (warning, r) = match load(run) {
+                Ok((trace, warning)) => {
+                    let r = estimate_run(
+                        run,
+                        &trace,
+                        warning.as_deref(),
+                        axis,
+                        params,
+                        stroke_feed_tolerance,
+                    );
+                    (warning, r)
+                }
+                Err(e) => (None, Err(e)),
+            };
             progress(run);
-            r.map_err(|error| RunFailure {
+            let r = r.map_err(|error| RunFailure {
                 run: run.clone(),
                 error,
-            })
+            });
+            (warning, r)
         })
         .collect();
     let mut out = SetEstimate::default();
-    for r in results {
+    for (run, (warning, r)) in runs.iter().zip(results) {
+        if let Some(message) = warning {
+            out.read_warnings.push(RunWarning {
+                run: run.name.clone(),
+                message,
+            });
+        }
         match r {
             Ok(x) => out.ok.push(x),
             Err(e) => out.failed.push(e),
@@ -225,19 +284,17 @@ where
     out
 }
 
-fn estimate_run<L>(
+fn estimate_run(
     run: &TestRun,
-    load: &L,
+    trace: &Trace,
+    read_warning: Option<&str>,
     axis: &AxisParams,
     params: &EstimateParams,
     stroke_feed_tolerance: f64,
-) -> Result<RunFriction, String>
-where
-    L: Fn(&TestRun) -> Result<Trace, String>,
-{
-    let trace = load(run)?;
-    let est = estimate(&trace, axis, params).map_err(|e| e.to_string())?;
-    let mut warnings = est.skipped;
+) -> Result<RunFriction, String> {
+    let est = estimate(trace, axis, params).map_err(|e| e.to_string())?;
+    let mut warnings: Vec<String> = read_warning.map(String::from).into_iter().collect();
+    warnings.extend(est.skipped);
     let mut strokes = Vec::with_capacity(est.strokes.len());
     for s in est.strokes {
         let rel = (s.summary.feed_mm_min - run.feed_mm_min).abs() / run.feed_mm_min;
@@ -266,4 +323,71 @@ where
         strokes,
         warnings,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::axis::ConfigFormat;
+
+    /// A wide 500 Hz trace: 0 → 20 mm at 600 mm/min and back, with a 5 mm spike at sample 700
+    /// (t = 1.4 s, line 702) and a 1e308 at sample 2000 (t = 4 s, line 2002).
+    fn spiky_trace() -> String {
+        let mut s = String::from("time_s,position_mm,current_a\n");
+        for k in 0..2750 {
+            let t = k as f64 / 500.0;
+            let (mm, dir) = match t {
+                t if t < 0.5 => (0.0, 0.0),
+                t if t < 2.5 => (10.0 * (t - 0.5), 1.0),
+                t if t < 3.0 => (20.0, 0.0),
+                t if t < 5.0 => (20.0 - 10.0 * (t - 3.0), -1.0),
+                _ => (0.0, 0.0),
+            };
+            let z = match k {
+                700 => format!("{:.4}", mm + 5.0),
+                2000 => "1e308".into(),
+                _ => format!("{mm:.4}"),
+            };
+            s.push_str(&format!("{t:.6},{z},{:.6}\n", dir * 0.8));
+        }
+        s
+    }
+
+    #[test]
+    fn read_warnings_name_the_run_and_use_the_axis_rapid_rate() {
+        let d = tempfile::tempdir().unwrap();
+        for name in ["r1.csv", "r2.csv"] {
+            std::fs::write(d.path().join(name), spiky_trace()).unwrap();
+        }
+        let index = d.path().join("index.csv");
+        std::fs::write(
+            &index,
+            "file,feed_mm_min,repeat\nr1.csv,600,1\nr2.csv,600,2\n",
+        )
+        .unwrap();
+        let set = TestSet::read_index(&index).unwrap();
+        let text = "lead_mm = 10\ntable_mass_kg = 300\ninertia_kgm2 = 0.002\n\
+                    damping_nms_per_rad = 0\ntorque_constant_nm_per_a = 1.5\n";
+        for (rapid, dropped) in [
+            ("", "1 position sample"),
+            ("rapid_rate_mm_min = 15000\n", "2 position samples"),
+        ] {
+            let axis =
+                AxisParams::parse(&format!("{text}{rapid}"), ConfigFormat::Toml, "a").unwrap();
+            let est = estimate_set(
+                &set,
+                &axis,
+                &EstimateParams::default(),
+                &ReadOptions::default(),
+                0.1,
+                &|_| {},
+            );
+            assert_eq!(est.ok.len(), 2, "{:?}", est.failed);
+            let names: Vec<&str> = est.read_warnings.iter().map(|w| w.run.as_str()).collect();
+            assert_eq!(names, ["r1.csv", "r2.csv"]);
+            let w = &est.read_warnings[0].message;
+            assert!(w.contains(dropped) && w.contains("4 s (line 2002)"), "{w}");
+            assert_eq!(&est.ok[0].warnings[0], w);
+        }
+    }
 }

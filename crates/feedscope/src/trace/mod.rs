@@ -28,15 +28,44 @@
 //! data row ([`TraceError::NonFiniteInRow`], [`TraceError::TimeNotIncreasingInRow`],
 //! [`TraceError::BadCell`]). [`Trace::write_parquet`] writes either layout, in SI units at full
 //! precision, so a round trip gives back the same trace bit for bit.
+//!
+//! # Names
+//! Channel names of the long layout, header column names and Parquet column names are at most
+//! [`MAX_NAME_BYTES`] (64) bytes and hold no control character; anything else is a format
+//! error naming the line ([`TraceError::BadChannelName`], [`TraceError::BadHeader`]), the
+//! column ([`TraceError::BadColumn`]) or the row ([`TraceError::BadCell`]). Known names cost
+//! nothing to check; an unknown one is checked when met.
+//!
+//! # Position glitches
+//! Every reader ends by screening the position for samples that imply a speed the axis cannot
+//! reach ([`glitch`]): above [`GlitchParams::max_axis_speed_m_s`], 200 m/min by default, or
+//! 1.25 × the axis' `rapid_rate_mm_min` with [`GlitchParams::for_axis`] (pass it to
+//! [`read_trace_file_with`] / [`parse_trace_with`]). Allowing either time stamp to be off by
+//! one typical sampling interval and 10 µm of quantisation, a sample must jump by more than
+//! about v_lim × 3 sampling intervals to count.
+//! - A run of 1-3 samples that jumps away and back (a logger glitch such as `1e308`) is
+//!   dropped and listed in [`ReadReport::dropped_position`] with its time, value and line (CSV)
+//!   or row (Parquet); [`ReadReport::glitch_warning`] says so in one sentence. So is such a
+//!   run at either end of the trace.
+//! - A jump that does not come back (re-homing, recordings joined) is refused:
+//!   [`TraceError::PositionJump`] names the line or row, the jump (mm) and its speed (mm/min).
+//!
+//! The effort channel is not screened: current and torque jump legitimately (acceleration,
+//! reversal, saturation) and the axis description gives no bound for them.
 
 use std::io::Write;
 
 mod format;
+pub mod glitch;
 mod parquet;
 mod read;
 pub use format::push_fixed;
+pub use glitch::{screen_position, GlitchParams};
 pub use parquet::decoding_untrusted_parquet;
-pub use read::{parse_trace, read_trace_file, ReadOptions, ReadReport, TraceError, MIN_SAMPLES};
+pub use read::{
+    parse_trace, parse_trace_with, read_trace_file, read_trace_file_with, DroppedSample,
+    ReadOptions, ReadReport, TraceError, MAX_NAME_BYTES, MIN_SAMPLES,
+};
 
 /// What the effort channel measures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

@@ -23,7 +23,7 @@ use parquet::file::properties::WriterProperties;
 use parquet::file::reader::ChunkReader;
 use parquet::schema::types::ColumnPath;
 
-use super::read::{check_channels, choose_effort, EffortChoice};
+use super::read::{choose_effort, name_problem, show_name, EffortChoice};
 use super::{Channel, EffortKind, Layout, ReadOptions, ReadReport, Trace, TraceError};
 
 /// The four bytes every Parquet file starts (and ends) with.
@@ -98,6 +98,8 @@ const TOR: u8 = 3;
 const IGNORED: u8 = 4;
 const NULL_CHANNEL: u8 = 5;
 const EMPTY_CHANNEL: u8 = 6;
+/// An unknown name that is too long or holds a control character (refused).
+const BAD_NAME: u8 = 7;
 
 fn channel_code(name: &str) -> u8 {
     match name {
@@ -132,7 +134,8 @@ fn is_string(t: &DataType) -> bool {
     matches!(t, DataType::Utf8 | DataType::LargeUtf8 | DataType::Utf8View)
 }
 
-/// Read a trace from an open Parquet file or a buffer (its magic already checked).
+/// Read a trace from an open Parquet file or a buffer (its magic already checked), without the
+/// final checks (the caller's, as for CSV).
 ///
 /// The decoder (parquet 60) still panics on some corrupt pages instead of returning an error
 /// (e.g. an over-long varint in a page's run-length data: "Num of bytes exceed
@@ -146,11 +149,16 @@ pub(super) fn read_parquet<R: ChunkReader + 'static>(
     name: &str,
     opts: &ReadOptions,
 ) -> Result<(Trace, ReadReport), TraceError> {
+    guarded(name, || decode(file, name, opts))
+}
+
+/// Run a decoding closure with a decoder panic turned into [`TraceError::Parquet`] (see
+/// [`read_parquet`]).
+fn guarded<T>(name: &str, f: impl FnOnce() -> Result<T, TraceError>) -> Result<T, TraceError> {
     // Nothing outlives the closure but its result, so no broken state can be observed after
     // an unwind.
     GUARDED.set(true);
-    let decoded =
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| decode(file, name, opts)));
+    let decoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
     GUARDED.set(false);
     decoded.unwrap_or_else(|payload| {
         let what = payload
@@ -163,6 +171,80 @@ pub(super) fn read_parquet<R: ChunkReader + 'static>(
             reason: format!("the decoder failed on corrupt data ({what})"),
         })
     })
+}
+
+/// 1-based data rows of the position samples with the given indices (ascending; counted from
+/// 0 in file order) in a Parquet file that [`read_parquet`] read without error: a second
+/// decode of the time and position (wide) or channel (long) columns only. `None` for an index
+/// that is not found or when the file cannot be decoded again.
+pub(super) fn position_rows<R: ChunkReader + 'static>(
+    file: R,
+    name: &str,
+    opts: &ReadOptions,
+    wanted: &[usize],
+) -> Vec<Option<u64>> {
+    guarded(name, || find_rows(file, name, opts, wanted))
+        .unwrap_or_else(|_| vec![None; wanted.len()])
+}
+
+fn find_rows<R: ChunkReader + 'static>(
+    file: R,
+    name: &str,
+    opts: &ReadOptions,
+    wanted: &[usize],
+) -> Result<Vec<Option<u64>>, TraceError> {
+    let corrupt = |e: parquet::errors::ParquetError| TraceError::Parquet {
+        source_name: name.to_string(),
+        reason: e.to_string(),
+    };
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(corrupt)?;
+    let (plan, roots) = plan(builder.schema(), name, opts)?;
+    let mask = ProjectionMask::roots(builder.parquet_schema(), roots);
+    let reader = builder
+        .with_projection(mask)
+        .with_batch_size(BATCH_ROWS)
+        .build()
+        .map_err(corrupt)?;
+    let mut state = State::new(name, &plan, 0);
+    let mut out = vec![None; wanted.len()];
+    let (mut count, mut w, mut base) = (0usize, 0usize, 0u64);
+    for batch in reader {
+        if w == wanted.len() {
+            break;
+        }
+        let batch = batch.map_err(|e| TraceError::Parquet {
+            source_name: name.to_string(),
+            reason: e.to_string(),
+        })?;
+        let n = batch.num_rows();
+        let mut holds = |i: usize| {
+            while w < wanted.len() && wanted[w] == count {
+                out[w] = Some(base + i as u64 + 1);
+                w += 1;
+            }
+            count += 1;
+        };
+        match &plan {
+            Plan::Wide { position, .. } => {
+                let nulls = batch.column(position.index).nulls();
+                for i in 0..n {
+                    if !nulls.is_some_and(|b| b.is_null(i)) {
+                        holds(i);
+                    }
+                }
+            }
+            Plan::Long { channel, .. } => {
+                state.channel_codes(batch.column(*channel))?;
+                for (i, &c) in state.codes.iter().enumerate() {
+                    if c == POS_MM || c == POS_M {
+                        holds(i);
+                    }
+                }
+            }
+        }
+        base += n as u64;
+    }
+    Ok(out)
 }
 
 fn decode<R: ChunkReader + 'static>(
@@ -197,6 +279,15 @@ fn decode<R: ChunkReader + 'static>(
 /// Find the columns, check their types, and choose the layout and the effort channel (the same
 /// rules as the CSV header). Returns the plan and the root columns to project.
 fn plan(schema: &Schema, name: &str, opts: &ReadOptions) -> Result<(Plan, Vec<usize>), TraceError> {
+    for f in schema.fields() {
+        if let Some(reason) = name_problem(f.name().as_bytes()) {
+            return Err(TraceError::BadColumn {
+                source_name: name.to_string(),
+                column: show_name(f.name().as_bytes()),
+                reason: format!("the column name {reason}"),
+            });
+        }
+    }
     let names: Vec<String> = schema
         .fields()
         .iter()
@@ -579,6 +670,13 @@ impl<'n> State<'n> {
                 self.codes.resize(n, NULL_CHANNEL);
                 return Ok(());
             }
+            // Unknown names are checked once per entry; a bad one is an error at the first row
+            // that uses it.
+            for (code, n) in entry.iter_mut().zip(&names) {
+                if *code == IGNORED && name_problem(n.as_bytes()).is_some() {
+                    *code = BAD_NAME;
+                }
+            }
             let mut used = vec![0u64; entry.len()];
             let keys = d.normalized_keys();
             let nulls = d.nulls();
@@ -590,6 +688,8 @@ impl<'n> State<'n> {
                 };
                 if code == IGNORED {
                     used[k] += 1;
+                } else if code == BAD_NAME {
+                    return Err(self.bad_name(i, names[k].as_bytes()));
                 }
                 self.codes.push(code);
             }
@@ -600,24 +700,52 @@ impl<'n> State<'n> {
             }
             return Ok(());
         }
+        // Names listed (as the report keeps at most 16) with their rows; rows of other unknown
+        // names are only counted, so the search stays short whatever the file holds.
         let mut ignored: Vec<(String, u64)> = Vec::new();
+        let mut unlisted = 0u64;
+        let mut bad: Option<(usize, Vec<u8>)> = None;
         let codes = &mut self.codes;
         for_each_string(col.as_ref(), |s| {
             let code = s.map_or(NULL_CHANNEL, channel_code);
             if code == IGNORED {
                 let s = s.unwrap_or_default();
+                let listed = ignored.len();
                 match ignored.iter_mut().find(|(n, _)| n == s) {
                     Some((_, c)) => *c += 1,
-                    None => ignored.push((s.to_string(), 1)),
+                    // Checked once per distinct name while the list has room, else per row.
+                    None if name_problem(s.as_bytes()).is_some() => {
+                        if bad.is_none() {
+                            bad = Some((codes.len(), s.as_bytes().to_vec()));
+                        }
+                    }
+                    None if listed < 16 => ignored.push((s.to_string(), 1)),
+                    None => unlisted += 1,
                 }
             }
             codes.push(code);
         })
         .ok_or_else(|| self.unreadable("channel"))?;
+        if let Some((i, n)) = bad {
+            return Err(self.bad_name(i, &n));
+        }
         for (name, count) in ignored {
             self.ignore(&name, count);
         }
+        self.ignored_rows += unlisted;
         Ok(())
+    }
+
+    /// A channel name that is too long or holds a control character, at row `i` of the batch.
+    fn bad_name(&self, i: usize, n: &[u8]) -> TraceError {
+        let reason = name_problem(n).unwrap_or_default();
+        let row = self.rows + i as u64 + 1;
+        bad_cell(
+            self.name,
+            row,
+            "channel",
+            &format!("name `{}` {reason}", show_name(n)),
+        )
     }
 
     fn ignore(&mut self, name: &str, rows: u64) {
@@ -689,11 +817,10 @@ impl<'n> State<'n> {
                 (ch, choice, Layout::Long)
             }
         };
-        let position_m = self.pos;
-        check_channels(name, &position_m, &effort, effort_kind)?;
+        // The final checks are the caller's (`screen_and_check`), as for CSV.
         Ok((
             Trace {
-                position_m,
+                position_m: self.pos,
                 effort,
                 effort_kind,
             },
@@ -702,6 +829,7 @@ impl<'n> State<'n> {
                 ignored_channels: self.ignored_names,
                 lines: self.rows,
                 layout: Some(layout),
+                ..ReadReport::default()
             },
         ))
     }
@@ -1532,5 +1660,129 @@ mod tests {
             ],
         );
         assert!(matches!(err(&p), TraceError::NoMotion { .. }));
+    }
+
+    #[test]
+    fn glitches_are_dropped_with_their_rows_across_batches() {
+        let d = tempfile::tempdir().unwrap();
+        // wide: position sample k is row k + 1; 70 000 rows cross the 65 536-row batches
+        let mut t = trace(70_000, true);
+        t.position_m.value[68_000] = 1e308;
+        t.position_m.value[10] = -1e308;
+        let p = d.path().join("w.parquet");
+        write_parquet(&p, &t, Layout::Wide);
+        let (got, r) = read(&p).unwrap();
+        assert_eq!(got.position_m.len(), 70_000 - 2);
+        let rows: Vec<Option<u64>> = r.dropped_position.iter().map(|s| s.row).collect();
+        assert_eq!(rows, [Some(11), Some(68_001)]);
+        assert!(r.dropped_position.iter().all(|s| s.line.is_none()));
+        // written and read at full precision: the same bits
+        assert_eq!(
+            r.dropped_position[1].position_m.to_bits(),
+            1e308f64.to_bits()
+        );
+        // the same from memory
+        let (_, r2) =
+            parse_trace(&std::fs::read(&p).unwrap(), "m", &ReadOptions::default()).unwrap();
+        assert_eq!(r2.dropped_position, r.dropped_position);
+        assert!(r.glitch_warning().unwrap().contains("(row 11)"));
+        // long, dictionary-encoded: position first at each time, so sample k is row 2k + 1
+        let mut t = trace(70_000, false);
+        t.position_m.value[40_000] = 1e308;
+        let p = d.path().join("l.parquet");
+        write_parquet(&p, &t, Layout::Long);
+        let (_, r) = read(&p).unwrap();
+        assert_eq!(r.dropped_position.len(), 1);
+        assert_eq!(r.dropped_position[0].row, Some(80_001));
+        // long, plain strings: position, current, speed in turn, position sample k is row 3k + 1
+        let rows = 300;
+        let mut cols = long_columns(rows, strs(&cycle(rows)));
+        let mut value: Vec<f64> = (0..rows).map(|k| k as f64).collect();
+        value[3 * 50] = 1e308;
+        cols[2] = ("value", f64s(&value));
+        let p = d.path().join("s.parquet");
+        write_columns(&p, cols);
+        let (_, r) = read(&p).unwrap();
+        assert_eq!(r.dropped_position.len(), 1);
+        assert_eq!(r.dropped_position[0].row, Some(151));
+    }
+
+    #[test]
+    fn non_returning_jump_names_its_row() {
+        let d = tempfile::tempdir().unwrap();
+        let mut t = trace(5_000, true);
+        for z in &mut t.position_m.value[3_000..] {
+            *z += 1.0;
+        }
+        let p = d.path().join("j.parquet");
+        write_parquet(&p, &t, Layout::Wide);
+        match read(&p).unwrap_err() {
+            e @ TraceError::PositionJump { .. } => {
+                let msg = e.to_string();
+                assert!(
+                    msg.contains("j.parquet: row 3001: the position jumps by 999.976 mm between")
+                        && msg.contains("59998560 mm/min"),
+                    "{msg}"
+                );
+            }
+            e => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn bad_names_are_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let rows = 15;
+        // a column name: too long, or with a control character
+        for (col, needle) in [
+            ("n".repeat(65), "65 bytes"),
+            ("no\u{1b}te".into(), "U+001B"),
+        ] {
+            let p = d.path().join("c.parquet");
+            let mut cols = long_columns(rows, strs(&cycle(rows)));
+            cols.pop();
+            let named: Vec<(&str, ArrayRef)> = cols
+                .into_iter()
+                .chain([(col.as_str(), strs(&vec!["x"; rows]))])
+                .collect();
+            write_columns(&p, named);
+            match err(&p) {
+                TraceError::BadColumn { column, reason, .. } => {
+                    assert!(reason.contains(needle), "{reason}");
+                    assert!(!column.chars().any(char::is_control), "{column}");
+                }
+                e => panic!("{e}"),
+            }
+        }
+        // a channel value, plain and dictionary-encoded: the first row that holds it
+        let long = "s".repeat(1_000_000);
+        for bad in ["sp\u{7}eed", long.as_str()] {
+            let mut names = cycle(rows);
+            names[8] = bad;
+            names[11] = bad;
+            let dict: DictionaryArray<Int32Type> = names.iter().copied().collect();
+            for (k, channel) in [strs(&names), Arc::new(dict) as ArrayRef]
+                .into_iter()
+                .enumerate()
+            {
+                let p = d.path().join(format!("v{k}.parquet"));
+                write_columns(&p, long_columns(rows, channel));
+                match err(&p) {
+                    TraceError::BadCell {
+                        row,
+                        column,
+                        reason,
+                        ..
+                    } => {
+                        assert_eq!((row, column.as_str()), (9, "channel"), "{reason}");
+                        assert!(
+                            reason.contains("U+0007") || reason.contains("1000000 bytes"),
+                            "{reason}"
+                        );
+                    }
+                    e => panic!("{e}"),
+                }
+            }
+        }
     }
 }

@@ -10,6 +10,7 @@ use std::fs::File;
 use std::io::Read;
 use std::path::Path;
 
+use super::glitch::GlitchParams;
 use super::{Channel, EffortKind, Trace};
 
 /// Why a trace could not be read. Every variant names the input and, where it applies, the line.
@@ -181,6 +182,52 @@ pub enum TraceError {
         /// The value found.
         value: f64,
     },
+    /// A channel name of the long layout is too long or holds a control character (a header
+    /// column name is [`TraceError::BadHeader`], a Parquet column name
+    /// [`TraceError::BadColumn`], a Parquet channel value [`TraceError::BadCell`]).
+    #[error("{source_name}:{line}: channel name `{name}` {reason}")]
+    BadChannelName {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// The name as found, shortened, control characters escaped.
+        name: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The position jumps at a speed the axis cannot reach and does not come back: the trace
+    /// is discontinuous (see [`super::glitch`]). Isolated jumps that come back are dropped
+    /// instead and listed in [`ReadReport::dropped_position`].
+    #[error(
+        "{source_name}{}: the position jumps by {} mm between t = {} s and t = {} s, \
+         implying {} mm/min, above the limit of {} mm/min, and does not come back \
+         (re-homed, or two recordings joined?); split the trace at the jump",
+        at(.line, .row),
+        mm(*.jump_mm),
+        secs(*.previous_time_s),
+        secs(*.time_s),
+        mm_min(*.speed_mm_min),
+        mm_min(*.limit_mm_min)
+    )]
+    PositionJump {
+        /// The file.
+        source_name: String,
+        /// 1-based line of the sample after the jump (CSV).
+        line: Option<u64>,
+        /// 1-based data row of the sample after the jump (Parquet).
+        row: Option<u64>,
+        /// Time of the sample after the jump (s).
+        time_s: f64,
+        /// Time of the last consistent sample before it (s).
+        previous_time_s: f64,
+        /// The jump (mm), signed.
+        jump_mm: f64,
+        /// The speed it implies (mm/min).
+        speed_mm_min: f64,
+        /// The speed limit of the screening (mm/min).
+        limit_mm_min: f64,
+    },
     /// Time does not strictly increase within a channel of a Parquet file
     /// ([`TraceError::TimeNotIncreasing`] of a row, not a line).
     #[error(
@@ -222,26 +269,185 @@ pub struct ReadReport {
     pub lines: u64,
     /// The layout detected.
     pub layout: Option<super::Layout>,
+    /// Position samples dropped as glitches (see [`super::glitch`]), in time order; they are
+    /// not in the trace.
+    pub dropped_position: Vec<DroppedSample>,
+    /// The speed limit the position was screened with (m/s); `None` when it was not screened
+    /// (a report made by hand).
+    pub max_axis_speed_m_s: Option<f64>,
+}
+
+/// A position sample dropped as a glitch.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DroppedSample {
+    /// Its time (s).
+    pub time_s: f64,
+    /// The position it held (m), as read.
+    pub position_m: f64,
+    /// Its 1-based line in a CSV file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub line: Option<u64>,
+    /// Its 1-based data row in a Parquet file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub row: Option<u64>,
+}
+
+/// Dropped samples named in full in [`ReadReport::glitch_warning`]; the rest are counted.
+const SHOWN_DROPPED: usize = 5;
+
+impl ReadReport {
+    /// One sentence for people when position samples were dropped as glitches: the count, the
+    /// limit, and the time (and line or row) of the first few. `None` when nothing was dropped.
+    pub fn glitch_warning(&self) -> Option<String> {
+        let d = &self.dropped_position;
+        if d.is_empty() {
+            return None;
+        }
+        let limit = self
+            .max_axis_speed_m_s
+            .map(|v| format!(" beyond {} mm/min", mm_min(v * 60_000.0)))
+            .unwrap_or_default();
+        let shown: Vec<String> = d
+            .iter()
+            .take(SHOWN_DROPPED)
+            .map(|s| format!("{} s{}", secs(s.time_s), where_in_parens(s.line, s.row)))
+            .collect();
+        let more = if d.len() > SHOWN_DROPPED {
+            format!(" and {} more", d.len() - SHOWN_DROPPED)
+        } else {
+            String::new()
+        };
+        let what = if d.len() == 1 {
+            format!("1 position sample as a logger glitch (an isolated jump{limit} and back)")
+        } else {
+            format!(
+                "{} position samples as logger glitches (isolated jumps{limit} and back)",
+                d.len()
+            )
+        };
+        Some(format!("dropped {what} at t = {}{more}", shown.join(", ")))
+    }
+}
+
+/// `:line` or `: row N` after a file name, or nothing.
+fn at(line: &Option<u64>, row: &Option<u64>) -> String {
+    match (line, row) {
+        (Some(l), _) => format!(":{l}"),
+        (None, Some(r)) => format!(": row {r}"),
+        (None, None) => String::new(),
+    }
+}
+
+/// ` (line N)`, ` (row N)` or nothing.
+fn where_in_parens(line: Option<u64>, row: Option<u64>) -> String {
+    match (line, row) {
+        (Some(l), _) => format!(" (line {l})"),
+        (None, Some(r)) => format!(" (row {r})"),
+        (None, None) => String::new(),
+    }
+}
+
+/// A number for messages: at most `decimals` decimals without trailing zeros, or 4
+/// significant digits in scientific notation when it is huge (a glitch can be 1e308) or
+/// nonzero and too small for the decimals.
+fn num(x: f64, decimals: usize) -> String {
+    let a = x.abs();
+    let smallest = 0.5 * 10f64.powi(-(decimals as i32));
+    if a.is_finite() && (a == 0.0 || (smallest..1e9).contains(&a)) {
+        let s = format!("{x:.decimals$}");
+        let s = if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.')
+        } else {
+            &s
+        };
+        if s == "-0" {
+            "0".into()
+        } else {
+            s.into()
+        }
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+/// Time (s) for messages, to the microsecond.
+fn secs(x: f64) -> String {
+    num(x, 6)
+}
+
+/// Length (mm) for messages, to the micrometre.
+fn mm(x: f64) -> String {
+    num(x, 3)
+}
+
+/// Speed (mm/min) for messages, to the mm/min.
+fn mm_min(x: f64) -> String {
+    num(x, 0)
+}
+
+/// Longest channel or column name accepted (bytes of UTF-8).
+pub const MAX_NAME_BYTES: usize = 64;
+
+/// Why a channel or column name is refused, or `None` when it is fine: longer than
+/// [`MAX_NAME_BYTES`] or holding a control character (C0, DEL or C1).
+pub(super) fn name_problem(name: &[u8]) -> Option<String> {
+    if name.len() > MAX_NAME_BYTES {
+        return Some(format!(
+            "is {} bytes long; names are at most {MAX_NAME_BYTES} bytes",
+            name.len()
+        ));
+    }
+    String::from_utf8_lossy(name)
+        .chars()
+        .find(|c| c.is_control())
+        .map(|c| format!("holds the control character U+{:04X}", c as u32))
+}
+
+/// A name for a message: at most 40 characters, control characters escaped.
+pub(super) fn show_name(name: &[u8]) -> String {
+    shorten_to(name, 40)
 }
 
 /// Fewest samples a channel needs (a not-a-knot cubic needs four knots).
 pub const MIN_SAMPLES: usize = 4;
 const BLOCK_BYTES: usize = 8 << 20;
 
-/// Read a trace file: CSV or Parquet (told by the magic bytes `PAR1`), either layout.
+/// Read a trace file: CSV or Parquet (told by the magic bytes `PAR1`), either layout, with
+/// the position screened for glitches at the default limit ([`GlitchParams::default`], 200
+/// m/min). [`read_trace_file_with`] takes the axis' own limit.
 ///
 /// # Errors
 /// Any [`TraceError`]: unreadable file, bad header or Parquet columns, malformed or non-finite
-/// numbers, time not increasing within a channel, a missing channel, too few samples, or no
-/// motion.
+/// numbers, a bad channel name, time not increasing within a channel, a missing channel, too
+/// few samples, no motion, or a position jump that does not come back.
 pub fn read_trace_file(path: &Path, opts: &ReadOptions) -> Result<(Trace, ReadReport), TraceError> {
-    read_file_in_blocks(path, opts, BLOCK_BYTES)
+    read_trace_file_with(path, opts, &GlitchParams::default())
 }
 
-/// [`read_trace_file`] with a chosen block size (tests use small blocks to cross boundaries).
+/// [`read_trace_file`] with the position screened for glitches at `glitch`'s speed limit (see
+/// [`super::glitch`]): isolated jumps that come back are dropped and listed in
+/// [`ReadReport::dropped_position`] with their lines (CSV) or rows (Parquet); a jump that does
+/// not come back is [`TraceError::PositionJump`].
+///
+/// # Errors
+/// As [`read_trace_file`].
+///
+/// # Panics
+/// When `glitch.max_axis_speed_m_s` is NaN, zero or negative.
+pub fn read_trace_file_with(
+    path: &Path,
+    opts: &ReadOptions,
+    glitch: &GlitchParams,
+) -> Result<(Trace, ReadReport), TraceError> {
+    read_file_in_blocks(path, opts, glitch, BLOCK_BYTES)
+}
+
+/// [`read_trace_file_with`] with a chosen block size (tests use small blocks to cross
+/// boundaries).
 fn read_file_in_blocks(
     path: &Path,
     opts: &ReadOptions,
+    glitch: &GlitchParams,
     block_bytes: usize,
 ) -> Result<(Trace, ReadReport), TraceError> {
     let name = path.display().to_string();
@@ -251,7 +457,13 @@ fn read_file_in_blocks(
     };
     let mut file = File::open(path).map_err(io)?;
     if super::parquet::starts_with_magic(&mut file).map_err(io)? {
-        return super::parquet::read_parquet(file, &name, opts);
+        let read = super::parquet::read_parquet(file, &name, opts)?;
+        // Rows of dropped samples come from a second decode, only when something was dropped.
+        let locate = |wanted: &[usize]| match File::open(path) {
+            Ok(f) => super::parquet::position_rows(f, &name, opts, wanted),
+            Err(_) => vec![None; wanted.len()],
+        };
+        return screen_and_check(&name, read, glitch, Origin::Row, locate);
     }
     super::parquet::refuse_misnamed(path, &name)?;
     let size_hint = file.metadata().map(|m| m.len()).unwrap_or(0);
@@ -278,7 +490,143 @@ fn read_file_in_blocks(
         Ok(())
     });
     result?;
-    reader.finish()
+    let (trace, report, layout) = reader.finish()?;
+    // Lines of dropped samples come from a second pass over the file, only when something was
+    // dropped: keeping a line number per sample would cost half again the memory.
+    let locate = |wanted: &[usize]| match File::open(path) {
+        Ok(f) => position_lines(
+            std::io::BufReader::with_capacity(1 << 16, f),
+            &layout,
+            wanted,
+        )
+        .unwrap_or_else(|_| vec![None; wanted.len()]),
+        Err(_) => vec![None; wanted.len()],
+    };
+    screen_and_check(&name, (trace, report), glitch, Origin::Line, locate)
+}
+
+/// Where the numbers of [`screen_and_check`]'s `locate` point: CSV lines or Parquet rows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Origin {
+    Line,
+    Row,
+}
+
+/// The checks every reader ends with: enough samples and motion ([`check_channels`]), then the
+/// position screened for glitches (dropped samples named by `locate`, which maps ascending
+/// position-sample indices to 1-based lines or rows), then the first checks again on what is
+/// left.
+fn screen_and_check(
+    name: &str,
+    (mut trace, mut report): (Trace, ReadReport),
+    glitch: &GlitchParams,
+    origin: Origin,
+    locate: impl FnOnce(&[usize]) -> Vec<Option<u64>>,
+) -> Result<(Trace, ReadReport), TraceError> {
+    check_channels(name, &trace.position_m, &trace.effort, trace.effort_kind)?;
+    report.max_axis_speed_m_s = Some(glitch.max_axis_speed_m_s);
+    let split = |at: Option<u64>| match origin {
+        Origin::Line => (at, None),
+        Origin::Row => (None, at),
+    };
+    let p = &trace.position_m;
+    match super::glitch::screen_position(p, glitch) {
+        Ok(s) if s.glitches.is_empty() => {}
+        Ok(s) => {
+            let at = locate(&s.glitches);
+            report.dropped_position = s
+                .glitches
+                .iter()
+                .zip(at.into_iter().chain(std::iter::repeat(None)))
+                .map(|(&k, at)| {
+                    let (line, row) = split(at);
+                    DroppedSample {
+                        time_s: p.time_s[k],
+                        position_m: p.value[k],
+                        line,
+                        row,
+                    }
+                })
+                .collect();
+            super::glitch::remove_samples(&mut trace.position_m, &s.glitches);
+            check_channels(name, &trace.position_m, &trace.effort, trace.effort_kind)?;
+        }
+        Err(j) => {
+            let (line, row) = split(locate(&[j.index]).first().copied().flatten());
+            return Err(TraceError::PositionJump {
+                source_name: name.to_string(),
+                line,
+                row,
+                time_s: p.time_s[j.index],
+                previous_time_s: p.time_s[j.from_index],
+                jump_mm: j.jump_m * 1e3,
+                speed_mm_min: j.speed_m_s * 60_000.0,
+                limit_mm_min: glitch.max_axis_speed_mm_min(),
+            });
+        }
+    }
+    Ok((trace, report))
+}
+
+/// 1-based lines of the position samples with the given indices (ascending; counted from 0 in
+/// file order) in a CSV file that parsed without error with `layout`. The line rules are the
+/// parser's: a BOM, comments and blank lines, the header, then the rows that hold a position.
+/// An index past the end gets `None`.
+fn position_lines<R: std::io::BufRead>(
+    mut src: R,
+    layout: &CsvLayout,
+    wanted: &[usize],
+) -> std::io::Result<Vec<Option<u64>>> {
+    let mut out = vec![None; wanted.len()];
+    let (mut line_no, mut count, mut w) = (0u64, 0usize, 0usize);
+    let mut header_seen = false;
+    let mut buf = Vec::new();
+    while w < wanted.len() {
+        buf.clear();
+        if src.read_until(layout.term, &mut buf)? == 0 {
+            break;
+        }
+        line_no += 1;
+        let mut l = &buf[..];
+        if line_no == 1 {
+            l = l.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(l);
+        }
+        l = l.strip_suffix(&[layout.term]).unwrap_or(l);
+        let line = trim_line(l);
+        if line.is_empty() || line[0] == b'#' {
+            continue;
+        }
+        if !header_seen {
+            header_seen = true;
+            continue;
+        }
+        let holds_position = match &layout.header {
+            Header::Long { .. } => line
+                .splitn(3, |&b| b == b',')
+                .nth(1)
+                .map(trim_field)
+                .is_some_and(|c| c == b"position_mm" || c == b"position_m"),
+            Header::Wide { position, .. } => line
+                .split(|&b| b == b',')
+                .nth(*position)
+                .map(trim_field)
+                .is_some_and(|c| !c.is_empty()),
+        };
+        if holds_position {
+            while w < wanted.len() && wanted[w] == count {
+                out[w] = Some(line_no);
+                w += 1;
+            }
+            count += 1;
+        }
+    }
+    Ok(out)
+}
+
+/// What [`position_lines`] needs to find samples again in a CSV file.
+struct CsvLayout {
+    term: u8,
+    header: Header,
 }
 
 /// Read `file` in blocks of about `block_bytes` that end at a line terminator (except at the
@@ -335,7 +683,8 @@ fn line_terminator(buf: &[u8]) -> u8 {
 }
 
 /// Parse a trace held in memory (CSV, or Parquet when it starts with `PAR1`); `source_name`
-/// labels errors.
+/// labels errors. The position is screened for glitches at the default limit, as by
+/// [`read_trace_file`].
 ///
 /// # Errors
 /// As [`read_trace_file`].
@@ -344,14 +693,39 @@ pub fn parse_trace(
     source_name: &str,
     opts: &ReadOptions,
 ) -> Result<(Trace, ReadReport), TraceError> {
+    parse_trace_with(bytes, source_name, opts, &GlitchParams::default())
+}
+
+/// [`parse_trace`] with the position screened at `glitch`'s speed limit, as
+/// [`read_trace_file_with`].
+///
+/// # Errors
+/// As [`read_trace_file`].
+///
+/// # Panics
+/// When `glitch.max_axis_speed_m_s` is NaN, zero or negative.
+pub fn parse_trace_with(
+    bytes: &[u8],
+    source_name: &str,
+    opts: &ReadOptions,
+    glitch: &GlitchParams,
+) -> Result<(Trace, ReadReport), TraceError> {
     if bytes.starts_with(super::parquet::MAGIC) {
         let buf = bytes::Bytes::copy_from_slice(bytes);
-        return super::parquet::read_parquet(buf, source_name, opts);
+        let read = super::parquet::read_parquet(buf.clone(), source_name, opts)?;
+        let locate = |wanted: &[usize]| {
+            super::parquet::position_rows(buf.clone(), source_name, opts, wanted)
+        };
+        return screen_and_check(source_name, read, glitch, Origin::Row, locate);
     }
     let mut reader = BlockParser::new(source_name.to_string(), opts, bytes.len() as u64);
     let consumed = reader.feed(bytes, true)?;
     debug_assert_eq!(consumed, bytes.len());
-    reader.finish()
+    let (trace, report, layout) = reader.finish()?;
+    let locate = |wanted: &[usize]| {
+        position_lines(bytes, &layout, wanted).unwrap_or_else(|_| vec![None; wanted.len()])
+    };
+    screen_and_check(source_name, (trace, report), glitch, Origin::Line, locate)
 }
 
 /// Which channel a long-layout row belongs to.
@@ -411,14 +785,30 @@ struct BlockParser {
     reserved: bool,
 }
 
+/// Text from a file for a message: trimmed, at most 60 characters, control characters escaped
+/// (a terminal must not receive the file's escape sequences).
 fn shorten(b: &[u8]) -> String {
-    let s = String::from_utf8_lossy(b);
+    shorten_to(b, 60)
+}
+
+/// [`shorten`] to at most `max_chars` characters (and `…`).
+fn shorten_to(b: &[u8], max_chars: usize) -> String {
+    // A UTF-8 character is at most 4 bytes: enough bytes for `max_chars` after trimming a few.
+    let cap = 4 * max_chars + 8;
+    let s = String::from_utf8_lossy(&b[..b.len().min(cap)]);
     let s = s.trim();
-    if s.chars().count() > 60 {
-        format!("{}…", s.chars().take(60).collect::<String>())
-    } else {
-        s.to_string()
+    let escape = |c: char| -> String {
+        if c.is_control() {
+            c.escape_debug().collect()
+        } else {
+            c.to_string()
+        }
+    };
+    let mut out: String = s.chars().take(max_chars).map(escape).collect();
+    if s.chars().count() > max_chars || b.len() > cap {
+        out.push('…');
     }
+    out
 }
 
 impl BlockParser {
@@ -552,6 +942,15 @@ impl BlockParser {
             found: shorten(line),
             reason,
         };
+        for (k, n) in names.iter().enumerate() {
+            if let Some(why) = name_problem(n.as_bytes()) {
+                return Err(bad(format!(
+                    "column {} name `{}` {why}",
+                    k + 1,
+                    show_name(n.as_bytes())
+                )));
+            }
+        }
         let time = names
             .iter()
             .position(|n| n == "time_s" || n == "time_ms")
@@ -645,11 +1044,18 @@ impl BlockParser {
         Ok(())
     }
 
-    fn finish(self) -> Result<(Trace, ReadReport), TraceError> {
+    /// The trace and report as read, and what finding a sample's line again needs; the final
+    /// checks are [`screen_and_check`]'s.
+    fn finish(self) -> Result<(Trace, ReadReport, CsvLayout), TraceError> {
         let name = self.name;
         let header = self.header.ok_or_else(|| TraceError::Empty {
             source_name: name.clone(),
         })?;
+        let csv_layout = CsvLayout {
+            // Set by the first `feed`, which every file gets; LF for an empty input.
+            term: self.terminator.unwrap_or(b'\n'),
+            header: header.clone(),
+        };
         let (effort, effort_kind, layout) = match header {
             Header::Wide { effort_kind, .. } => {
                 let ch = match effort_kind {
@@ -718,27 +1124,27 @@ impl BlockParser {
                 (ch, choice, super::Layout::Long)
             }
         };
-        let position_m = self.pos;
-        check_channels(&name, &position_m, &effort, effort_kind)?;
         let report = ReadReport {
             ignored_rows: self.ignored_rows,
             ignored_channels: self.ignored_names,
             lines: self.lines,
             layout: Some(layout),
+            ..ReadReport::default()
         };
         Ok((
             Trace {
-                position_m,
+                position_m: self.pos,
                 effort,
                 effort_kind,
             },
             report,
+            csv_layout,
         ))
     }
 }
 
-/// The checks every reader ends with: enough samples in both channels, and motion.
-pub(super) fn check_channels(
+/// The first checks every reader ends with: enough samples in both channels, and motion.
+fn check_channels(
     name: &str,
     position_m: &Channel,
     effort: &Channel,
@@ -848,6 +1254,17 @@ fn relocate(e: TraceError, line_abs: u64) -> TraceError {
             line: line_abs,
             time_s,
             previous_time_s,
+        },
+        TraceError::BadChannelName {
+            source_name,
+            name,
+            reason,
+            ..
+        } => TraceError::BadChannelName {
+            source_name,
+            line: line_abs,
+            name,
+            reason,
         },
         other => other,
     }
@@ -1028,10 +1445,23 @@ fn parse_piece(
                                 },
                             ));
                         }
+                        // Known names never get here, so the common rows pay nothing.
+                        if let Some(reason) = name_problem(other) {
+                            return Err((
+                                line_no,
+                                TraceError::BadChannelName {
+                                    source_name: name.to_string(),
+                                    line: 0,
+                                    name: show_name(other),
+                                    reason,
+                                },
+                            ));
+                        }
                         p.ignored_rows += 1;
-                        let n = String::from_utf8_lossy(other).into_owned();
-                        if p.ignored_names.len() < 16 && !p.ignored_names.contains(&n) {
-                            p.ignored_names.push(n);
+                        // Borrowed (no allocation) for the usual UTF-8 name.
+                        let n = String::from_utf8_lossy(other);
+                        if p.ignored_names.len() < 16 && !p.ignored_names.iter().any(|k| *k == n) {
+                            p.ignored_names.push(n.into_owned());
                         }
                         continue;
                     }
@@ -1241,7 +1671,13 @@ mod tests {
             )
             .unwrap();
             for block in [97, 300, 4096, 1 << 20] {
-                let got = read_file_in_blocks(&path, &ReadOptions::default(), block).unwrap();
+                let got = read_file_in_blocks(
+                    &path,
+                    &ReadOptions::default(),
+                    &GlitchParams::default(),
+                    block,
+                )
+                .unwrap();
                 assert_eq!(got.0, want.0, "{label} {block}");
                 assert_eq!(got.1.lines, want.1.lines, "{label} {block}");
             }
@@ -1249,7 +1685,14 @@ mod tests {
             let bad = text.replace("2500.25,position_mm", "2499.25,position_mm");
             std::fs::write(&path, &bad).unwrap();
             for block in [97, 4096] {
-                match read_file_in_blocks(&path, &ReadOptions::default(), block).unwrap_err() {
+                match read_file_in_blocks(
+                    &path,
+                    &ReadOptions::default(),
+                    &GlitchParams::default(),
+                    block,
+                )
+                .unwrap_err()
+                {
                     TraceError::TimeNotIncreasing { line, .. } => {
                         assert_eq!(line, 4 + 2 * 2500, "{label} {block}")
                     }
@@ -1307,5 +1750,256 @@ mod tests {
             TraceError::TimeNotIncreasing { line, .. } => assert_eq!(line, 2 + 2 * 150_000),
             e => panic!("{e}"),
         }
+    }
+
+    /// A long-layout stroke: 0 → 20 mm at 600 mm/min, position every 10 ms and current every
+    /// 10 ms (offset 5 ms), dwell 0.5 s at both ends; `z` maps (sample index, position mm) to
+    /// the value written. Returns the text and the line of each position sample.
+    fn long_stroke(z: impl Fn(usize, f64) -> String) -> (String, Vec<u64>) {
+        let mut s = String::from("# a comment\ntime_s,channel,value\n");
+        let mut lines = Vec::new();
+        let mut line = 2u64;
+        for k in 0..300 {
+            let t = k as f64 * 0.01;
+            let mm = (10.0 * (t - 0.5)).clamp(0.0, 20.0);
+            line += 1;
+            lines.push(line);
+            s.push_str(&format!("{t:.6},position_mm,{}\n", z(k, mm)));
+            line += 1;
+            s.push_str(&format!("{:.6},current_a,1.0\n", t + 0.005));
+        }
+        (s, lines)
+    }
+
+    #[test]
+    fn absurd_position_is_dropped_with_its_line() {
+        let (s, lines) = long_stroke(|k, mm| {
+            if k == 150 {
+                "1e308".into()
+            } else {
+                format!("{mm:.4}")
+            }
+        });
+        let (t, r) = parse(&s).unwrap();
+        assert_eq!(t.position_m.len(), 299);
+        assert_eq!(t.effort.len(), 300);
+        assert!(t.position_m.value.iter().all(|&z| z <= 0.02 + 1e-12));
+        assert_eq!(
+            r.dropped_position,
+            [DroppedSample {
+                time_s: 1.5,
+                position_m: 1e305,
+                line: Some(lines[150]),
+                row: None,
+            }]
+        );
+        assert_eq!(r.max_axis_speed_m_s, Some(200.0 / 60.0));
+        let w = r.glitch_warning().unwrap();
+        assert!(
+            w.contains("dropped 1 position sample ")
+                && w.contains("t = 1.5 s (line 303)")
+                && w.contains("200000 mm/min"),
+            "{w}"
+        );
+        // the same lines through small blocks, CRLF and bare CR
+        let dir = tempfile::tempdir().unwrap();
+        for (label, text) in [
+            ("lf", s.clone()),
+            ("crlf", s.replace('\n', "\r\n")),
+            ("cr", s.replace('\n', "\r")),
+            ("bom", format!("\u{feff}{s}")),
+        ] {
+            let path = dir.path().join(format!("{label}.csv"));
+            std::fs::write(&path, &text).unwrap();
+            for block in [97, 1 << 20] {
+                let (_, r2) = read_file_in_blocks(
+                    &path,
+                    &ReadOptions::default(),
+                    &GlitchParams::default(),
+                    block,
+                )
+                .unwrap();
+                assert_eq!(r2.dropped_position, r.dropped_position, "{label} {block}");
+            }
+        }
+    }
+
+    #[test]
+    fn several_glitches_are_listed_and_counted() {
+        let bad = [20, 100, 101, 180, 220, 250, 299];
+        let (s, lines) = long_stroke(|k, mm| {
+            if bad.contains(&k) {
+                format!("{:.4}", mm + 900.0)
+            } else {
+                format!("{mm:.4}")
+            }
+        });
+        let (t, r) = parse(&s).unwrap();
+        assert_eq!(t.position_m.len(), 300 - bad.len());
+        let got: Vec<Option<u64>> = r.dropped_position.iter().map(|d| d.line).collect();
+        let want: Vec<Option<u64>> = bad.iter().map(|&k| Some(lines[k])).collect();
+        assert_eq!(got, want);
+        let w = r.glitch_warning().unwrap();
+        assert!(w.starts_with("dropped 7 position samples"), "{w}");
+        assert!(w.ends_with(" and 2 more"), "{w}");
+    }
+
+    #[test]
+    fn wide_layout_glitch_names_its_line() {
+        let mut s = String::from("time_s,position_mm,current_a\n");
+        for k in 0..500 {
+            let t = k as f64 * 0.002;
+            let mm = if k == 321 { 5.0 } else { 0.1 * t };
+            s.push_str(&format!("{t:.3},{mm:.4},0.5\n"));
+        }
+        // 5 mm in 2 ms: a glitch for a 15 m/min axis, motion for the default limit
+        let axis = GlitchParams::from_rapid_rate(Some(15_000.0));
+        let (t, r) =
+            parse_trace_with(s.as_bytes(), "w.csv", &ReadOptions::default(), &axis).unwrap();
+        assert_eq!(t.position_m.len(), 499);
+        assert_eq!(r.dropped_position.len(), 1);
+        assert_eq!(r.dropped_position[0].line, Some(323));
+        let (t, r) = parse(&s).unwrap();
+        assert_eq!(t.position_m.len(), 500);
+        assert!(r.dropped_position.is_empty() && r.glitch_warning().is_none());
+    }
+
+    #[test]
+    fn non_returning_jump_is_refused_with_its_line() {
+        // 500 mm in 10 ms; at 100 Hz the default limit lets through 3.33 m/s × 3 samples = 100 mm
+        let (s, lines) =
+            long_stroke(|k, mm| format!("{:.4}", if k >= 200 { mm + 500.0 } else { mm }));
+        match parse(&s).unwrap_err() {
+            e @ TraceError::PositionJump { .. } => {
+                let TraceError::PositionJump {
+                    line,
+                    row,
+                    time_s,
+                    previous_time_s,
+                    jump_mm,
+                    speed_mm_min,
+                    ..
+                } = e
+                else {
+                    unreachable!()
+                };
+                assert_eq!((line, row), (Some(lines[200]), None));
+                assert!((time_s - 2.0).abs() < 1e-12 && (previous_time_s - 1.99).abs() < 1e-12);
+                assert!((jump_mm - 500.1).abs() < 1e-9, "{jump_mm}");
+                assert!((speed_mm_min - 500.1 / 0.01 * 60.0).abs() < 1e-3);
+                let msg = e.to_string();
+                assert!(
+                    msg.starts_with("t.csv:403: the position jumps by 500.1 mm")
+                        && msg.contains("3000600 mm/min")
+                        && msg.contains("200000 mm/min"),
+                    "{msg}"
+                );
+            }
+            e => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn glitch_that_was_the_only_motion_is_no_motion() {
+        let (s, _) = long_stroke(|k, _| if k == 7 { "1e308".into() } else { "3.0".into() });
+        assert!(matches!(
+            parse(&s).unwrap_err(),
+            TraceError::NoMotion { .. }
+        ));
+    }
+
+    #[test]
+    fn bad_channel_names_name_their_line() {
+        let (good, _) = long_stroke(|_, mm| format!("{mm:.4}"));
+        let with_row = |row: &str| {
+            let mut s = good.clone();
+            s.push_str(row);
+            s.push('\n');
+            s
+        };
+        let long = format!("3.1,{},1", "x".repeat(1_000_000));
+        for (row, reason) in [
+            (long.as_str(), "1000000 bytes long"),
+            ("3.1,spe\u{1}ed,1", "U+0001"),
+            ("3.1,speed\u{1b}[31m,1", "U+001B"),
+            ("3.1,a\tb,1", "U+0009"),
+            ("3.1,pos\u{85},1", "U+0085"),
+        ] {
+            match parse(&with_row(row)).unwrap_err() {
+                TraceError::BadChannelName {
+                    line,
+                    name,
+                    reason: r,
+                    ..
+                } => {
+                    assert_eq!(line, 603, "{row:.40}");
+                    assert!(r.contains(reason), "{r}");
+                    assert!(name.chars().count() <= 41 && !name.chars().any(char::is_control));
+                }
+                e => panic!("{e}"),
+            }
+        }
+        // 64 bytes is fine, and is ignored like any other unknown channel
+        let (_, r) = parse(&with_row(&format!("3.1,{},1", "y".repeat(64)))).unwrap();
+        assert_eq!(r.ignored_rows, 1);
+        // across pieces and blocks: the global line
+        let mut big = String::from("time_s,channel,value\n");
+        for k in 0..100_000 {
+            big.push_str(&format!("{k}.5,position_mm,{}\n{k}.7,current_a,1\n", k % 7));
+        }
+        big.push_str("100000.1,v\u{7f},1\n");
+        let opts = ReadOptions {
+            threads: 4,
+            ..ReadOptions::default()
+        };
+        match parse_trace(big.as_bytes(), "b", &opts).unwrap_err() {
+            TraceError::BadChannelName { line, .. } => assert_eq!(line, 200_002),
+            e => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn bad_header_names_are_refused() {
+        let rows = "0,0,1\n1,1,2\n2,2,3\n3,3,4\n";
+        for (header, needle) in [
+            (
+                format!("time_s,position_mm,current_a,{}", "c".repeat(65)),
+                "65 bytes",
+            ),
+            (
+                "time_s,position_mm,current_a,note\u{7}".to_string(),
+                "U+0007",
+            ),
+            (format!("time_s,{}", "z".repeat(1_000_000)), "1000000 bytes"),
+        ] {
+            let s = format!("# c\n{header}\n{rows}");
+            match parse(&s).unwrap_err() {
+                TraceError::BadHeader {
+                    line,
+                    reason,
+                    found,
+                    ..
+                } => {
+                    assert_eq!(line, 2);
+                    assert!(reason.contains(needle), "{reason}");
+                    assert!(found.chars().count() <= 61 && !found.chars().any(char::is_control));
+                }
+                e => panic!("{e}"),
+            }
+        }
+    }
+
+    #[test]
+    fn messages_numbers() {
+        assert_eq!(secs(1.5), "1.5");
+        assert_eq!(secs(1.2340000000000002), "1.234");
+        assert_eq!(mm_min(200_000.0), "200000");
+        assert_eq!(mm_min(59_998_559.7), "59998560");
+        assert_eq!(mm(999.975995), "999.976");
+        assert_eq!(mm(-0.0), "0");
+        assert_eq!(mm(-0.0001), "-1.000e-4");
+        assert_eq!(mm(f64::MAX), "1.798e308");
+        assert_eq!(mm_min(f64::INFINITY), "inf");
+        assert_eq!(secs(1e-7), "1.000e-7");
     }
 }
