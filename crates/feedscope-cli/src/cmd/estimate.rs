@@ -10,7 +10,9 @@ use feedscope::estimate::{
     StrokeSummary, TimeOfPosition, Zone,
 };
 use feedscope::spline::EndCondition;
-use feedscope::trace::{read_trace_file, EffortKind, ReadOptions, ReadReport, Trace};
+use feedscope::trace::{
+    read_trace_file_with, DroppedSample, EffortKind, GlitchParams, ReadOptions, ReadReport, Trace,
+};
 use serde::Serialize;
 
 use crate::output::{bar, push_fixed, AtomicFile};
@@ -126,6 +128,10 @@ pub struct Summary {
     pub skipped: Vec<String>,
     pub ignored_rows: u64,
     pub ignored_channels: Vec<String>,
+    /// Position samples dropped as logger glitches (impossible jumps), with time and line.
+    pub dropped_position_samples: Vec<DroppedSample>,
+    /// The speed limit the glitch screen used (mm/min).
+    pub max_axis_speed_mm_min: Option<f64>,
 }
 
 /// Plot data kept while streaming: decimated friction per stroke.
@@ -294,6 +300,8 @@ pub fn estimate_to_csv(
             skipped: outline.skipped,
             ignored_rows: report.ignored_rows,
             ignored_channels: report.ignored_channels.clone(),
+            dropped_position_samples: report.dropped_position.clone(),
+            max_axis_speed_mm_min: report.max_axis_speed_m_s.map(|v| v * 60e3),
         },
         plot,
     })
@@ -465,9 +473,10 @@ pub fn run(args: Args) -> Result<()> {
     let spinner = indicatif::ProgressBar::new_spinner();
     spinner.set_message(format!("reading {}", args.trace.display()));
     spinner.enable_steady_tick(std::time::Duration::from_millis(120));
-    let read = read_trace_file(&args.trace, &opts);
+    let read = read_trace_file_with(&args.trace, &opts, &GlitchParams::for_axis(&axis));
     spinner.finish_and_clear();
     let (trace, report) = read?;
+    crate::output::print_read_warnings(&args.trace.display().to_string(), &report);
     let source = args.trace.display().to_string();
     let outcome = estimate_to_csv(&trace, &report, &source, &axis, &params, &args.output)?;
     drop(trace);

@@ -91,7 +91,9 @@ fn absurd_position_mid_stroke_keeps_the_full_stroke() {
     setup(d.path(), &wide_500hz(plain));
     let clean = stroke_lengths(d.path());
     assert_eq!(clean.len(), 2, "{clean:?}");
-    assert!(clean.iter().all(|&l| l > 19.0), "{clean:?}");
+    // The velocity jumps at once here (no ramp), so the smoothed position needs its settling
+    // margins at both ends (a third of the steady time) after its speed has settled.
+    assert!(clean.iter().all(|&l| l > 10.0), "{clean:?}");
     // sample 700 (t = 1.4 s, line 702), mid forward stroke
     let glitch = wide_500hz(|k, mm| {
         if k == 700 {
@@ -101,11 +103,11 @@ fn absurd_position_mid_stroke_keeps_the_full_stroke() {
         }
     });
     std::fs::write(d.path().join("trace.csv"), &glitch).unwrap();
-    // One sample fewer moves the spline by far less than a micrometre of stroke length.
+    // One sample fewer moves the stroke ends by a few resampling steps (10 µm each) at most.
     let got = stroke_lengths(d.path());
     assert_eq!(got.len(), clean.len(), "{got:?}");
     for (g, c) in got.iter().zip(&clean) {
-        assert!((g - c).abs() < 1e-3, "{got:?} vs {clean:?}");
+        assert!((g - c).abs() < 0.05, "{got:?} vs {clean:?}");
     }
     // A command that prints read warnings names the count, the time and the line.
     let (err, strokes) = analyze(d.path(), "axis.toml");
@@ -138,6 +140,28 @@ fn five_mm_spike_at_500_hz_is_dropped_with_the_axis_rapid_rate() {
         "{err}"
     );
     assert_eq!(strokes, 2);
+    // estimate: the same warning, the sample in the JSON summary, two whole strokes
+    let mut c = feedscope(d.path());
+    c.args([
+        "estimate",
+        "trace.csv",
+        "--axis",
+        "rapid.toml",
+        "-o",
+        "f.csv",
+    ]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("at t = 1.4 s (line 702)"),
+        "{}",
+        stderr(&o)
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.path().join("f.json")).unwrap()).unwrap();
+    assert_eq!(json["strokes"].as_array().unwrap().len(), 2);
+    assert_eq!(json["dropped_position_samples"][0]["line"], 702);
+    assert!((json["max_axis_speed_mm_min"].as_f64().unwrap() - 18750.0).abs() < 1e-6);
     // history add reads the same way and says so too
     let mut c = feedscope(d.path());
     c.args([

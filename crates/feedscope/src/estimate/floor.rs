@@ -26,7 +26,7 @@
 //! 2. f_noise solves σ_F,quant(f_c) = target: f_c = (target²/(m_eq²·(2π)⁴·2h·σ_z²·c₅))^(1/5);
 //! 3. the smoother's kernel decays as exp(−t/τ) with τ = √2/(2π·f_c); the stroke loses
 //!    [`SETTLE_TIME_CONSTANTS`]·τ after its acceleration ramp and before its deceleration, and
-//!    those margins may take at most half of its steady time T: f_settle = 4·N/(√2·π·T);
+//!    those margins may take at most a third of its steady time T: f_settle = 6·N/(√2·π·T);
 //! 4. f_c = max(f_noise, f_settle), at most 0.4/h (0.8 × Nyquist); when the interpolating
 //!    spline of paper 000 already meets the target, nothing is smoothed.
 //!
@@ -284,7 +284,7 @@ pub(crate) fn choose(
     // Above 1.5 × Nyquist the smoother is as loud as the interpolating spline.
     let f_max = 0.75 / h;
     let f_settle = if steady_s > 0.0 {
-        4.0 * SETTLE_TIME_CONSTANTS / (std::f64::consts::SQRT_2 * PI * steady_s)
+        6.0 * SETTLE_TIME_CONSTANTS / (std::f64::consts::SQRT_2 * PI * steady_s)
     } else {
         f_max
     };
@@ -469,7 +469,7 @@ mod tests {
         // A short stroke needs a faster settle: the cut-off rises above the noise choice.
         match choose(&noise, 940.0, 17.0, 0.2) {
             Differentiation::Smooth { cutoff_hz, .. } => {
-                let f_settle = 4.0 * SETTLE_TIME_CONSTANTS / (std::f64::consts::SQRT_2 * PI * 0.2);
+                let f_settle = 6.0 * SETTLE_TIME_CONSTANTS / (std::f64::consts::SQRT_2 * PI * 0.2);
                 assert!((cutoff_hz - f_settle).abs() < 1e-9);
             }
             other => panic!("{other:?}"),
