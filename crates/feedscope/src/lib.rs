@@ -14,6 +14,7 @@ pub mod ident;
 pub mod import;
 pub mod lugre;
 pub mod map;
+pub mod nc;
 pub mod order;
 pub mod plan;
 pub mod profile;

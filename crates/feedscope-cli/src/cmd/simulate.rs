@@ -21,7 +21,9 @@ use feedscope::trace::Layout;
 /// (time_s,position_mm,velocity_mm_s,accel_mm_s2,friction_n of the true state). With --trace
 /// NAME.parquet the trace is written as Parquet instead (columns time_s, position_m,
 /// current_a or torque_nm; or time_s, channel, value), at full precision. Config keys carry
-/// their units (feed_mm_min, interval_ms, ...); see --print-default-config.
+/// their units (feed_mm_min, interval_ms, ...); see --print-default-config. The motion is
+/// [[motion.stroke]] entries or an NC program (motion.program = inline G-code, or
+/// motion.program_file, relative to the config file).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Simulator config (TOML); without it the default lathe Z axis, 0 → 410 → 0 mm at
@@ -129,7 +131,10 @@ fn prepare(args: &Args) -> anyhow::Result<(SimConfig, Layout, PathBuf)> {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("reading config {}", path.display()))?;
-            SimConfig::from_toml_str(&text).with_context(|| format!("config {}", path.display()))?
+            // A relative motion.program_file is read relative to the config file.
+            let dir = path.parent().unwrap_or(Path::new("."));
+            SimConfig::from_toml_str_in_dir(&text, dir)
+                .with_context(|| format!("config {}", path.display()))?
         }
         None => SimConfig::default(),
     };

@@ -1,12 +1,19 @@
 //! Simulator configuration (TOML, user units in every key name) and its validation.
 
+use std::path::{Path, PathBuf};
+
 use serde::{Deserialize, Serialize};
 
 use super::friction::{FrictionModel, FrictionParams};
-use super::motion::{FeedModulation, StrokeConfig};
+use super::motion::{FeedModulation, MotionLimits, NcPath, StrokeConfig};
 use super::SimError;
 use crate::axis::{AxisError, AxisParams};
+use crate::nc::{NcProgram, ParseOptions};
 use crate::trace::EffortKind;
+
+/// Rapid rate when neither `motion.rapid_rate_mm_min` nor `axis.rapid_rate_mm_min` is given
+/// (mm/min).
+pub const DEFAULT_RAPID_RATE_MM_MIN: f64 = 15_000.0;
 
 /// Complete configuration of one simulation. `Default` is a plausible lathe Z axis (paper 000)
 /// doing one forward and one backward stroke over 0-410 mm at 100 mm/min.
@@ -70,23 +77,48 @@ impl Default for SimConfig {
     }
 }
 
-/// The NC program (`[motion]`): start position, strokes, acceleration limit, modulation.
+/// The NC program (`[motion]`): start position, strokes or an NC program, kinematic limits,
+/// modulation.
+///
+/// A program (`program` inline, or `program_file`) replaces `[[motion.stroke]]`: in TOML
+/// give one of them (when `program` is given the strokes default to none); from Rust clear
+/// `strokes` when setting a program (both is an error naming the keys).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(try_from = "MotionToml", into = "MotionToml")]
 pub struct MotionConfig {
-    /// Position at t = 0 (mm). Default 0.
+    /// Position at t = 0 (mm), where the table is when the program starts. Default 0.
     pub start_mm: f64,
-    /// Acceleration limit of the trapezoidal profile (mm/s²), > 0. Default 1000.
+    /// Acceleration limit of feed moves (mm/s²), > 0. Default 1000.
     pub acceleration_mm_s2: f64,
+    /// Jerk limit of every move (mm/s³), > 0. Absent (default): no jerk limit, trapezoidal
+    /// velocity profiles; present: 7-phase jerk-limited (S-curve) profiles.
+    pub jerk_mm_s3: Option<f64>,
+    /// Rapid traverse rate for G0 (mm/min), > 0. Absent (default): `axis.rapid_rate_mm_min`,
+    /// else 15000.
+    pub rapid_rate_mm_min: Option<f64>,
+    /// Acceleration limit of rapids (mm/s²), > 0. Absent (default): `acceleration_mm_s2`.
+    pub rapid_acceleration_mm_s2: Option<f64>,
     /// Standstill before the first stroke (s), ≥ 0. Default 0.5.
     pub lead_in_s: f64,
     /// Standstill after the last dwell (s), ≥ 0. Default 0.5.
     pub lead_out_s: f64,
     /// Strokes in program order (`[[motion.stroke]]`). Default: to 410 mm at 100 mm/min, dwell
-    /// 1 s, back to 0 at 100 mm/min.
-    #[serde(rename = "stroke")]
+    /// 1 s, back to 0 at 100 mm/min (none when a program is given in TOML).
     pub strokes: Vec<StrokeConfig>,
-    /// Optional sinusoidal feed modulation (`[motion.modulation]`).
+    /// An NC program (G-code text, FANUC or SINUMERIK 840D, read by [`crate::nc`]) instead of
+    /// the strokes. Default none.
+    pub program: Option<String>,
+    /// A file holding the NC program instead of the strokes. A relative path is taken
+    /// relative to the config file by [`SimConfig::from_toml_file`] and the CLI, else relative
+    /// to the working directory. Default none.
+    pub program_file: Option<PathBuf>,
+    /// Address letter of the simulated axis in the program (X, Y, Z; or A, B, C, U, V, W).
+    /// Default `'Z'`.
+    pub program_axis: char,
+    /// Read the program as a FANUC lathe's (G-code system A): U, V, W are the incremental
+    /// addresses of X, Y, Z ([`ParseOptions::lathe_incremental_addresses`]). Default false.
+    pub program_lathe_incremental: bool,
+    /// Optional sinusoidal feed modulation of feed moves (`[motion.modulation]`).
     pub modulation: Option<FeedModulation>,
 }
 
@@ -95,6 +127,9 @@ impl Default for MotionConfig {
         Self {
             start_mm: 0.0,
             acceleration_mm_s2: 1000.0,
+            jerk_mm_s3: None,
+            rapid_rate_mm_min: None,
+            rapid_acceleration_mm_s2: None,
             lead_in_s: 0.5,
             lead_out_s: 0.5,
             strokes: vec![
@@ -109,10 +144,152 @@ impl Default for MotionConfig {
                     dwell_s: 0.0,
                 },
             ],
+            program: None,
+            program_file: None,
+            program_axis: 'Z',
+            program_lathe_incremental: false,
             modulation: None,
         }
     }
 }
+
+impl MotionConfig {
+    /// The limits with their defaults resolved against `axis`.
+    pub fn limits(&self, axis: &AxisParams) -> MotionLimits {
+        MotionLimits {
+            acceleration_mm_s2: self.acceleration_mm_s2,
+            jerk_mm_s3: self.jerk_mm_s3,
+            rapid_rate_mm_min: self
+                .rapid_rate_mm_min
+                .or(axis.rapid_rate_mm_min)
+                .unwrap_or(DEFAULT_RAPID_RATE_MM_MIN),
+            rapid_acceleration_mm_s2: self
+                .rapid_acceleration_mm_s2
+                .unwrap_or(self.acceleration_mm_s2),
+        }
+    }
+
+    /// How the program is read.
+    pub fn parse_options(&self) -> ParseOptions {
+        ParseOptions {
+            axis_letter: self.program_axis,
+            lathe_incremental_addresses: self.program_lathe_incremental,
+        }
+    }
+
+    /// The NC program of `program` or `program_file`, read; `None` for strokes.
+    ///
+    /// # Errors
+    /// [`SimError::Program`] naming `motion.program` or the file and the line.
+    pub fn read_program(&self) -> Result<Option<NcProgram>, SimError> {
+        let opts = self.parse_options();
+        Ok(match (&self.program, &self.program_file) {
+            (Some(text), _) => Some(NcProgram::parse_named(text, "motion.program", &opts)?),
+            (None, Some(path)) => Some(NcProgram::read_file(path, &opts)?),
+            (None, None) => None,
+        })
+    }
+
+    /// Name of the program's source in messages: the key, or the file.
+    fn program_source(&self) -> String {
+        match (&self.program, &self.program_file) {
+            (None, Some(p)) => p.display().to_string(),
+            _ => "motion.program".to_string(),
+        }
+    }
+}
+
+/// `[motion]` as written in TOML: `stroke` absent is not the same as `stroke = []`, so that a
+/// program can replace the default strokes and both given is an error.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct MotionToml {
+    start_mm: f64,
+    acceleration_mm_s2: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    jerk_mm_s3: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rapid_rate_mm_min: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rapid_acceleration_mm_s2: Option<f64>,
+    lead_in_s: f64,
+    lead_out_s: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stroke: Option<Vec<StrokeConfig>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    program: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    program_file: Option<PathBuf>,
+    program_axis: char,
+    program_lathe_incremental: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    modulation: Option<FeedModulation>,
+}
+
+impl Default for MotionToml {
+    fn default() -> Self {
+        let m = MotionConfig::default();
+        Self {
+            stroke: None,
+            ..Self::from(m)
+        }
+    }
+}
+
+impl TryFrom<MotionToml> for MotionConfig {
+    type Error = String;
+    fn try_from(t: MotionToml) -> Result<Self, String> {
+        let has_program = t.program.is_some() || t.program_file.is_some();
+        if has_program && t.stroke.is_some() {
+            return Err(PROGRAM_AND_STROKES.to_string());
+        }
+        let strokes = match t.stroke {
+            Some(s) => s,
+            None if has_program => Vec::new(),
+            None => MotionConfig::default().strokes,
+        };
+        Ok(Self {
+            start_mm: t.start_mm,
+            acceleration_mm_s2: t.acceleration_mm_s2,
+            jerk_mm_s3: t.jerk_mm_s3,
+            rapid_rate_mm_min: t.rapid_rate_mm_min,
+            rapid_acceleration_mm_s2: t.rapid_acceleration_mm_s2,
+            lead_in_s: t.lead_in_s,
+            lead_out_s: t.lead_out_s,
+            strokes,
+            program: t.program,
+            program_file: t.program_file,
+            program_axis: t.program_axis,
+            program_lathe_incremental: t.program_lathe_incremental,
+            modulation: t.modulation,
+        })
+    }
+}
+
+impl From<MotionConfig> for MotionToml {
+    fn from(m: MotionConfig) -> Self {
+        let has_program = m.program.is_some() || m.program_file.is_some();
+        Self {
+            start_mm: m.start_mm,
+            acceleration_mm_s2: m.acceleration_mm_s2,
+            jerk_mm_s3: m.jerk_mm_s3,
+            rapid_rate_mm_min: m.rapid_rate_mm_min,
+            rapid_acceleration_mm_s2: m.rapid_acceleration_mm_s2,
+            lead_in_s: m.lead_in_s,
+            lead_out_s: m.lead_out_s,
+            stroke: (!(has_program && m.strokes.is_empty())).then_some(m.strokes),
+            program: m.program,
+            program_file: m.program_file,
+            program_axis: m.program_axis,
+            program_lathe_incremental: m.program_lathe_incremental,
+            modulation: m.modulation,
+        }
+    }
+}
+
+const PROGRAM_AND_STROKES: &str = "keys `motion.stroke` and `motion.program` (or \
+                                   `motion.program_file`) are both given: a program replaces \
+                                   the strokes, give one of them";
 
 /// How the table motion is produced.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -363,13 +540,48 @@ impl SimConfig {
     /// # Errors
     /// [`SimError::Parse`] for syntax errors, unknown or mistyped keys; the validation errors
     /// of [`SimConfig::validate`].
+    /// A relative `motion.program_file` is read relative to the working directory; see
+    /// [`SimConfig::from_toml_str_in_dir`] and [`SimConfig::from_toml_file`].
     pub fn from_toml_str(text: &str) -> Result<Self, SimError> {
-        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        let cfg: Self = toml::from_str(text).map_err(|e| SimError::Parse {
-            message: e.to_string().trim_end().to_string(),
-        })?;
+        let cfg = Self::parse_toml(text)?;
         cfg.validate()?;
         Ok(cfg)
+    }
+
+    /// [`SimConfig::from_toml_str`] for a config that lives in `dir`: a relative
+    /// `motion.program_file` is taken relative to `dir`.
+    ///
+    /// # Errors
+    /// As [`SimConfig::from_toml_str`].
+    pub fn from_toml_str_in_dir(text: &str, dir: &Path) -> Result<Self, SimError> {
+        let mut cfg = Self::parse_toml(text)?;
+        if let Some(p) = &cfg.motion.program_file {
+            if p.is_relative() {
+                cfg.motion.program_file = Some(dir.join(p));
+            }
+        }
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Read, parse and validate a config file; a relative `motion.program_file` is taken
+    /// relative to the config file.
+    ///
+    /// # Errors
+    /// [`SimError::Parse`] when the file cannot be read; as [`SimConfig::from_toml_str`].
+    pub fn from_toml_file(path: &Path) -> Result<Self, SimError> {
+        let text = std::fs::read_to_string(path).map_err(|e| SimError::Parse {
+            message: format!("cannot read {}: {e}", path.display()),
+        })?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        Self::from_toml_str_in_dir(&text, dir)
+    }
+
+    fn parse_toml(text: &str) -> Result<Self, SimError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        toml::from_str(text).map_err(|e| SimError::Parse {
+            message: e.to_string().trim_end().to_string(),
+        })
     }
 
     /// The config as TOML (for `--print-default-config`).
@@ -391,11 +603,20 @@ impl SimConfig {
         FrictionModel::new(self.axis.lead_mm, params)
     }
 
-    /// Check every value, naming the first offending key (`motion.stroke[1].feed_mm_min`).
+    /// Check every value, naming the first offending key (`motion.stroke[1].feed_mm_min`),
+    /// read the program if there is one, and check the sizes of the run.
     ///
     /// # Errors
-    /// [`SimError::InvalidValue`] naming the key.
+    /// [`SimError::InvalidValue`] / [`SimError::InvalidSetting`] naming the key,
+    /// [`SimError::Program`] naming the program line, [`SimError::TooLarge`].
     pub fn validate(&self) -> Result<(), SimError> {
+        self.validate_settings()?;
+        let path = self.path()?;
+        self.validate_path(&path)
+    }
+
+    /// Every key on its own (without reading the program).
+    pub(crate) fn validate_settings(&self) -> Result<(), SimError> {
         self.axis.validate("axis").map_err(|e| match e {
             AxisError::InvalidValue {
                 key, value, reason, ..
@@ -486,6 +707,47 @@ impl SimConfig {
             in_travel(&format!("motion.stroke[{k}].to_mm"), s.to_mm)?;
             positive(&format!("motion.stroke[{k}].feed_mm_min"), s.feed_mm_min)?;
             non_negative(&format!("motion.stroke[{k}].dwell_s"), s.dwell_s)?;
+        }
+        if let Some(j) = m.jerk_mm_s3 {
+            positive("motion.jerk_mm_s3", j)?;
+        }
+        if let Some(v) = m.rapid_rate_mm_min {
+            positive("motion.rapid_rate_mm_min", v)?;
+        }
+        if let Some(a) = m.rapid_acceleration_mm_s2 {
+            positive("motion.rapid_acceleration_mm_s2", a)?;
+        }
+        let axes = if m.program_lathe_incremental {
+            "XYZ"
+        } else {
+            "ABCUVWXYZ"
+        };
+        if !axes.contains(m.program_axis) {
+            return Err(SimError::InvalidSetting {
+                key: "motion.program_axis".to_string(),
+                message: format!(
+                    "{:?} is not an axis letter: use one of {axes}{}",
+                    m.program_axis,
+                    if m.program_lathe_incremental {
+                        " with motion.program_lathe_incremental"
+                    } else {
+                        ""
+                    }
+                ),
+            });
+        }
+        if m.program.is_some() && m.program_file.is_some() {
+            return Err(SimError::InvalidSetting {
+                key: "motion.program_file".to_string(),
+                message: "`motion.program` and `motion.program_file` are both given: give one"
+                    .to_string(),
+            });
+        }
+        if (m.program.is_some() || m.program_file.is_some()) && !m.strokes.is_empty() {
+            return Err(SimError::InvalidSetting {
+                key: "motion.stroke".to_string(),
+                message: PROGRAM_AND_STROKES.to_string(),
+            });
         }
         if let Some(md) = &m.modulation {
             probability(
@@ -581,10 +843,14 @@ impl SimConfig {
             s.effort.torque_noise_std_nm,
         )?;
         positive("truth.interval_ms", self.truth.interval_ms)?;
+        Ok(())
+    }
 
-        // sizes: bounded memory and time
-        let path = self.path();
-        let duration = super::motion::MotionProfile::duration_s(&path);
+    /// Sizes of a run of `path`: bounded memory and time.
+    pub(crate) fn validate_path(&self, path: &NcPath) -> Result<(), SimError> {
+        let s = &self.sampling;
+        let d = &self.dynamics;
+        let duration = super::motion::MotionProfile::duration_s(path);
         let count = |key: &str, n: f64, limit: f64| {
             if n.is_finite() && n <= limit {
                 Ok(())
@@ -627,17 +893,60 @@ impl SimConfig {
         Ok(())
     }
 
-    /// The planned NC path of `[motion]`.
-    pub fn path(&self) -> super::motion::NcPath {
+    /// The planned path of `[motion]`: its strokes, or its program (read here).
+    ///
+    /// # Errors
+    /// [`SimError::Program`] when the program cannot be read or timed, naming its line;
+    /// [`SimError::InvalidValue`] for a program position outside the travel.
+    pub fn path(&self) -> Result<NcPath, SimError> {
         let m = &self.motion;
-        super::motion::NcPath::plan(
+        match m.read_program()? {
+            Some(prog) => self.program_path(&prog, &m.program_source()),
+            None => Ok(NcPath::plan_strokes(
+                m.start_mm,
+                &m.strokes,
+                &m.limits(&self.axis),
+                m.modulation.as_ref(),
+                m.lead_in_s,
+                m.lead_out_s,
+            )),
+        }
+    }
+
+    /// The planned path of `program` with the limits, start and lead times of `[motion]`;
+    /// every position must lie within the travel of the axis. `source` names the program in
+    /// errors.
+    pub(crate) fn program_path(
+        &self,
+        program: &NcProgram,
+        source: &str,
+    ) -> Result<NcPath, SimError> {
+        let m = &self.motion;
+        for st in program.resolve(m.start_mm) {
+            let key = || format!("{source}, line {}", st.line);
+            if let Some(lo) = self.axis.travel_min_mm {
+                if st.to_mm < lo {
+                    return Err(bad(&key(), st.to_mm, "lies below axis.travel_min_mm"));
+                }
+            }
+            if let Some(hi) = self.axis.travel_max_mm {
+                if st.to_mm > hi {
+                    return Err(bad(&key(), st.to_mm, "lies beyond axis.travel_max_mm"));
+                }
+            }
+        }
+        NcPath::plan_program(
             m.start_mm,
-            &m.strokes,
-            m.acceleration_mm_s2,
+            program,
+            &m.limits(&self.axis),
             m.modulation.as_ref(),
             m.lead_in_s,
             m.lead_out_s,
         )
+        .map_err(|mut e| {
+            e.source_name = source.to_string();
+            SimError::Program(e)
+        })
     }
 }
 

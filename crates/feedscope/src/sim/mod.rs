@@ -34,20 +34,22 @@ mod servo;
 
 pub use config::{
     DynamicsConfig, DynamicsMode, EffortSampling, MotionConfig, PositionSampling, SamplingConfig,
-    SamplingMode, SimConfig, TruthConfig,
+    SamplingMode, SimConfig, TruthConfig, DEFAULT_RAPID_RATE_MM_MIN,
 };
 pub use friction::{
     Bump, Component, ComponentDirection, Direction, FrictionModel, FrictionParams, MeanLevel,
     VelocityTerm,
 };
 pub use motion::{
-    CommandedStroke, FeedModulation, FnProfile, Kinematics, MotionProfile, NcPath, StrokeConfig,
+    CommandedStroke, FeedModulation, FnProfile, Kinematics, MotionLimits, MotionProfile, MoveKind,
+    NcPath, StrokeConfig,
 };
 pub use servo::{RunStats, StateSample};
 
 use serde::{Deserialize, Serialize};
 
 use crate::axis::{AxisError, AxisParams};
+use crate::nc::{NcError, NcProgram};
 use crate::trace::{Channel, EffortKind, Trace};
 
 /// Errors of the simulator configuration and run.
@@ -83,6 +85,17 @@ pub enum SimError {
         /// The limit.
         limit: f64,
     },
+    /// A key other than a number holds something invalid, or keys contradict each other.
+    #[error("simulator config: key `{key}`: {message}")]
+    InvalidSetting {
+        /// Dotted key, e.g. `motion.program_axis`.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The NC program cannot be read or timed (names the program and the line).
+    #[error("simulator config: {0}")]
+    Program(#[from] NcError),
     /// The servo simulation became non-finite or ran away from the command.
     #[error(
         "the servo simulation diverged at t = {time_s} s (|z − z_cmd| > 0.1 m or non-finite); \
@@ -101,7 +114,8 @@ pub struct Truth {
     pub friction: FrictionModel,
     /// The axis simulated.
     pub axis: AxisParams,
-    /// The commanded strokes with their times (empty for [`simulate_profile`]).
+    /// The commanded strokes or program moves with their times (empty for
+    /// [`simulate_profile`]).
     pub strokes: Vec<CommandedStroke>,
     /// Dynamics mode used.
     pub dynamics: DynamicsMode,
@@ -139,9 +153,55 @@ pub struct SimOutput {
 /// Any validation error of [`SimConfig::validate`] (naming the key), or
 /// [`SimError::Diverged`] when the servo loop does not hold the table.
 pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<SimOutput, SimError> {
-    cfg.validate()?;
-    let path = cfg.path();
+    cfg.validate_settings()?;
+    let path = cfg.path()?;
+    cfg.validate_path(&path)?;
     let mut out = run(cfg, &path, progress)?;
+    out.truth.strokes = path.strokes().to_vec();
+    Ok(out)
+}
+
+/// Simulate an NC program read by [`crate::nc`] on the drive of `cfg`: the `[motion]` start,
+/// limits (acceleration, jerk, rapid rate), modulation and lead times of `cfg` apply, its
+/// strokes and program keys are ignored. The truth lists every move of the program with its
+/// line ([`CommandedStroke::line`]).
+///
+/// # Example
+/// ```
+/// use feedscope::nc::{NcProgram, ParseOptions};
+/// use feedscope::sim::{simulate_program, DynamicsMode, MoveKind, SimConfig};
+/// let prog = NcProgram::parse(
+///     "G71 G90 G94 G60\nG0 Z10\nG1 Z30 F600\nG4 F0.5\nG0 Z10\nM30\n",
+///     &ParseOptions::default(),
+/// )
+/// .unwrap();
+/// let mut cfg = SimConfig::default();
+/// cfg.dynamics.mode = DynamicsMode::Ideal;
+/// cfg.motion.jerk_mm_s3 = Some(20_000.0);
+/// let out = simulate_program(&cfg, &prog, &mut |_| {}).unwrap();
+/// let moves = &out.truth.strokes;
+/// assert_eq!(moves.len(), 3);
+/// assert_eq!((moves[1].kind, moves[1].line), (MoveKind::Feed, Some(3)));
+/// // 20 mm at 10 mm/s plus the ramps, then 0.5 s of dwell before the rapid back
+/// assert!(moves[2].start_time_s - moves[1].end_time_s > 0.5 - 1e-9);
+/// ```
+///
+/// # Errors
+/// As [`simulate`]; [`SimError::Program`] (source `program`) for a move whose axis feed is
+/// unknown, [`SimError::InvalidValue`] for a position outside the travel.
+pub fn simulate_program(
+    cfg: &SimConfig,
+    program: &NcProgram,
+    progress: &mut dyn FnMut(f64),
+) -> Result<SimOutput, SimError> {
+    let mut cfg = cfg.clone();
+    cfg.motion.strokes.clear();
+    cfg.motion.program = None;
+    cfg.motion.program_file = None;
+    cfg.validate_settings()?;
+    let path = cfg.program_path(program, "program")?;
+    cfg.validate_path(&path)?;
+    let mut out = run(&cfg, &path, progress)?;
     out.truth.strokes = path.strokes().to_vec();
     Ok(out)
 }
@@ -207,7 +267,14 @@ fn run(
     let truth_times: Vec<f64> = (0..n_truth).map(|k| k as f64 * dt_truth).collect();
 
     let plant = servo::Plant::new(&cfg.axis, &friction);
-    let requests: [&[f64]; 3] = [&pos_times.true_s, &eff_times.true_s, &truth_times];
+    // Synchronous channels share their instants: their states are evaluated once (the same
+    // instants give the same states, so this only saves time and memory).
+    let synchronous = s.mode == SamplingMode::Synchronous;
+    let requests: Vec<&[f64]> = if synchronous {
+        vec![&pos_times.true_s, &truth_times]
+    } else {
+        vec![&pos_times.true_s, &eff_times.true_s, &truth_times]
+    };
     let (mut states, stats) = match cfg.dynamics.mode {
         DynamicsMode::Ideal => servo::run_ideal(&plant, profile, &requests, progress),
         DynamicsMode::Servo => servo::run_servo(
@@ -220,8 +287,13 @@ fn run(
         )?,
     };
     let truth_states = states.pop().unwrap_or_default();
-    let eff_states = states.pop().unwrap_or_default();
+    let eff_own = if synchronous {
+        None
+    } else {
+        Some(states.pop().unwrap_or_default())
+    };
     let pos_states = states.pop().unwrap_or_default();
+    let eff_states: &[StateSample] = eff_own.as_deref().unwrap_or(&pos_states);
 
     let kind = s.effort_kind;
     let effort_of = |st: &StateSample| match kind {

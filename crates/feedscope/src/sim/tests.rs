@@ -583,3 +583,354 @@ fn servo_handles_reversals() {
         .count();
     assert_eq!(sign_changes, 4);
 }
+
+// ---- NC programs (issue #10) ----
+
+/// G1 at 60, 600 and 3000 mm/min over 300 mm, each followed by a rapid back at 15 m/min,
+/// two dwells; one line per block so that the truth's lines can be checked.
+const ISSUE10_PROGRAM: &str = "%\n\
+    O0010 (ISSUE 10)\n\
+    G21 G90 G94 G61\n\
+    N10 G00 Z10.\n\
+    N20 G01 Z310. F60\n\
+    N30 G04 P500\n\
+    N40 G00 Z10.\n\
+    N50 G01 Z310. F600\n\
+    N60 G00 Z10.\n\
+    N70 G01 Z310. F3000\n\
+    N80 G04 P500\n\
+    N90 G00 Z10.\n\
+    M30\n\
+    %\n";
+
+/// a_max 1.5 m/s², j_max 20 m/s³, rapid 15 m/min; ideal dynamics (the profile is the test).
+fn issue10_cfg() -> SimConfig {
+    let mut c = SimConfig::default();
+    c.dynamics.mode = DynamicsMode::Ideal;
+    c.motion.strokes.clear();
+    c.motion.program = Some(ISSUE10_PROGRAM.to_string());
+    c.motion.acceleration_mm_s2 = 1500.0;
+    c.motion.jerk_mm_s3 = Some(20_000.0);
+    c.motion.rapid_rate_mm_min = Some(15_000.0);
+    c
+}
+
+#[test]
+fn program_truth_lists_every_move_with_kind_and_line() {
+    let c = issue10_cfg();
+    let out = run(&c);
+    let m = &out.truth.strokes;
+    let got: Vec<_> = m
+        .iter()
+        .map(|s| (s.kind, s.line, s.block_number, s.end_mm, s.feed_mm_min))
+        .collect();
+    use MoveKind::{Feed, Rapid};
+    let expect = [
+        (Rapid, Some(4), Some(10), 10.0, 15_000.0),
+        (Feed, Some(5), Some(20), 310.0, 60.0),
+        (Rapid, Some(7), Some(40), 10.0, 15_000.0),
+        (Feed, Some(8), Some(50), 310.0, 600.0),
+        (Rapid, Some(9), Some(60), 10.0, 15_000.0),
+        (Feed, Some(10), Some(70), 310.0, 3000.0),
+        (Rapid, Some(12), Some(90), 10.0, 15_000.0),
+    ];
+    assert_eq!(got.len(), expect.len());
+    for (g, e) in got.iter().zip(&expect) {
+        assert_eq!((g.0, g.1, g.2), (e.0, e.1, e.2));
+        assert!(
+            (g.3 - e.3).abs() < 1e-12 && (g.4 - e.4).abs() < 1e-12,
+            "{g:?}"
+        );
+    }
+    // the moves follow each other: dwell 0.5 s after lines 5 and 10, none elsewhere
+    for (k, w) in m.windows(2).enumerate() {
+        let gap = w[1].start_time_s - w[0].end_time_s;
+        let dwell = if k == 1 || k == 5 { 0.5 } else { 0.0 };
+        assert!((gap - dwell).abs() < 1e-9, "gap {gap} after move {k}");
+        assert!((w[1].start_mm - w[0].end_mm).abs() < 1e-12);
+    }
+    // every move reaches its feed (300 mm is long enough), and lasts L/v + t_a (S-curve
+    // with v·j < a² below 6750 mm/min: t_a = 2·√(v/j); above it t_a = v/a + a/j)
+    for s in m.iter().skip(1) {
+        let v = s.feed_mm_min / 60_000.0;
+        let ta = if v * 20.0 < 1.5 * 1.5 {
+            2.0 * (v / 20.0).sqrt()
+        } else {
+            v / 1.5 + 1.5 / 20.0
+        };
+        let d = s.end_time_s - s.start_time_s;
+        assert!((d - (0.3 / v + ta)).abs() < 1e-9, "{s:?}: {d}");
+        assert!(s.cruise_end_time_s > s.cruise_start_time_s);
+    }
+    // the truth ends where the program does, and the run is as long as its moves
+    let last = out.truth.states.last().unwrap();
+    assert!((last.position_m - 0.010).abs() < 1e-15);
+    let end = m.last().unwrap().end_time_s + c.motion.lead_out_s;
+    assert!((out.truth.duration_s - end).abs() < 1e-9);
+}
+
+/// Over the whole program (0.1 ms grid): speed within each move's limit (programmed feed or
+/// rapid rate), acceleration within a_max, jerk within j_max (differences of z''), and the
+/// true states of the ideal run equal the commanded path.
+#[test]
+fn program_profile_respects_the_limits() {
+    let c = issue10_cfg();
+    let path = c.path().unwrap();
+    let (a_max, j_max) = (1.5, 20.0);
+    let h = 1e-4;
+    let n = (path.duration_s() / h) as usize;
+    let mut prev = path.kinematics(0.0);
+    let mut k_move = 0;
+    let moves = path.strokes();
+    let (mut peak_v_rapid, mut peak_j): (f64, f64) = (0.0, 0.0);
+    for i in 1..=n {
+        let t = i as f64 * h;
+        let k = path.kinematics(t);
+        while k_move + 1 < moves.len() && t > moves[k_move].end_time_s {
+            k_move += 1;
+        }
+        let v_lim = moves[k_move].feed_mm_min / 60_000.0;
+        assert!(
+            k.velocity_m_s.abs() <= v_lim * (1.0 + 1e-12),
+            "t = {t}: {k:?}"
+        );
+        assert!(k.accel_m_s2.abs() <= a_max * (1.0 + 1e-12), "t = {t}");
+        // z'' is continuous and piecewise linear: its change over h is at most j·h
+        let jerk = (k.accel_m_s2 - prev.accel_m_s2) / h;
+        assert!(jerk.abs() <= j_max * (1.0 + 1e-9), "t = {t}: jerk {jerk}");
+        if moves[k_move].kind == MoveKind::Rapid {
+            peak_v_rapid = peak_v_rapid.max(k.velocity_m_s.abs());
+        }
+        peak_j = peak_j.max(jerk.abs());
+        prev = k;
+    }
+    assert!((peak_v_rapid - 0.25).abs() < 1e-12 && peak_j > 0.99 * j_max);
+}
+
+/// The same kind of program in servo mode (short, to stay quick): the S-curves are followed
+/// closely and the table is at each target when its move ends (within 1 ms, in which the next
+/// S-curve moves by j·t³/6 = 3 nm).
+#[test]
+fn program_in_servo_mode_follows_the_s_curve() {
+    let mut c = issue10_cfg();
+    c.dynamics.mode = DynamicsMode::Servo;
+    c.motion.program = Some(
+        "G71 G90 G94 G60\nN10 G0 Z10\nN20 G1 Z60 F3000\nN30 G4 F0.2\nN40 G0 Z10\nM30\n".into(),
+    );
+    c.truth.interval_ms = 1.0;
+    let out = run(&c);
+    // seen: 6.4 µm (the rapid at 15 m/min and 1.5 m/s² against 330 N of friction)
+    assert!(
+        out.stats.max_following_error_m < 10e-6,
+        "{}",
+        out.stats.max_following_error_m
+    );
+    assert_eq!(out.truth.strokes.len(), 3);
+    for s in &out.truth.strokes {
+        let st = out
+            .truth
+            .states
+            .iter()
+            .find(|st| st.time_s >= s.end_time_s)
+            .unwrap();
+        assert!(
+            (st.position_m * 1e3 - s.end_mm).abs() < 10e-3,
+            "{s:?} {st:?}"
+        );
+    }
+}
+
+#[test]
+fn program_config_round_trips_through_toml() {
+    let text = format!(
+        "[motion]\nstart_mm = 5.0\njerk_mm_s3 = 20000\nrapid_rate_mm_min = 15000\n\
+         acceleration_mm_s2 = 1500\nprogram = \"\"\"\n{ISSUE10_PROGRAM}\"\"\"\n\
+         [dynamics]\nmode = \"ideal\"\n"
+    );
+    let c = SimConfig::from_toml_str(&text).unwrap();
+    assert!(c.motion.strokes.is_empty());
+    assert_eq!(c.motion.program.as_deref(), Some(ISSUE10_PROGRAM));
+    let back = SimConfig::from_toml_str(&c.to_toml_string().unwrap()).unwrap();
+    assert_eq!(back, c);
+    // the strokes default when there is no program, and an explicit empty list stays empty
+    let d = SimConfig::from_toml_str("[motion]\nstart_mm = 1\n").unwrap();
+    assert_eq!(d.motion.strokes, SimConfig::default().motion.strokes);
+    let mut e = SimConfig::default();
+    e.motion.strokes.clear();
+    let back = SimConfig::from_toml_str(&e.to_toml_string().unwrap()).unwrap();
+    assert_eq!(back, e);
+    // a program built from Rust simulates like the same TOML
+    let a = run(&c);
+    let mut from_code = issue10_cfg();
+    from_code.motion.start_mm = 5.0;
+    let b = run(&from_code);
+    assert_eq!(a.truth.strokes, b.truth.strokes);
+    assert_eq!(a.trace, b.trace);
+}
+
+#[test]
+fn bad_program_keys_are_named() {
+    let prog = "program = \"G21 G90 G94\\nG1 Z10. F100\\n\"\n";
+    let cases = [
+        (
+            "[motion]\njerk_mm_s3 = 0\n".to_string(),
+            "motion.jerk_mm_s3",
+        ),
+        (
+            "[motion]\nrapid_rate_mm_min = -1\n".to_string(),
+            "motion.rapid_rate_mm_min",
+        ),
+        (
+            "[motion]\nrapid_acceleration_mm_s2 = nan\n".to_string(),
+            "motion.rapid_acceleration_mm_s2",
+        ),
+        (
+            format!("[motion]\nprogram_axis = \"Q\"\n{prog}"),
+            "motion.program_axis",
+        ),
+        (
+            format!("[motion]\nprogram_axis = \"A\"\nprogram_lathe_incremental = true\n{prog}"),
+            "motion.program_axis",
+        ),
+        (
+            format!("[motion]\nprogram_axis = \"ZZ\"\n{prog}"),
+            "program_axis",
+        ),
+        (
+            format!("[motion]\n{prog}[[motion.stroke]]\nto_mm = 3\nfeed_mm_min = 10\n"),
+            "motion.stroke",
+        ),
+        (
+            format!("[motion]\n{prog}program_file = \"x.nc\"\n"),
+            "motion.program_file",
+        ),
+        (
+            "[motion]\nprogram = \"G21 G90\\nG1 Z10. F100\\nG2 X1. Y1. R1.\\n\"\n".to_string(),
+            "motion.program: line 3",
+        ),
+        (
+            "[motion]\nprogram = \"G21 G90\\nG1 Z500. F100\\n\"\n".to_string(),
+            "motion.program, line 2",
+        ),
+        (
+            "[motion]\nprogram = \"G21 G90\\nG1 X5. Z50. F100\\n\"\n".to_string(),
+            "motion.program: line 2: the feed along the axis is unknown",
+        ),
+        (
+            "[motion]\nprogram_file = \"/nonexistent/feedscope.nc\"\n".to_string(),
+            "/nonexistent/feedscope.nc",
+        ),
+    ];
+    for (text, key) in cases {
+        let e = SimConfig::from_toml_str(&text).unwrap_err().to_string();
+        assert!(e.contains(key), "expected `{key}` in: {e}");
+    }
+    // from Rust: a program and the default strokes
+    let mut c = SimConfig::default();
+    c.motion.program = Some("G1 Z1. F1\n".into());
+    let e = c.validate().unwrap_err().to_string();
+    assert!(e.contains("motion.stroke"), "{e}");
+}
+
+#[test]
+fn program_file_is_read_relative_to_the_config() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("p.nc"),
+        "; siemens\nG71 G90 G94\nG0 Z10\nG1 Z20 F600\n",
+    )
+    .unwrap();
+    let cfg_path = dir.path().join("sim.toml");
+    std::fs::write(
+        &cfg_path,
+        "[motion]\nprogram_file = \"p.nc\"\n[dynamics]\nmode = \"ideal\"\n",
+    )
+    .unwrap();
+    let c = SimConfig::from_toml_file(&cfg_path).unwrap();
+    assert_eq!(c.motion.program_file, Some(dir.path().join("p.nc")));
+    let out = run(&c);
+    assert_eq!(out.truth.strokes.len(), 2);
+    assert_eq!(out.truth.strokes[1].line, Some(4));
+    // from a string, relative to the working directory: the file is not there
+    let text = std::fs::read_to_string(&cfg_path).unwrap();
+    let e = SimConfig::from_toml_str(&text).unwrap_err().to_string();
+    assert!(e.contains("p.nc") && e.contains("line 0"), "{e}");
+}
+
+/// simulate_program takes a parsed program and the limits of the config, and ignores the
+/// config's strokes; a dwell before the first move lengthens the standstill.
+#[test]
+fn simulate_program_uses_the_config_limits() {
+    let prog = crate::nc::NcProgram::parse(
+        "G21 G90 G94\nG04 P700\nG01 Z20. F600\nG00 Z5.\n",
+        &crate::nc::ParseOptions::default(),
+    )
+    .unwrap();
+    let mut c = SimConfig::default();
+    c.dynamics.mode = DynamicsMode::Ideal;
+    c.motion.rapid_acceleration_mm_s2 = Some(500.0);
+    let out = simulate_program(&c, &prog, &mut |_| {}).unwrap();
+    let m = &out.truth.strokes;
+    assert_eq!(m.len(), 2);
+    assert!((m[0].start_time_s - (c.motion.lead_in_s + 0.7)).abs() < 1e-12);
+    // no jerk limit: trapezoids; the rapid (15 m/min default) at 500 mm/s²: 15 mm is too
+    // short to reach 250 mm/s (needs 125 mm), a triangle of 2·√(L/a)
+    assert_eq!(m[1].kind, MoveKind::Rapid);
+    assert!((m[1].feed_mm_min - DEFAULT_RAPID_RATE_MM_MIN).abs() < 1e-12);
+    let d = m[1].end_time_s - m[1].start_time_s;
+    assert!((d - 2.0 * (15.0f64 / 500.0).sqrt()).abs() < 1e-12, "{d}");
+    // the axis's own rapid rate is the default when [motion] has none
+    c.axis.rapid_rate_mm_min = Some(600.0);
+    let out = simulate_program(&c, &prog, &mut |_| {}).unwrap();
+    assert!((out.truth.strokes[1].feed_mm_min - 600.0).abs() < 1e-12);
+    // a move with an unknown axis feed cannot be timed: the error names the line
+    let prog = crate::nc::NcProgram::parse(
+        "G21 G90 G94\nG01 X5. Z20. F600\n",
+        &crate::nc::ParseOptions::default(),
+    )
+    .unwrap();
+    let e = simulate_program(&c, &prog, &mut |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("program: line 2"), "{e}");
+}
+
+/// A 300 mm stroke at 60 mm/min sampled synchronously at 8 kHz is within the size limits
+/// (300 s · 8000 = 2.4e6 samples ≤ 2e7); at 5 mm/min (3600 s) it is not, and the error names
+/// the key.
+#[test]
+fn slow_program_at_8_khz_fits_the_size_limits() {
+    let mut c = issue10_cfg();
+    c.dynamics.mode = DynamicsMode::Servo;
+    c.sampling.mode = SamplingMode::Synchronous;
+    c.sampling.synchronous_rate_hz = 8000.0;
+    c.motion.program = Some("G21 G90 G94\nG1 Z300. F60\nG0 Z0\n".into());
+    c.validate().unwrap();
+    c.motion.program = Some("G21 G90 G94\nG1 Z300. F5\nG0 Z0\n".into());
+    let e = c.validate().unwrap_err();
+    assert!(
+        matches!(&e, SimError::TooLarge { key, .. } if key == "sampling.synchronous_rate_hz"),
+        "{e}"
+    );
+}
+
+/// The example config in examples/ reads, and its program runs (ideal mode, to stay quick).
+#[test]
+fn example_nc_mill_config_simulates() {
+    let text = include_str!("../../../../examples/nc-mill.toml");
+    let mut c = SimConfig::from_toml_str(text).unwrap();
+    assert_eq!(c.motion.program_axis, 'X');
+    assert_eq!(c.sampling.effort_kind, EffortKind::TorqueNm);
+    c.dynamics.mode = DynamicsMode::Ideal;
+    let out = run(&c);
+    let m = &out.truth.strokes;
+    assert_eq!(m.len(), 8);
+    assert_eq!(m[0].kind, MoveKind::Rapid);
+    assert!((m[0].feed_mm_min - 24_000.0).abs() < 1e-12);
+    assert_eq!(m[1].line, Some(5));
+    assert_eq!(m[1].block_number, Some(10));
+    // N70 and N110 inherit G01 and F
+    assert_eq!((m[4].kind, m[4].block_number), (MoveKind::Feed, Some(70)));
+    assert!((m[4].feed_mm_min - 1000.0).abs() < 1e-12);
+    assert!((m[6].feed_mm_min - 4000.0).abs() < 1e-12);
+}
