@@ -90,6 +90,24 @@ pub struct Move {
     pub programmed_feed_mm_min: Option<f64>,
 }
 
+impl ProgrammedMove {
+    /// The motion blocks of a resolved NC program (dwells and blocks that do not move the
+    /// axis dropped).
+    pub fn from_steps(steps: &[crate::nc::ResolvedStep]) -> Vec<Self> {
+        steps
+            .iter()
+            .filter(|s| s.kind != crate::nc::StepKind::Dwell && s.to_mm != s.from_mm)
+            .map(|s| Self {
+                line: s.line,
+                rapid: s.kind == crate::nc::StepKind::Rapid,
+                from_mm: s.from_mm,
+                to_mm: s.to_mm,
+                feed_mm_min: s.feed_mm_min,
+            })
+            .collect()
+    }
+}
+
 /// Fraction of the rapid rate above which a move is a rapid (feed override of rapids and
 /// the servo's following make the plateau a few per cent slow).
 const RAPID_FRACTION: f64 = 0.9;
