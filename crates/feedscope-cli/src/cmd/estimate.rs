@@ -95,6 +95,14 @@ pub struct Args {
     /// are left out by default.
     #[arg(long)]
     pub include_rapids: bool,
+    /// The NC program that made the trace (FANUC or SINUMERIK, as `plan` writes them, or a
+    /// hand-written G0/G1/F/G4 program): labels each stroke with its block and programmed feed,
+    /// G0 blocks as rapids, unprogrammed motion as jogs.
+    #[arg(long)]
+    pub program: Option<PathBuf>,
+    /// Axis address of this axis in the program.
+    #[arg(long, default_value_t = 'Z')]
+    pub program_axis: char,
     /// Which effort channel to use when the file has both current and torque.
     #[arg(long, value_enum)]
     pub effort: Option<EffortArg>,
@@ -453,7 +461,23 @@ fn params_from(args: &Args) -> EstimateParams {
 pub fn run(args: Args) -> Result<()> {
     // Validate everything cheap before the expensive read.
     let axis = load_axis(&args.axis)?;
-    let params = params_from(&args);
+    let mut params = params_from(&args);
+    // The program is read (and refused, naming its line) before the expensive trace read; its
+    // positions are resolved from where the trace starts.
+    let program = match &args.program {
+        Some(path) => {
+            let opts = feedscope::nc::ParseOptions {
+                axis_letter: args.program_axis.to_ascii_uppercase(),
+                ..Default::default()
+            };
+            Some((
+                path,
+                opts.axis_letter,
+                feedscope::nc::NcProgram::read_file(path, &opts)?,
+            ))
+        }
+        None => None,
+    };
     let summary_path = args
         .summary
         .clone()
@@ -477,6 +501,17 @@ pub fn run(args: Args) -> Result<()> {
     spinner.finish_and_clear();
     let (trace, report) = read?;
     crate::output::print_read_warnings(&args.trace.display().to_string(), &report);
+    if let Some((path, letter, prog)) = &program {
+        let start_mm = trace.position_m.value.first().copied().unwrap_or(0.0) * 1e3;
+        params.program = feedscope::estimate::ProgrammedMove::from_steps(&prog.resolve(start_mm));
+        if params.program.is_empty() {
+            return Err(crate::cmd::BadInput(format!(
+                "{}: no block moves axis {letter} (use --program-axis)",
+                path.display(),
+            ))
+            .into());
+        }
+    }
     let source = args.trace.display().to_string();
     let outcome = estimate_to_csv(&trace, &report, &source, &axis, &params, &args.output)?;
     drop(trace);

@@ -68,6 +68,7 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
             || c.is::<AxisError>()
             || c.is::<EstimateError>()
             || c.is::<feedscope::import::ImportError>()
+            || c.is::<feedscope::nc::NcError>()
             || c.is::<feedscope::sim::SimError>()
             || c.is::<feedscope::profile::ProfileError>()
             || c.is::<toml::de::Error>()

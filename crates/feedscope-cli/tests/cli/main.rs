@@ -10,6 +10,7 @@ mod import;
 mod map;
 mod parquet;
 mod plan;
+mod program;
 mod report;
 mod simulate;
 mod util;

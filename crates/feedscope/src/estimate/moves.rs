@@ -14,7 +14,8 @@
 //!   feed);
 //! - **measuring**: everything else.
 //!
-//! With a program (its motion blocks as [`ProgrammedMove`]s) the blocks decide: see [`label_with_program`].
+//! With a program (its motion blocks as [`ProgrammedMove`]s) the blocks decide: each is matched,
+//! in order, to the next move that ends at its target (see `label_with_program`).
 
 use serde::{Deserialize, Serialize};
 
@@ -96,7 +97,8 @@ impl ProgrammedMove {
     pub fn from_steps(steps: &[crate::nc::ResolvedStep]) -> Vec<Self> {
         steps
             .iter()
-            .filter(|s| s.kind != crate::nc::StepKind::Dwell && s.to_mm != s.from_mm)
+            // 1 nm: below any programmable increment.
+            .filter(|s| s.kind != crate::nc::StepKind::Dwell && (s.to_mm - s.from_mm).abs() > 1e-6)
             .map(|s| Self {
                 line: s.line,
                 rapid: s.kind == crate::nc::StepKind::Rapid,
