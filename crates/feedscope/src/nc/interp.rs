@@ -654,7 +654,10 @@ impl State {
             }
             return Ok(false);
         }
-        self.blocks_seen = true;
+        // As in `lex_until_end`: a line of block numbers only does not start the program.
+        if !toks.iter().all(is_program_number_or_n) {
+            self.blocks_seen = true;
+        }
         let word = |l: char| single.iter().find(|(c, _)| *c == l).map(|(_, v)| *v);
 
         // Names: SINUMERIK keywords, or refusals.

@@ -70,12 +70,14 @@
 //!   G63, G64; SINUMERIK G9, G60, G64, G601-G603, G641-G645, `SOFT`, `BRISK`, `FFWON`, …:
 //!   the simulator models exact stop at the end of every block whatever they say), FANUC
 //!   look-ahead G05.1/G08 (with their Q/P), planes G17/G18/G19, cancels (G15, G40, G50.1,
-//!   G67, G69, G80), spindle (S, M03-M05, G96/G97, FANUC G50 without axis words), coolant
+//!   G67, G69, G80), FANUC stored stroke check G22/G23, SINUMERIK corner modes G450/G451,
+//!   spindle (S, M03-M05, G96/G97, FANUC G50 without axis words), coolant
 //!   and other M functions (taken to neither move the axis nor take time), M01 (optional
 //!   stop, taken as off), `MSG(…)`, `STOPRE`.
-//! - **Setup codes**: T, D, M06, tool length compensation (G43/G44/G49 with H) and work
-//!   offsets (G54-G59, SINUMERIK G500, G505-G599) are accepted before the first motion block
-//!   only; after it they would move or shift the axis by an amount the reader does not know.
+//! - **Setup codes**: T, D, M06, tool length compensation (FANUC G43/G44/G49 with H) and
+//!   work offsets (FANUC G54-G59, SINUMERIK G54-G57, G500, G505-G599) are accepted before the
+//!   first motion block only; after it they would move or shift the axis by an amount the
+//!   reader does not know.
 //! - **Arcs** G2/G3 are accepted only when a plane is selected that does not contain our
 //!   axis and the block does not program it (no helix); they are steps that do not move the
 //!   axis, with axis feed 0.

@@ -1,9 +1,12 @@
 //! Digital twin of a ball-screw feed drive: traces of a drive whose friction is known.
 //!
-//! [`simulate`] plans the NC program of a [`SimConfig`], moves the table through the plant of
-//! paper 000 Eq. 5 with a [`FrictionModel`] (ideal inverse dynamics or a cascaded servo loop),
-//! samples position and effort as a controller does (jitter, offsets, dropouts, stamp errors,
-//! noise, quantisation) and returns the [`Trace`] with its [`Truth`].
+//! [`simulate`] plans the motion of a [`SimConfig`] (`[[motion.stroke]]` entries, or an NC
+//! program read by [`crate::nc`]: [`MotionConfig::program`], [`simulate_program`]) block by
+//! block with exact stop, as trapezoids or jerk-limited S-curves ([`NcPath`]), moves the table
+//! through the plant of paper 000 Eq. 5 with a [`FrictionModel`] (ideal inverse dynamics or a
+//! cascaded servo loop), samples position and effort as a controller does (jitter, offsets,
+//! dropouts, stamp errors, noise, quantisation) and returns the [`Trace`] with its [`Truth`],
+//! which lists every commanded move with its kind and program line.
 //!
 //! Sign convention: friction is positive while the table moves forward (z increasing), as in
 //! Eq. 5: (m_t + 4π²J/p²)·z'' + (4π²B/p²)·z' = (2π/p)·k_e·i − F_f. The effort is the current
@@ -72,9 +75,10 @@ pub enum SimError {
         /// Why it is rejected.
         reason: String,
     },
-    /// The axis section is invalid.
+    /// The axis section is invalid (the [`AxisError`] is the message, not a source, as for
+    /// [`SimError::Program`]).
     #[error("simulator config: {0}")]
-    Axis(#[from] AxisError),
+    Axis(AxisError),
     /// The config asks for more samples, steps or time than the simulator allows.
     #[error("simulator config: key `{key}` asks for {count:.3e}, more than the limit {limit:.1e}")]
     TooLarge {
@@ -93,9 +97,11 @@ pub enum SimError {
         /// What is wrong.
         message: String,
     },
-    /// The NC program cannot be read or timed (names the program and the line).
+    /// The NC program cannot be read or timed (names the program and the line). The
+    /// [`NcError`] is the message itself, not a source, so that a chain of causes printed
+    /// with `{:#}` does not repeat it.
     #[error("simulator config: {0}")]
-    Program(#[from] NcError),
+    Program(NcError),
     /// The servo simulation became non-finite or ran away from the command.
     #[error(
         "the servo simulation diverged at t = {time_s} s (|z − z_cmd| > 0.1 m or non-finite); \
@@ -105,6 +111,18 @@ pub enum SimError {
         /// Simulated time (s).
         time_s: f64,
     },
+}
+
+impl From<AxisError> for SimError {
+    fn from(e: AxisError) -> Self {
+        SimError::Axis(e)
+    }
+}
+
+impl From<NcError> for SimError {
+    fn from(e: NcError) -> Self {
+        SimError::Program(e)
+    }
 }
 
 /// What the estimator must recover, and what the simulation actually did.
