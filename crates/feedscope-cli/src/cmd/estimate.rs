@@ -137,9 +137,33 @@ pub struct Summary {
     pub ignored_rows: u64,
     pub ignored_channels: Vec<String>,
     /// Position samples dropped as logger glitches (impossible jumps), with time and line.
-    pub dropped_position_samples: Vec<DroppedSample>,
+    pub dropped_position_samples: Vec<DroppedPosition>,
     /// The speed limit the glitch screen used (mm/min).
     pub max_axis_speed_mm_min: Option<f64>,
+}
+
+/// A dropped position sample as the summary reports it (user units).
+#[derive(Debug, Serialize)]
+pub struct DroppedPosition {
+    pub time_s: f64,
+    pub position_mm: f64,
+    /// 1-based CSV line, when read from CSV.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub line: Option<u64>,
+    /// 1-based Parquet data row, when read from Parquet.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub row: Option<u64>,
+}
+
+impl From<&DroppedSample> for DroppedPosition {
+    fn from(d: &DroppedSample) -> Self {
+        Self {
+            time_s: d.time_s,
+            position_mm: d.position_m * 1e3,
+            line: d.line,
+            row: d.row,
+        }
+    }
 }
 
 /// Plot data kept while streaming: decimated friction per stroke.
@@ -308,7 +332,7 @@ pub fn estimate_to_csv(
             skipped: outline.skipped,
             ignored_rows: report.ignored_rows,
             ignored_channels: report.ignored_channels.clone(),
-            dropped_position_samples: report.dropped_position.clone(),
+            dropped_position_samples: report.dropped_position.iter().map(Into::into).collect(),
             max_axis_speed_mm_min: report.max_axis_speed_m_s.map(|v| v * 60e3),
         },
         plot,

@@ -149,7 +149,8 @@ pub(crate) fn robust_noise_std(times: &[f64], values: &[f64]) -> f64 {
 /// 1 to 10 (steps of 4, 5 and 6 µm have the quantum 1 µm); 0 for an unquantised channel,
 /// whose smallest step is only its slowest motion.
 pub(crate) fn quantum(values: &[f64]) -> f64 {
-    const MAX_STEPS: usize = 4096;
+    // The smallest step over the whole channel: at a slow feed most steps are zero and the
+    // few quantum steps could all fall between the evenly spread sample below.
     let q0 = values
         .windows(2)
         .map(|w| (w[1] - w[0]).abs())
@@ -158,6 +159,8 @@ pub(crate) fn quantum(values: &[f64]) -> f64 {
     if !q0.is_finite() {
         return 0.0;
     }
+    // An evenly spread sample of the steps: enough to tell a quantum, cheap on long strokes.
+    const MAX_STEPS: usize = 4096;
     let stride = values.len().div_ceil(MAX_STEPS).max(1);
     let steps: Vec<f64> = (1..values.len())
         .step_by(stride)
@@ -173,25 +176,21 @@ pub(crate) fn quantum(values: &[f64]) -> f64 {
         .map(|w| (w[1] - w[0]).abs())
         .filter(|d| *d > 1e-9 * q0)
         .fold(f64::INFINITY, f64::min);
-    let candidates = (1..=10).map(|d| q0 / d as f64).chain(
-        (1..=10)
-            .map(move |d| q1 / d as f64)
-            .filter(|q| q.is_finite()),
-    );
-    candidates
-        .into_iter()
-        .find(|&q| {
-            // 0.2 % of a quantum: above the rounding of decimal text (a 1 µm quantum printed
-            // to 1 nm is exact), below the spread of an unquantised channel.
-            let whole = steps
-                .iter()
-                .filter(|&&s| {
-                    let r = s / q;
-                    (r - r.round()).abs() < 2e-3
-                })
-                .count();
-            whole as f64 >= 0.95 * steps.len() as f64
-        })
+    // 0.2 % of a quantum: above the rounding of decimal text (a 1 µm quantum printed to 1 nm
+    // is exact), below the spread of an unquantised channel.
+    let whole = |q: f64, s: &[f64]| {
+        s.iter()
+            .filter(|&&d| {
+                let r = d / q;
+                (r - r.round()).abs() < 2e-3
+            })
+            .count() as f64
+            >= 0.95 * s.len() as f64
+    };
+    (1..=10)
+        .map(|d| q0 / d as f64)
+        .chain((1..=10).map(|d| q1 / d as f64).filter(|q| q.is_finite()))
+        .find(|&q| whole(q, &steps))
         .unwrap_or(0.0)
 }
 
@@ -417,6 +416,17 @@ mod tests {
         let t: Vec<f64> = (0..5000).map(|k| k as f64 * 1e-3).collect();
         let var = channel_variance(&t, &v);
         assert!((1e-12 / 12.0..2.0 * 1e-12 / 12.0).contains(&var), "{var}");
+    }
+
+    #[test]
+    fn slow_feed_at_a_high_rate_keeps_its_quantum() {
+        // 10 mm/min at 8 kHz with 1 µm steps: one step every 48 samples, so an evenly spread
+        // sample of the steps (stride 118 here) sees none; the quantum must still be found
+        // (missing it once cost 63 kN of error behind a 0.6 N predicted floor).
+        let v: Vec<f64> = (0..480_000)
+            .map(|k| (k as f64 / 48.0).floor() * 1e-6)
+            .collect();
+        assert!((quantum(&v) / 1e-6 - 1.0).abs() < 1e-9, "{}", quantum(&v));
     }
 
     #[test]

@@ -744,8 +744,7 @@ pub fn estimate_stroke(
     let z_span = |a: f64, b: f64| (zs.eval(b) - zs.eval(a)).abs().max(1e-12);
     let spl_z =
         (ts.len() - 1) as f64 * lead / (zs_raw[zs_raw.len() - 1] - zs_raw[0]).abs().max(1e-12);
-    let ee_t = &te_all[e0..e1];
-    let spl_e = (ee_t.len() - 1) as f64 * lead / z_span(ee_t[0], ee_t[ee_t.len() - 1]);
+    let spl_e = (te.len() - 1) as f64 * lead / z_span(te[0], te[te.len() - 1]);
     let spl = spl_z.min(spl_e);
     let sm = &mut out.summary;
     sm.start_mm = out.position_m[0] * 1e3;

@@ -127,19 +127,19 @@ pub(crate) fn classify(
 ) -> (Vec<Move>, Option<String>) {
     // Rapids are told by their top speed: a long rapid spends much of its time on its ramps,
     // which pull the plateau (a median) below the rapid rate.
-    let feed = |m: &MoveSpan| m.top_speed_m_s * 60e3;
+    let top_mm_min = |m: &MoveSpan| m.top_speed_m_s * 60e3;
     let mut note = None;
     let rapid_above = match rapid_rate_mm_min {
         Some(r) => Some(RAPID_FRACTION * r),
         None => {
-            let fastest = moves.iter().map(feed).fold(0.0, f64::max);
+            let fastest = moves.iter().map(top_mm_min).fold(0.0, f64::max);
             let fast_cut = RAPID_FRACTION * fastest;
             let others = moves
                 .iter()
-                .map(feed)
+                .map(top_mm_min)
                 .filter(|&f| f < fast_cut)
                 .fold(0.0, f64::max);
-            let any_other = moves.iter().any(|m| feed(m) < fast_cut);
+            let any_other = moves.iter().any(|m| top_mm_min(m) < fast_cut);
             if fastest >= INFERRED_RAPID_MIN_MM_MIN
                 && any_other
                 && fastest >= INFERRED_RAPID_RATIO * others
@@ -159,7 +159,7 @@ pub(crate) fn classify(
     let out = moves
         .iter()
         .map(|m| {
-            let kind = if rapid_above.is_some_and(|r| feed(m) >= r) {
+            let kind = if rapid_above.is_some_and(|r| top_mm_min(m) >= r) {
                 MoveKind::Rapid
             } else if m.strokes.is_empty() {
                 MoveKind::Positioning

@@ -246,7 +246,7 @@ fn holds_a_plateau(speeds: &[f64]) -> bool {
     if blocks_n < 5 {
         return true;
     }
-    let mut blocks: Vec<f64> = (0..blocks_n)
+    let blocks: Vec<f64> = (0..blocks_n)
         .map(|b| {
             let (i, j) = (
                 b * speeds.len() / blocks_n,
@@ -269,7 +269,6 @@ fn holds_a_plateau(speeds: &[f64]) -> bool {
     let falling = blocks[peak_at..].windows(2).all(|w| w[1] <= 1.01 * w[0]);
     let ends_low = blocks[0] < 0.8 * peak && blocks[blocks_n - 1] < 0.8 * peak;
     let near_peak = blocks.iter().filter(|&&v| v >= 0.98 * peak).count();
-    blocks.clear();
     !(rising && falling && ends_low && near_peak <= 2)
 }
 
