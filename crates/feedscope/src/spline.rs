@@ -369,6 +369,12 @@ pub struct Piece {
 }
 
 impl Piece {
+    /// Value at offset u from x0.
+    #[inline]
+    pub fn value(&self, u: f64) -> f64 {
+        self.c0 + u * (self.c1 + u * (self.c2 + u * self.c3))
+    }
+
     /// Value, first and second derivative at offset u from x0.
     #[inline]
     pub fn eval(&self, u: f64) -> (f64, f64, f64) {
@@ -435,7 +441,11 @@ impl Cursor<'_, '_> {
     /// Value at t.
     #[inline]
     pub fn eval(&mut self, t: f64) -> f64 {
-        self.eval_all(t).0
+        let k = self.seek(t);
+        if k != self.k_piece() {
+            self.piece = self.s.piece(k);
+        }
+        self.piece.value(t - self.piece.x0)
     }
 }
 

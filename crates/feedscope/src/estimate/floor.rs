@@ -91,8 +91,8 @@ pub(crate) struct SampleNoise {
 /// Robust standard deviation of white noise on a smooth signal sampled at `times`: the
 /// fourth divided differences over five consecutive samples vanish for cubics (so for ramps,
 /// steady feeds and slow ripple) whatever the spacing; each is scaled by its noise gain
-/// sqrt(Σ c_i²) so that white noise of standard deviation σ gives σ, and the median absolute
-/// mean square of the smallest 90 % gives σ (see below). At most `MAX_DIFFS` differences are looked at, evenly spread,
+/// sqrt(Σ c_i²) so that white noise of standard deviation σ gives σ, and the mean square of
+/// the smallest 90 %, corrected for the trimming, gives σ² (see below). At most `MAX_DIFFS` differences are looked at, evenly spread,
 /// so long strokes cost little. (On evenly spaced samples this is the 1, −4, 6, −4, 1 stencil
 /// over √70.)
 pub(crate) fn robust_noise_std(times: &[f64], values: &[f64]) -> f64 {
@@ -109,25 +109,40 @@ pub(crate) fn robust_noise_std(times: &[f64], values: &[f64]) -> f64 {
             let t = &times[k..k + 5];
             let v = &values[k..k + 5];
             // Divided-difference weights c_i = 1/Π_{j≠i}(t_i − t_j), in units of the local
-            // spacing so that nothing underflows.
+            // spacing so that nothing underflows; the ten gaps are formed once.
             let scale = (t[4] - t[0]) / 4.0;
             if scale.is_nan() || scale <= 0.0 {
                 return None;
             }
+            let r = 1.0 / scale;
+            let g = |i: usize, j: usize| (t[i] - t[j]) * r;
+            let (g01, g02, g03, g04) = (g(0, 1), g(0, 2), g(0, 3), g(0, 4));
+            let (g12, g13, g14) = (g(1, 2), g(1, 3), g(1, 4));
+            let (g23, g24, g34) = (g(2, 3), g(2, 4), g(3, 4));
+            // Π_{j≠i}(t_i − t_j) with t_i − t_j = −(t_j − t_i) for j < i.
+            let p = [
+                g01 * g02 * g03 * g04,
+                -g01 * g12 * g13 * g14,
+                g02 * g12 * g23 * g24,
+                -g03 * g13 * g23 * g34,
+                g04 * g14 * g24 * g34,
+            ];
+            // The normalised difference (Σ c_i·v_i)²/Σ c_i² is unchanged when every c_i is
+            // multiplied by Π_k p_k, which turns c_i = 1/p_i into Π_{k≠i} p_k: no division.
+            // (Divisions dominated this kernel, which runs on every stroke.)
+            let p01 = p[0] * p[1];
+            let p34 = p[3] * p[4];
+            let pre = [1.0, p[0], p01, p01 * p[2], p01 * p[2] * p[3]];
+            let suf = [p[1] * p[2] * p34, p[2] * p34, p34, p[4], 1.0];
             let (mut dd, mut gain) = (0.0, 0.0);
             for i in 0..5 {
-                let mut p = 1.0;
-                for j in 0..5 {
-                    if j != i {
-                        p *= (t[i] - t[j]) / scale;
-                    }
-                }
-                let c = 1.0 / p;
+                let c = pre[i] * suf[i];
                 dd += c * v[i];
                 gain += c * c;
             }
-            let r = (dd / gain.sqrt()).abs();
-            r.is_finite().then_some(r)
+            // The square: the trimmed mean below ranks and averages squares anyway.
+            let r2 = dd * dd / gain;
+            r2.is_finite().then_some(r2)
         })
         .collect();
     if d.is_empty() {
@@ -140,7 +155,7 @@ pub(crate) fn robust_noise_std(times: &[f64], values: &[f64]) -> f64 {
     if keep < d.len() {
         d.select_nth_unstable_by(keep - 1, f64::total_cmp);
     }
-    let ms = d[..keep].iter().map(|x| x * x).sum::<f64>() / keep as f64;
+    let ms = d[..keep].iter().sum::<f64>() / keep as f64;
     (ms / 0.6232).sqrt()
 }
 
@@ -151,11 +166,27 @@ pub(crate) fn robust_noise_std(times: &[f64], values: &[f64]) -> f64 {
 pub(crate) fn quantum(values: &[f64]) -> f64 {
     // The smallest step over the whole channel: at a slow feed most steps are zero and the
     // few quantum steps could all fall between the evenly spread sample below.
-    let q0 = values
-        .windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .filter(|d| *d > 0.0)
-        .fold(f64::INFINITY, f64::min);
+    // Four independent lanes so that the loop vectorises; zero steps (most of a slow feed)
+    // count as infinitely large.
+    let mut lanes = [f64::INFINITY; 4];
+    let step = |k: usize| {
+        let d = (values[k + 1] - values[k]).abs();
+        if d > 0.0 {
+            d
+        } else {
+            f64::INFINITY
+        }
+    };
+    let pairs = values.len().saturating_sub(1);
+    for base in (0..pairs - pairs % 4).step_by(4) {
+        for (l, lane) in lanes.iter_mut().enumerate() {
+            *lane = lane.min(step(base + l));
+        }
+    }
+    for k in pairs - pairs % 4..pairs {
+        lanes[0] = lanes[0].min(step(k));
+    }
+    let q0 = lanes.iter().copied().fold(f64::INFINITY, f64::min);
     if !q0.is_finite() {
         return 0.0;
     }
@@ -178,14 +209,21 @@ pub(crate) fn quantum(values: &[f64]) -> f64 {
         .fold(f64::INFINITY, f64::min);
     // 0.2 % of a quantum: above the rounding of decimal text (a 1 µm quantum printed to 1 nm
     // is exact), below the spread of an unquantised channel.
+    // At most 5 % may miss; stop at the first miss beyond that (most candidates fail fast).
     let whole = |q: f64, s: &[f64]| {
-        s.iter()
-            .filter(|&&d| {
-                let r = d / q;
-                (r - r.round()).abs() < 2e-3
-            })
-            .count() as f64
-            >= 0.95 * s.len() as f64
+        let allowed = s.len() - (0.95 * s.len() as f64).ceil() as usize;
+        let inv_q = 1.0 / q;
+        let mut misses = 0;
+        for &d in s {
+            let r = d * inv_q;
+            if (r - r.round()).abs() >= 2e-3 {
+                misses += 1;
+                if misses > allowed {
+                    return false;
+                }
+            }
+        }
+        true
     };
     (1..=10)
         .map(|d| q0 / d as f64)

@@ -820,25 +820,32 @@ fn newton_in_piece(p: &crate::spline::Piece, z1: f64, target: f64) -> Option<(f6
     // step for a slightly slower (still fast: the start is within O(h²) of the root)
     // convergence. Steps below 1e-13 of the interval are rounding noise.
     let tol = 1e-13 * p.h;
-    let (_, d1_0, _) = p.eval(u);
+    // One evaluation per step: the start's slope fixes the chord, each new point's values are
+    // both the next residual and, once the step is below tolerance, the answer.
+    let (mut z, d1_0, _) = p.eval(u);
     if d1_0 == 0.0 || (d1_0 > 0.0) != (dz > 0.0) {
         return None;
     }
     let inv_d1 = 1.0 / d1_0;
+    let mut du_prev = f64::INFINITY;
     for _ in 0..16 {
-        let (z, d1, _) = p.eval(u);
+        let du = (z - target) * inv_d1;
+        u -= du;
+        let (z_new, d1, d2) = p.eval(u);
+        z = z_new;
         if (d1 > 0.0) != (dz > 0.0) {
             return None;
         }
-        let du = (z - target) * inv_d1;
-        u -= du;
-        if du.abs() <= tol {
+        // The chord iteration contracts by ρ per step, so the error left after this step is
+        // about |du|·ρ/(1 − ρ): stop as soon as that, or the step itself, is below tolerance.
+        let rho = (du / du_prev).abs();
+        if du.abs() <= tol || (rho < 0.5 && du.abs() * rho <= 0.5 * tol) {
             if !(-tol..=p.h + tol).contains(&u) {
                 return None;
             }
-            let (_, d1, d2) = p.eval(u);
             return Some((u, d1, d2));
         }
+        du_prev = du;
     }
     None
 }
