@@ -14,9 +14,28 @@ use feedscope::history::Point;
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension, TransactionBehavior};
 
 use super::{
-    AddOutcome, ComponentRow, Filter, Identified, IndicatorRow, IntervalRow, NewTest, Series,
-    Store, StoreError, TestDetail, TestRow,
+    AddOutcome, BackendError, BackendErrorKind, ComponentRow, Filter, Identified, IndicatorRow,
+    IntervalRow, NewTest, Series, Store, StoreError, TestDetail, TestRow,
 };
+
+/// SQLite's error codes as [`BackendErrorKind`]s: a file SQLite does not recognise or finds
+/// damaged is the user's wrong file; everything else is a failure of the operation.
+impl From<rusqlite::Error> for BackendError {
+    fn from(e: rusqlite::Error) -> Self {
+        let kind = match e.sqlite_error_code() {
+            Some(rusqlite::ErrorCode::NotADatabase) => BackendErrorKind::NotADatabase,
+            Some(rusqlite::ErrorCode::DatabaseCorrupt) => BackendErrorKind::Corrupt,
+            _ => BackendErrorKind::Other,
+        };
+        BackendError::new(kind, e)
+    }
+}
+
+impl From<rusqlite::Error> for StoreError {
+    fn from(e: rusqlite::Error) -> Self {
+        StoreError::Backend(e.into())
+    }
+}
 
 /// `PRAGMA application_id` of a feedscope database: ASCII "FSCP".
 pub const APPLICATION_ID: i64 = 0x4653_4350;
@@ -113,6 +132,10 @@ pub const SCHEMA_VERSION: i64 = MIGRATIONS.len() as i64;
 const BUSY_TIMEOUT_MS: u64 = 30_000;
 
 /// A feedscope database in one SQLite file.
+///
+/// Test hook: when the environment variable `FEEDSCOPE_TEST_SLEEP_IN_TX_MS` holds a number,
+/// [`Store::add`] sleeps that many milliseconds inside its open transaction (and says so on
+/// stderr), so that a test can kill the process there.
 pub struct SqliteStore {
     conn: Connection,
     path: PathBuf,
@@ -222,23 +245,6 @@ impl SqliteStore {
         Ok(self
             .conn
             .query_row("PRAGMA user_version", [], |r| r.get(0))?)
-    }
-
-    /// Mark a test as the reference of its axis (clearing any other).
-    pub fn set_reference(&mut self, id: i64) -> Result<(), StoreError> {
-        let tx = self
-            .conn
-            .transaction_with_behavior(TransactionBehavior::Immediate)?;
-        let axis: Option<i64> = tx
-            .query_row("SELECT axis_id FROM tests WHERE id = ?1", [id], |r| {
-                r.get(0)
-            })
-            .optional()?;
-        let axis = axis.ok_or(StoreError::NoSuchTest(id))?;
-        tx.execute("UPDATE tests SET reference = 0 WHERE axis_id = ?1", [axis])?;
-        tx.execute("UPDATE tests SET reference = 1 WHERE id = ?1", [id])?;
-        tx.commit()?;
-        Ok(())
     }
 }
 
@@ -513,6 +519,22 @@ impl Store for SqliteStore {
         let n = tx.execute("DELETE FROM tests WHERE id = ?1", [id])?;
         tx.commit()?;
         Ok(n > 0)
+    }
+
+    fn set_reference(&mut self, id: i64) -> Result<(), StoreError> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)?;
+        let axis: Option<i64> = tx
+            .query_row("SELECT axis_id FROM tests WHERE id = ?1", [id], |r| {
+                r.get(0)
+            })
+            .optional()?;
+        let axis = axis.ok_or(StoreError::NoSuchTest(id))?;
+        tx.execute("UPDATE tests SET reference = 0 WHERE axis_id = ?1", [axis])?;
+        tx.execute("UPDATE tests SET reference = 1 WHERE id = ?1", [id])?;
+        tx.commit()?;
+        Ok(())
     }
 
     fn series(&self, machine: &str, axis: &str) -> Result<BTreeMap<String, Series>, StoreError> {
