@@ -4,7 +4,6 @@ mod cmd;
 mod output;
 mod plot;
 mod report;
-mod store;
 
 // mimalloc keeps freed pages for reuse; with the system allocator every stroke's multi-megabyte
 // work and output arrays went back to the OS and were zeroed again (~20 % of estimation time).

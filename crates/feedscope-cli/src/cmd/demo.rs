@@ -9,10 +9,10 @@ use feedscope::plan::{
 };
 use feedscope::sim::{simulate, simulate_profile, FrictionParams, SamplingMode, SimConfig};
 use feedscope::trace::{EffortKind, Layout, ReadReport};
+use feedscope_store::{NewTest, SqliteStore, Store, TestKind};
 use rayon::prelude::*;
 
 use super::history::{analyze_test, TestInput};
-use crate::store::{NewTest, SqliteStore, Store, TestKind};
 
 use super::estimate::{estimate_to_csv, print_table};
 use crate::output::{bar, write_atomic};
@@ -190,7 +190,7 @@ fn weekly_test(
         } else {
             0.0
         };
-    t.time_utc = crate::store::time::format_rfc3339(t.time_s);
+    t.time_utc = feedscope_store::time::format_rfc3339(t.time_s);
     t.source = path.display().to_string();
     t.program = Some(match kind {
         TestKind::Triangle => "feedscope plan triangle (demo)".into(),

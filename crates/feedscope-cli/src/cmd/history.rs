@@ -4,6 +4,7 @@ use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use clap::builder::{EnumValueParser, TypedValueParser};
 use clap::{Subcommand, ValueEnum};
 use feedscope::axis::AxisParams;
 use feedscope::estimate::{estimate, Direction, EstimateParams};
@@ -14,16 +15,16 @@ use feedscope::ident::{identify, IdentParams, Identification};
 use feedscope::order::SpectrumAnalyzer;
 use feedscope::profile::{analyze_stroke, AnalysisParams, StrokeFriction as StrokeView};
 use feedscope::trace::{read_trace_file_with, GlitchParams, ReadOptions, Trace};
+use feedscope_store::time::{format_rfc3339, parse_rfc3339};
+use feedscope_store::{
+    AddOutcome, ComponentRow, Filter, Identified, IndicatorRow, IntervalRow, NewTest, SqliteStore,
+    Store, StoreError, TestKind,
+};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use super::estimate::load_axis;
 use super::BadInput;
-use crate::store::time::{format_rfc3339, parse_rfc3339};
-use crate::store::{
-    AddOutcome, ComponentRow, Filter, Identified, IndicatorRow, IntervalRow, NewTest, SqliteStore,
-    Store, StoreError, TestKind,
-};
 
 /// Condition history: store tests in a database and trend their indicators.
 ///
@@ -76,7 +77,7 @@ pub struct AddArgs {
     #[arg(long)]
     pub axis: PathBuf,
     /// Kind of test.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = EnumValueParser::<KindArg>::new().map(TestKind::from))]
     pub kind: TestKind,
     /// Test time, RFC 3339 (e.g. 2026-11-21T14:30:00Z) [default: the trace file's mtime].
     #[arg(long)]
@@ -174,6 +175,24 @@ pub struct TrendArgs {
     pub format: Format,
 }
 
+/// `--kind`: the store's [`TestKind`] as clap sees it (the store crate knows no clap).
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum KindArg {
+    /// Constant-feed idle strokes: estimate + analyze (paper 000).
+    Strokes,
+    /// Variable-amplitude, variable-velocity triangular wave: one-test identification (paper 002).
+    Triangle,
+}
+
+impl From<KindArg> for TestKind {
+    fn from(k: KindArg) -> Self {
+        match k {
+            KindArg::Strokes => TestKind::Strokes,
+            KindArg::Triangle => TestKind::Triangle,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
 pub enum Format {
     /// A table for people.
@@ -206,7 +225,9 @@ fn store_err(e: StoreError, path: &Path) -> anyhow::Error {
     if e.is_bad_input() {
         // the store's messages name the file already
         let msg = match &e {
-            StoreError::Sqlite(_) | StoreError::NoSuchTest(_) => format!("{}: {e}", path.display()),
+            StoreError::Backend(_) | StoreError::NoSuchTest(_) => {
+                format!("{}: {e}", path.display())
+            }
             _ => e.to_string(),
         };
         anyhow::Error::new(BadInput(msg))
@@ -227,7 +248,7 @@ pub struct ThresholdFile {
 /// The thresholds in force: those of the axis file stored with the tests (`[thresholds]`),
 /// each overridden by the same key of a `--thresholds` file.
 pub fn with_axis_thresholds(
-    store: &SqliteStore,
+    store: &dyn Store,
     machine: &str,
     axis: &str,
     from_file: BTreeMap<String, Threshold>,
@@ -815,7 +836,7 @@ pub struct AxisTrends {
     /// Axis name.
     pub axis: String,
     /// Tests of the axis in time order.
-    pub tests: Vec<crate::store::TestRow>,
+    pub tests: Vec<feedscope_store::TestRow>,
     /// One per indicator with enough tests.
     pub trends: Vec<IndicatorTrend>,
     /// Indicators with too few tests for a baseline.
@@ -825,7 +846,7 @@ pub struct AxisTrends {
 }
 
 /// Resolve the axis name: given, or the only axis of the machine.
-pub fn resolve_axis(store: &SqliteStore, machine: &str, axis: Option<&str>) -> Result<String> {
+pub fn resolve_axis(store: &dyn Store, machine: &str, axis: Option<&str>) -> Result<String> {
     if let Some(a) = axis {
         return Ok(a.to_string());
     }
@@ -850,7 +871,7 @@ pub fn resolve_axis(store: &SqliteStore, machine: &str, axis: Option<&str>) -> R
 
 /// Trends of every indicator of an axis.
 pub fn axis_trends(
-    store: &SqliteStore,
+    store: &dyn Store,
     machine: &str,
     axis: &str,
     baseline_tests: usize,

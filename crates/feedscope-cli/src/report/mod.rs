@@ -2,11 +2,11 @@
 //! script, no network), rendered from `report.html` with minijinja.
 use anyhow::{Context, Result};
 use feedscope::history::{IndicatorTrend, Status};
+use feedscope_store::{Identified, Store, TestDetail};
 use serde::Serialize;
 
 use crate::cmd::history::{AxisTrends, Curves};
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
-use crate::store::{Identified, SqliteStore, Store, TestDetail};
 
 const TEMPLATE: &str = include_str!("report.html");
 
@@ -73,8 +73,8 @@ struct Page<'a> {
     params_test: Option<String>,
     trend_charts: Vec<Chart>,
     rows: Vec<Row>,
-    intervals: Vec<crate::store::IntervalRow>,
-    components: Vec<crate::store::ComponentRow>,
+    intervals: Vec<feedscope_store::IntervalRow>,
+    components: Vec<feedscope_store::ComponentRow>,
     skipped: &'a [String],
     version: &'static str,
 }
@@ -396,7 +396,7 @@ fn responsive(svg: &str) -> String {
 }
 
 /// Render the report of an axis.
-pub fn render(store: &SqliteStore, t: &AxisTrends) -> Result<String> {
+pub fn render(store: &dyn Store, t: &AxisTrends) -> Result<String> {
     let details: Vec<TestDetail> = t
         .tests
         .iter()
@@ -512,7 +512,7 @@ pub fn render(store: &SqliteStore, t: &AxisTrends) -> Result<String> {
     let ctx = Page {
         machine: &t.machine,
         axis: &t.axis,
-        generated: crate::store::time::format_rfc3339(crate::store::time::now_s()),
+        generated: feedscope_store::time::format_rfc3339(feedscope_store::time::now_s()),
         first_time: t
             .tests
             .first()

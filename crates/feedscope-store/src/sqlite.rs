@@ -14,9 +14,28 @@ use feedscope::history::Point;
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension, TransactionBehavior};
 
 use super::{
-    AddOutcome, ComponentRow, Filter, Identified, IndicatorRow, IntervalRow, NewTest, Series,
-    Store, StoreError, TestDetail, TestRow,
+    AddOutcome, BackendError, BackendErrorKind, ComponentRow, Filter, Identified, IndicatorRow,
+    IntervalRow, NewTest, Series, Store, StoreError, TestDetail, TestRow,
 };
+
+/// SQLite's error codes as [`BackendErrorKind`]s: a file SQLite does not recognise or finds
+/// damaged is the user's wrong file; everything else is a failure of the operation.
+impl From<rusqlite::Error> for BackendError {
+    fn from(e: rusqlite::Error) -> Self {
+        let kind = match e.sqlite_error_code() {
+            Some(rusqlite::ErrorCode::NotADatabase) => BackendErrorKind::NotADatabase,
+            Some(rusqlite::ErrorCode::DatabaseCorrupt) => BackendErrorKind::Corrupt,
+            _ => BackendErrorKind::Other,
+        };
+        BackendError::new(kind, e)
+    }
+}
+
+impl From<rusqlite::Error> for StoreError {
+    fn from(e: rusqlite::Error) -> Self {
+        StoreError::Backend(e.into())
+    }
+}
 
 /// `PRAGMA application_id` of a feedscope database: ASCII "FSCP".
 pub const APPLICATION_ID: i64 = 0x4653_4350;
@@ -113,6 +132,10 @@ pub const SCHEMA_VERSION: i64 = MIGRATIONS.len() as i64;
 const BUSY_TIMEOUT_MS: u64 = 30_000;
 
 /// A feedscope database in one SQLite file.
+///
+/// Test hook: when the environment variable `FEEDSCOPE_TEST_SLEEP_IN_TX_MS` holds a number,
+/// [`Store::add`] sleeps that many milliseconds inside its open transaction (and says so on
+/// stderr), so that a test can kill the process there.
 pub struct SqliteStore {
     conn: Connection,
     path: PathBuf,
@@ -222,23 +245,6 @@ impl SqliteStore {
         Ok(self
             .conn
             .query_row("PRAGMA user_version", [], |r| r.get(0))?)
-    }
-
-    /// Mark a test as the reference of its axis (clearing any other).
-    pub fn set_reference(&mut self, id: i64) -> Result<(), StoreError> {
-        let tx = self
-            .conn
-            .transaction_with_behavior(TransactionBehavior::Immediate)?;
-        let axis: Option<i64> = tx
-            .query_row("SELECT axis_id FROM tests WHERE id = ?1", [id], |r| {
-                r.get(0)
-            })
-            .optional()?;
-        let axis = axis.ok_or(StoreError::NoSuchTest(id))?;
-        tx.execute("UPDATE tests SET reference = 0 WHERE axis_id = ?1", [axis])?;
-        tx.execute("UPDATE tests SET reference = 1 WHERE id = ?1", [id])?;
-        tx.commit()?;
-        Ok(())
     }
 }
 
@@ -515,6 +521,22 @@ impl Store for SqliteStore {
         Ok(n > 0)
     }
 
+    fn set_reference(&mut self, id: i64) -> Result<(), StoreError> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)?;
+        let axis: Option<i64> = tx
+            .query_row("SELECT axis_id FROM tests WHERE id = ?1", [id], |r| {
+                r.get(0)
+            })
+            .optional()?;
+        let axis = axis.ok_or(StoreError::NoSuchTest(id))?;
+        tx.execute("UPDATE tests SET reference = 0 WHERE axis_id = ?1", [axis])?;
+        tx.execute("UPDATE tests SET reference = 1 WHERE id = ?1", [id])?;
+        tx.commit()?;
+        Ok(())
+    }
+
     fn series(&self, machine: &str, axis: &str) -> Result<BTreeMap<String, Series>, StoreError> {
         let mut st = self.conn.prepare_cached(
             "SELECT i.name, t.id, t.time_s, i.value, i.std_error
@@ -579,5 +601,310 @@ impl Store for SqliteStore {
             });
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{TestKind, TestRow};
+
+    fn new_test(axis: &str, day: u32, kind: TestKind, content: u8) -> NewTest {
+        let time_utc = format!("2026-01-{day:02}T08:00:00Z");
+        NewTest {
+            machine: "m".into(),
+            axis: axis.into(),
+            axis_params_json: format!("{{\"day\":{day}}}"),
+            time_s: crate::time::parse_rfc3339(&time_utc).unwrap(),
+            time_utc,
+            kind,
+            source: format!("day-{day}.csv"),
+            content_sha256: format!("{content:064x}"),
+            program: Some("O1000".into()),
+            reference: false,
+            compensation_ref: None,
+            identified: (kind == TestKind::Triangle).then(|| Identified {
+                fs_n: 360.0 + f64::from(day),
+                fs_std_n: 2.0,
+                // a standard error that is not known is stored as NULL and read back as NaN
+                j_std_kgm2: f64::NAN,
+                samples_used: 40_000,
+                ..Identified::default()
+            }),
+            intervals: vec![IntervalRow {
+                direction: "forward".into(),
+                start_mm: 0.0,
+                end_mm: 50.0,
+                mean_n: 300.0,
+                std_n: 4.0,
+                samples: 800,
+            }],
+            components: vec![ComponentRow {
+                direction: "backward".into(),
+                segment: "all".into(),
+                position_mm: 200.0,
+                order: 1.0,
+                amplitude_n: 5.5,
+                floor_n: 0.5,
+                cause: "shaft 1x".into(),
+                trusted: true,
+            }],
+            indicators: vec![
+                IndicatorRow {
+                    name: "fs_n".into(),
+                    value: 360.0 + f64::from(day),
+                    std_error: Some(2.0),
+                    unit: "N".into(),
+                },
+                IndicatorRow {
+                    name: "fc_n".into(),
+                    value: 280.0,
+                    std_error: None,
+                    unit: "N".into(),
+                },
+            ],
+            curves_json: Some(format!("{{\"day\":{day}}}")),
+        }
+    }
+
+    fn open(dir: &tempfile::TempDir) -> SqliteStore {
+        SqliteStore::open(&dir.path().join("h.db")).unwrap()
+    }
+
+    fn added(o: AddOutcome) -> i64 {
+        match o {
+            AddOutcome::Added(id) => id,
+            AddOutcome::Duplicate(id) => panic!("test {id} reported as a duplicate"),
+        }
+    }
+
+    #[test]
+    fn add_get_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = open(&dir);
+        assert_eq!(s.schema_version().unwrap(), SCHEMA_VERSION);
+        let t = new_test("Z", 5, TestKind::Triangle, 1);
+        let id = added(s.add(&t).unwrap());
+        let d = s.get(id).unwrap();
+        assert_eq!(d.test.machine, "m");
+        assert_eq!(d.test.axis, "Z");
+        assert_eq!(d.test.kind, "triangle");
+        assert_eq!(d.test.time_utc, t.time_utc);
+        assert_eq!(d.test.time_s.to_bits(), t.time_s.to_bits());
+        assert_eq!(d.test.content_sha256, t.content_sha256);
+        assert_eq!(d.test.program.as_deref(), Some("O1000"));
+        assert!(!d.test.reference);
+        // stored values come back bit for bit: REAL is an IEEE double in SQLite
+        let p = d.identified.unwrap();
+        assert_eq!(p.fs_n.to_bits(), 365f64.to_bits());
+        assert_eq!(p.fs_std_n.to_bits(), 2f64.to_bits());
+        assert!(p.j_std_kgm2.is_nan());
+        assert_eq!(p.samples_used, 40_000);
+        assert_eq!(d.intervals.len(), 1);
+        assert_eq!(d.intervals[0].samples, 800);
+        assert_eq!(d.components.len(), 1);
+        assert_eq!(d.components[0].cause, "shaft 1x");
+        assert!(d.components[0].trusted);
+        // indicators by name
+        let names: Vec<_> = d.indicators.iter().map(|i| i.name.as_str()).collect();
+        assert_eq!(names, ["fc_n", "fs_n"]);
+        assert_eq!(d.indicators[0].std_error, None);
+        assert_eq!(s.curves(id).unwrap().as_deref(), Some("{\"day\":5}"));
+        assert_eq!(
+            s.axis_params("m", "Z").unwrap().as_deref(),
+            Some("{\"day\":5}")
+        );
+        assert!(matches!(s.get(id + 1), Err(StoreError::NoSuchTest(i)) if i == id + 1));
+        s.check().unwrap();
+    }
+
+    #[test]
+    fn duplicates_are_not_stored_again() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = open(&dir);
+        let id = added(s.add(&new_test("Z", 5, TestKind::Triangle, 1)).unwrap());
+        // same content, axis and kind: a duplicate, whatever the time; the axis parameters of
+        // the refused test are not stored either
+        let again = new_test("Z", 6, TestKind::Triangle, 1);
+        assert_eq!(s.add(&again).unwrap(), AddOutcome::Duplicate(id));
+        assert_eq!(
+            s.axis_params("m", "Z").unwrap().as_deref(),
+            Some("{\"day\":5}")
+        );
+        // another kind or axis with the same content is a new test
+        added(s.add(&new_test("Z", 6, TestKind::Strokes, 1)).unwrap());
+        added(s.add(&new_test("X", 6, TestKind::Triangle, 1)).unwrap());
+        assert_eq!(s.list(&Filter::default()).unwrap().len(), 3);
+    }
+
+    #[test]
+    fn list_and_series_are_in_time_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = open(&dir);
+        // added out of time order, on two axes
+        for (axis, day, content) in [("Z", 9, 1), ("Z", 2, 2), ("X", 4, 3), ("Z", 5, 4)] {
+            added(
+                s.add(&new_test(axis, day, TestKind::Triangle, content))
+                    .unwrap(),
+            );
+        }
+        let days = |rows: &[TestRow]| -> Vec<String> {
+            rows.iter()
+                .map(|r| format!("{} {}", r.axis, &r.time_utc[..10]))
+                .collect()
+        };
+        let all = s.list(&Filter::default()).unwrap();
+        assert_eq!(
+            days(&all),
+            [
+                "X 2026-01-04",
+                "Z 2026-01-02",
+                "Z 2026-01-05",
+                "Z 2026-01-09"
+            ]
+        );
+        let z = s
+            .list(&Filter {
+                machine: Some("m".into()),
+                axis: Some("Z".into()),
+            })
+            .unwrap();
+        assert_eq!(z.len(), 3);
+        assert!(s
+            .list(&Filter {
+                machine: Some("other".into()),
+                axis: None,
+            })
+            .unwrap()
+            .is_empty());
+        let series = s.series("m", "Z").unwrap();
+        assert_eq!(series.keys().collect::<Vec<_>>(), ["fc_n", "fs_n"]);
+        let fs: Vec<f64> = series["fs_n"].iter().map(|(_, p)| p.value).collect();
+        assert_eq!(fs, [362.0, 365.0, 369.0]);
+        let ids: Vec<i64> = series["fs_n"].iter().map(|(id, _)| *id).collect();
+        assert_eq!(ids, z.iter().map(|r| r.id).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn reference_and_remove() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = open(&dir);
+        let a = added(s.add(&new_test("Z", 2, TestKind::Triangle, 1)).unwrap());
+        let mut t = new_test("Z", 3, TestKind::Triangle, 2);
+        t.reference = true;
+        let b = added(s.add(&t).unwrap());
+        let x = added(s.add(&new_test("X", 3, TestKind::Triangle, 3)).unwrap());
+        s.set_reference(x).unwrap();
+        let refs = |s: &SqliteStore| -> Vec<i64> {
+            let rows = s.list(&Filter::default()).unwrap();
+            rows.iter().filter(|r| r.reference).map(|r| r.id).collect()
+        };
+        // one reference per axis
+        assert_eq!(refs(&s), [x, b]);
+        s.set_reference(a).unwrap();
+        assert_eq!(refs(&s), [x, a]);
+        assert!(matches!(
+            s.set_reference(99),
+            Err(StoreError::NoSuchTest(99))
+        ));
+        // removing a test removes its results with it
+        assert!(s.remove(a).unwrap());
+        assert!(!s.remove(a).unwrap());
+        assert!(matches!(s.get(a), Err(StoreError::NoSuchTest(_))));
+        assert_eq!(s.curves(a).unwrap(), None);
+        assert_eq!(s.series("m", "Z").unwrap()["fs_n"].len(), 1);
+        s.check().unwrap();
+    }
+
+    #[test]
+    fn reopening_keeps_the_tests() {
+        let dir = tempfile::tempdir().unwrap();
+        let id = added(
+            open(&dir)
+                .add(&new_test("Z", 2, TestKind::Strokes, 1))
+                .unwrap(),
+        );
+        let s = open(&dir);
+        assert_eq!(s.schema_version().unwrap(), SCHEMA_VERSION);
+        assert_eq!(s.get(id).unwrap().test.kind, "strokes");
+    }
+
+    #[test]
+    fn files_that_are_not_ours_are_refused_untouched() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("h.db");
+        let junk: Vec<u8> = (0..10_000u32).map(|i| (i * 7919 % 251) as u8).collect();
+        std::fs::write(&path, &junk).unwrap();
+        let e = SqliteStore::open(&path).err().unwrap();
+        assert!(matches!(e, StoreError::NotADatabase { .. }), "{e}");
+        assert!(e.is_bad_input());
+        assert_eq!(std::fs::read(&path).unwrap(), junk);
+
+        std::fs::remove_file(&path).unwrap();
+        Connection::open(&path)
+            .unwrap()
+            .execute_batch("CREATE TABLE invoices (id INTEGER PRIMARY KEY)")
+            .unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let e = SqliteStore::open(&path).err().unwrap();
+        assert!(
+            matches!(
+                e,
+                StoreError::Foreign {
+                    application_id: 0,
+                    tables: 1,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.is_bad_input());
+        assert_eq!(std::fs::read(&path).unwrap(), bytes);
+
+        std::fs::remove_file(&path).unwrap();
+        drop(SqliteStore::open(&path).unwrap());
+        Connection::open(&path)
+            .unwrap()
+            .pragma_update(None, "user_version", SCHEMA_VERSION + 1)
+            .unwrap();
+        let e = SqliteStore::open(&path).err().unwrap();
+        assert!(
+            matches!(e, StoreError::NewerSchema { found, supported, .. }
+                if found == SCHEMA_VERSION + 1 && supported == SCHEMA_VERSION),
+            "{e}"
+        );
+        assert!(e.is_bad_input());
+    }
+
+    #[test]
+    fn sqlite_errors_are_classified_and_read_unchanged() {
+        let failure = |code| rusqlite::Error::SqliteFailure(rusqlite::ffi::Error::new(code), None);
+        for (code, kind, bad_input) in [
+            (
+                rusqlite::ffi::SQLITE_NOTADB,
+                BackendErrorKind::NotADatabase,
+                true,
+            ),
+            (
+                rusqlite::ffi::SQLITE_CORRUPT,
+                BackendErrorKind::Corrupt,
+                true,
+            ),
+            (rusqlite::ffi::SQLITE_BUSY, BackendErrorKind::Other, false),
+            (rusqlite::ffi::SQLITE_FULL, BackendErrorKind::Other, false),
+        ] {
+            let e = StoreError::from(failure(code));
+            let StoreError::Backend(b) = &e else {
+                panic!("{e:?}")
+            };
+            assert_eq!(b.kind(), kind, "{e}");
+            assert_eq!(e.is_bad_input(), bad_input, "{e}");
+            // the message is SQLite's own, and the engine's error can be had back
+            assert_eq!(e.to_string(), failure(code).to_string());
+            assert!(b.get_ref().downcast_ref::<rusqlite::Error>().is_some());
+        }
+        let e = StoreError::from(rusqlite::Error::QueryReturnedNoRows);
+        assert!(!e.is_bad_input());
+        assert_eq!(e.to_string(), "Query returned no rows");
     }
 }

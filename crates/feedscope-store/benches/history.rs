@@ -5,19 +5,14 @@
 //! the store): 5 identified parameters with standard errors, 16 interval means and 6 component
 //! amplitudes per test, i.e. 27 indicators, like a triangle + stroke test pair.
 //!
-//! Run: `cargo bench -p feedscope-cli --bench history`
-#![allow(dead_code, unused_imports)] // the store module is compiled in without its CLI users or its #[test]s
+//! Run: `cargo bench -p feedscope-store --bench history`
 use std::collections::BTreeMap;
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use feedscope::estimate::Direction;
 use feedscope::history::{assess, diagnose, BaselineSpec, Indicator, Threshold, TrendParams};
-
-#[path = "../src/store/mod.rs"]
-mod store;
-
-use store::{Identified, IndicatorRow, NewTest, SqliteStore, Store, TestKind};
+use feedscope_store::{Identified, IndicatorRow, NewTest, SqliteStore, Store, TestKind};
 
 fn synthetic(k: usize) -> NewTest {
     let w = k as f64;
@@ -73,7 +68,7 @@ fn synthetic(k: usize) -> NewTest {
         machine: "bench".into(),
         axis: "Z".into(),
         axis_params_json: "{}".into(),
-        time_utc: store::time::format_rfc3339(1.7e9 + w * 86_400.0),
+        time_utc: feedscope_store::time::format_rfc3339(1.7e9 + w * 86_400.0),
         time_s: 1.7e9 + w * 86_400.0,
         kind: TestKind::Triangle,
         source: format!("week-{k}.csv"),

@@ -1,9 +1,49 @@
-//! The condition-history store: every test of every axis with its analysis results.
+//! The condition-history store of feedscope: every test of every axis with its analysis
+//! results, and the indicator series the trends are computed from.
 //!
-//! The CLI talks to a [`Store`]; the only backend today is [`sqlite::SqliteStore`] (one file,
-//! WAL mode, versioned schema, documented in docs/history.md). A PostgreSQL backend for a fleet
-//! would implement the same trait; nothing outside this module sees SQL.
+//! ```
+//! use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, TestKind};
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let dir = tempfile::tempdir()?;
+//! let mut store = SqliteStore::open(&dir.path().join("history.db"))?;
+//! let test = NewTest {
+//!     machine: "lathe 3".into(),
+//!     axis: "Z".into(),
+//!     axis_params_json: "{}".into(),
+//!     time_utc: "2026-01-05T08:00:00Z".into(),
+//!     time_s: feedscope_store::time::parse_rfc3339("2026-01-05T08:00:00Z").unwrap(),
+//!     kind: TestKind::Triangle,
+//!     source: "week-01.csv".into(),
+//!     content_sha256: "00".repeat(32),
+//!     program: None,
+//!     reference: false,
+//!     compensation_ref: None,
+//!     identified: None,
+//!     intervals: vec![],
+//!     components: vec![],
+//!     indicators: vec![],
+//!     curves_json: None,
+//! };
+//! let AddOutcome::Added(id) = store.add(&test)? else { unreachable!("a fresh database") };
+//! // The same trace content again is recognised, not stored twice.
+//! assert_eq!(store.add(&test)?, AddOutcome::Duplicate(id));
+//! let rows = store.list(&Filter::default())?;
+//! assert_eq!(rows.len(), 1);
+//! assert_eq!(rows[0].kind, "triangle");
+//! assert_eq!(store.get(id)?.test.source, "week-01.csv");
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! Callers talk to the [`Store`] trait; the only backend today is [`SqliteStore`] (one file,
+//! WAL journal, versioned schema, documented in docs/history.md). A PostgreSQL backend for a
+//! fleet will implement the same trait: no method and no row type mentions an engine's type,
+//! and engine errors reach callers as a [`BackendError`] classified by [`BackendErrorKind`].
+#![warn(missing_docs)]
+#![deny(clippy::float_cmp)]
 use std::collections::BTreeMap;
+use std::fmt;
 
 use feedscope::history::Point;
 use serde::Serialize;
@@ -57,30 +97,96 @@ pub enum StoreError {
     /// No such test.
     #[error("no test with id {0}")]
     NoSuchTest(i64),
-    /// SQLite said no.
+    /// The database engine said no (its message unchanged).
     #[error(transparent)]
-    Sqlite(#[from] rusqlite::Error),
+    Backend(#[from] BackendError),
     /// File system.
     #[error(transparent)]
     Io(#[from] std::io::Error),
 }
 
 impl StoreError {
-    /// `true` when the user pointed at the wrong file (exit code 2).
+    /// `true` when the user pointed at the wrong file (exit code 2): every variant that names
+    /// the file or the test, and an engine error of kind [`BackendErrorKind::NotADatabase`] or
+    /// [`BackendErrorKind::Corrupt`]; other engine errors and file-system errors are not.
     pub fn is_bad_input(&self) -> bool {
         match self {
-            StoreError::Sqlite(rusqlite::Error::SqliteFailure(e, _)) => matches!(
-                e.code,
-                rusqlite::ErrorCode::NotADatabase | rusqlite::ErrorCode::DatabaseCorrupt
+            StoreError::Backend(e) => matches!(
+                e.kind(),
+                BackendErrorKind::NotADatabase | BackendErrorKind::Corrupt
             ),
-            StoreError::Sqlite(_) | StoreError::Io(_) => false,
+            StoreError::Io(_) => false,
             _ => true,
         }
     }
 }
 
+/// What an engine error means to a caller, whatever the engine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum BackendErrorKind {
+    /// The engine does not recognise the file or database as one of its own
+    /// (SQLite: `SQLITE_NOTADB`).
+    NotADatabase,
+    /// The engine found the database damaged (SQLite: `SQLITE_CORRUPT`).
+    Corrupt,
+    /// Anything else: a lock held beyond the busy timeout, a full disk, an I/O failure inside
+    /// the engine, a violated constraint.
+    Other,
+}
+
+/// An error of the database engine behind a [`Store`], kept whole and classified.
+///
+/// Its `Display` and `source` are those of the engine's error, so messages read exactly as the
+/// engine wrote them; [`kind`](Self::kind) is what callers decide on (see
+/// [`StoreError::is_bad_input`]). The engine's own error stays reachable through
+/// [`get_ref`](Self::get_ref) for a caller that knows the backend and wants to downcast
+/// (`rusqlite::Error` for [`SqliteStore`]).
+#[derive(Debug)]
+pub struct BackendError {
+    kind: BackendErrorKind,
+    error: Box<dyn std::error::Error + Send + Sync + 'static>,
+}
+
+impl BackendError {
+    /// Wrap an engine's error with its classification; for backends.
+    pub fn new<E>(kind: BackendErrorKind, error: E) -> Self
+    where
+        E: Into<Box<dyn std::error::Error + Send + Sync + 'static>>,
+    {
+        Self {
+            kind,
+            error: error.into(),
+        }
+    }
+
+    /// What the error means to a caller.
+    pub fn kind(&self) -> BackendErrorKind {
+        self.kind
+    }
+
+    /// The engine's own error.
+    pub fn get_ref(&self) -> &(dyn std::error::Error + Send + Sync + 'static) {
+        &*self.error
+    }
+}
+
+impl fmt::Display for BackendError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.error.fmt(f)
+    }
+}
+
+impl std::error::Error for BackendError {
+    // Transparent, like the engine's error itself: its source, not the error again (the
+    // message is already this error's own).
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.error.source()
+    }
+}
+
 /// Kind of test.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TestKind {
     /// Constant-feed idle strokes: estimate + analyze (paper 000).
@@ -286,23 +392,39 @@ pub struct Filter {
 /// One indicator's series, with the test id of each point.
 pub type Series = Vec<(i64, Point)>;
 
-/// The operations the CLI needs; SQL stays behind it.
+/// The operations on a condition history; the engine (SQL or other) stays behind it.
+///
+/// Every method takes and returns the typed rows of this crate; an implementation maps engine
+/// errors to [`StoreError::Backend`] with the [`BackendErrorKind`] that fits.
 pub trait Store {
     /// Store a test with its results in one transaction; a trace already stored for the
-    /// axis and kind is not stored again.
+    /// axis and kind (same `content_sha256`) is not stored again. Machine and axis are
+    /// created on first use; the axis parameters are replaced by those of the new test.
+    /// With `t.reference` the new test becomes the only reference of its axis.
     fn add(&mut self, t: &NewTest) -> Result<AddOutcome, StoreError>;
-    /// Tests in time order.
+    /// Tests ordered by machine, axis, time and id.
     fn list(&self, f: &Filter) -> Result<Vec<TestRow>, StoreError>;
     /// One test with its results.
+    ///
+    /// # Errors
+    /// [`StoreError::NoSuchTest`] when there is no test `id`.
     fn get(&self, id: i64) -> Result<TestDetail, StoreError>;
     /// Remove a test and its results; `false` when there was none.
     fn remove(&mut self, id: i64) -> Result<bool, StoreError>;
-    /// Every indicator of an axis, each in time order.
+    /// Mark a test as the reference (baseline) of its axis, clearing any other.
+    ///
+    /// # Errors
+    /// [`StoreError::NoSuchTest`] when there is no test `id`.
+    fn set_reference(&mut self, id: i64) -> Result<(), StoreError>;
+    /// Every indicator of an axis by name, each ordered by time and test id.
     fn series(&self, machine: &str, axis: &str) -> Result<BTreeMap<String, Series>, StoreError>;
-    /// The report curves of a test.
+    /// The report curves of a test (JSON), if it has any.
     fn curves(&self, id: i64) -> Result<Option<String>, StoreError>;
     /// The axis parameters (JSON of the axis file) last stored for an axis.
     fn axis_params(&self, machine: &str, axis: &str) -> Result<Option<String>, StoreError>;
-    /// Integrity check; `Ok(())` when the file is sound.
+    /// Integrity check; `Ok(())` when the database is sound.
+    ///
+    /// # Errors
+    /// [`StoreError::Corrupt`] naming the first problem found.
     fn check(&self) -> Result<(), StoreError>;
 }
