@@ -11,7 +11,6 @@ pub mod dynamics;
 pub mod estimate;
 pub mod history;
 pub mod ident;
-pub mod import;
 pub mod lugre;
 pub mod map;
 pub mod nc;

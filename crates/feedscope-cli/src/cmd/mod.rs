@@ -61,13 +61,22 @@ pub struct BadInput(pub String);
 
 /// Exit code for an error: 2 when any cause is bad input, else 1.
 pub fn exit_code(err: &anyhow::Error) -> u8 {
-    use feedscope::{axis::AxisError, estimate::EstimateError, trace::TraceError};
+    use feedscope::{axis::AxisError, estimate::EstimateError};
+    use feedscope_io::{
+        axis::AxisFileError, friction_csv::FrictionCsvError, stribeck_table::TableError,
+        trace::TraceError,
+    };
     let input = err.chain().any(|c| {
         c.is::<BadInput>()
             || c.is::<TraceError>()
             || c.is::<AxisError>()
+            // An unreadable axis file, friction CSV or table is bad input only when missing
+            // (its `std::io::Error` is next in the chain, below); what it holds always is.
+            || c.downcast_ref::<AxisFileError>().is_some_and(|e| !e.is_io())
+            || c.downcast_ref::<FrictionCsvError>().is_some_and(|e| !e.is_io())
+            || c.downcast_ref::<TableError>().is_some_and(|e| !e.is_io())
             || c.is::<EstimateError>()
-            || c.is::<feedscope::import::ImportError>()
+            || c.is::<feedscope_io::import::ImportError>()
             || c.is::<feedscope::nc::NcError>()
             || c.is::<feedscope::sim::SimError>()
             || c.is::<feedscope::profile::ProfileError>()
