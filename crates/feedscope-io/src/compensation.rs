@@ -168,7 +168,7 @@ impl CompensationTable {
                 }
             }
         }
-        Ok(())
+        w.flush()
     }
 
     /// Write the matrix shape of one direction: [`CompensationTable::header`], a comment on
@@ -195,6 +195,123 @@ impl CompensationTable {
             }
             writeln!(w)?;
         }
-        Ok(())
+        w.flush()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use feedscope::estimate::{MoveKind, StrokeFriction, StrokeSummary};
+    use feedscope::map::{build_map, MapParams, RunFriction, TestRun};
+
+    const LEAD_M: f64 = 0.01;
+
+    /// A forward stroke over [10, 50] mm on the grid p/1024 with friction
+    /// 200 N + 0.5 N/mm · z + 10 N · ln(feed / 100 mm/min): linear in z and in ln(feed), which
+    /// the map of three feeds (feed polynomial of order 1 in log feed) represents exactly.
+    fn run(feed: f64) -> RunFriction {
+        let step = LEAD_M / 1024.0;
+        let z: Vec<f64> = (0..4097).map(|k| 0.01 + k as f64 * step).collect();
+        let n = z.len();
+        let friction_n = z
+            .iter()
+            .map(|&x| 200.0 + 0.5 * x * 1e3 + 10.0 * (feed / 100.0).ln())
+            .collect();
+        let summary = StrokeSummary {
+            stroke: 0,
+            direction: Direction::Forward,
+            feed_mm_min: feed,
+            start_mm: 10.0,
+            end_mm: 50.0,
+            length_mm: 40.0,
+            start_time_s: 0.0,
+            end_time_s: 1.0,
+            mean_friction_n: 0.0,
+            friction_std_n: 0.0,
+            position_samples: n,
+            effort_samples: n,
+            points: n,
+            raw_samples_per_lead: 100.0,
+            max_order: 40.0,
+            kind: MoveKind::Measuring,
+            position_cutoff_order: None,
+            position_cutoff_hz: None,
+            settle_margin_s: 0.0,
+            noise_floor: Default::default(),
+            program_line: None,
+            programmed_feed_mm_min: None,
+            warnings: vec![],
+        };
+        RunFriction {
+            run: TestRun {
+                name: format!("f{feed}.csv"),
+                file: format!("f{feed}.csv").into(),
+                feed_mm_min: feed,
+                repeat: 1,
+            },
+            strokes: vec![StrokeFriction {
+                summary,
+                time_s: vec![0.0; n],
+                velocity_m_s: vec![feed / 60_000.0; n],
+                accel_m_s2: vec![0.0; n],
+                effort: vec![0.0; n],
+                position_m: z,
+                friction_n,
+            }],
+            warnings: vec![],
+        }
+    }
+
+    #[test]
+    fn long_and_matrix_hold_the_map_at_every_position_and_feed() {
+        let runs: Vec<RunFriction> = [100.0, 300.0, 900.0].into_iter().map(run).collect();
+        let map = build_map(&runs, LEAD_M, &MapParams::default()).unwrap();
+        let d = map.direction(Direction::Forward).unwrap();
+        let positions = vec![d.start_mm, 20.0, 30.0, d.end_mm];
+        let table =
+            CompensationTable::new(&map, false, |d| (d.feeds_mm_min(), positions.clone())).unwrap();
+        let mut long = Vec::new();
+        table.write_long(&mut long).unwrap();
+        let long = String::from_utf8(long).unwrap();
+        let header = table.header();
+        assert!(long.starts_with(&header));
+        assert!(header.contains("# valid forward: positions "));
+        assert!(!header.contains("EXTRAPOLATED"));
+        let rows: Vec<&str> = long[header.len()..].lines().collect();
+        assert_eq!(rows[0], "direction,position_mm,feed_mm_min,friction_n");
+        assert_eq!(rows.len(), 1 + 3 * positions.len());
+        // Row of feed 300 at 20 mm: the map's value, written to 1 µN.
+        let want = d.friction_n(20.0, 300.0, false).unwrap();
+        assert_eq!(
+            rows[1 + positions.len() + 1],
+            format!("forward,20.000000,300.000000,{want:.6}")
+        );
+        // The truth comes back: exact data, so only rounding in the least-squares fits
+        // (≈ 1e-12 relative on 200 N) separates them.
+        let truth = 200.0 + 10.0 + 10.0 * 3f64.ln();
+        assert!((want - truth).abs() < 1e-8, "{want} vs {truth}");
+
+        let mut matrix = Vec::new();
+        table.write_matrix(&mut matrix, Direction::Forward).unwrap();
+        let matrix = String::from_utf8(matrix).unwrap();
+        let rows: Vec<&str> = matrix[header.len()..].lines().collect();
+        assert!(rows[0].starts_with("# matrix:"));
+        assert_eq!(rows[1], "position_mm,100.000000,300.000000,900.000000");
+        assert_eq!(rows.len(), 2 + positions.len());
+        assert!(rows[3].starts_with(&format!(
+            "20.000000,{:.6},{want:.6},",
+            table.directions[0].friction_n(0, 1)
+        )));
+        // No backward strokes: nothing to write for that direction.
+        let mut none = Vec::new();
+        table.write_matrix(&mut none, Direction::Backward).unwrap();
+        assert!(none.is_empty());
+        // A feed outside the measured ones needs `extrapolate`, and the header says so.
+        assert!(CompensationTable::new(&map, false, |d| (vec![50.0], vec![d.start_mm])).is_err());
+        let t = CompensationTable::new(&map, true, |d| (vec![50.0], vec![d.start_mm])).unwrap();
+        assert!(t
+            .header()
+            .contains("(EXTRAPOLATED beyond the measured feeds: --extrapolate)"));
     }
 }

@@ -139,7 +139,7 @@ pub fn write_analyzed<W: Write>(
             w.write_all(&b)?;
         }
     }
-    Ok(())
+    w.flush()
 }
 
 /// Why a friction CSV (or the summary beside it) could not be read. Every variant names the

@@ -42,8 +42,9 @@
 //! - [`fixed`]: fast fixed-decimal formatting for large CSV outputs.
 //!
 //! Errors are one enum per file kind, naming the file and, where there is one, the 1-based
-//! line (or Parquet row); an error that only wraps the operating system's (a file that cannot
-//! be opened) says so by `is_io()` where the enum also has content errors.
+//! line (or Parquet row). The errors of [`axis`], [`friction_csv`] and [`stribeck_table`] tell
+//! a file that cannot be read (the operating system's error is the source) from one whose
+//! content is wrong by `is_io()`.
 #![warn(missing_docs)]
 #![deny(clippy::float_cmp)]
 
