@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # End-to-end timing of `feedscope estimate` on the 10 M-samples-per-channel trace (≈ 640 MB,
 # long layout): wall time and peak resident memory, per input sample.
-# The trace is made by the estimate benchmark (target/bench-data/trace_10m.csv) if missing.
+# The trace is made by the CSV-reading benchmark (target/bench-data/trace_10m.csv) if missing.
 # The input is read once before each run so that it comes from the page cache: on a machine
 # that pages cold file pages out (e.g. a VM with DAMON proactive reclaim) it would otherwise
 # come partly from disk, which measures the disk (≈ 250 MB/s here), not feedscope.
@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 data=target/bench-data/trace_10m.csv
 axis=target/bench-data/axis.toml
 if [ ! -f "$data" ]; then
-    cargo bench -p feedscope --bench estimate -- read_csv --warm-up-time 1 --measurement-time 1 >/dev/null
+    cargo bench -p feedscope-io --bench read_csv -- --warm-up-time 1 --measurement-time 1 >/dev/null
 fi
 cargo build --release -q
 out=$(mktemp -d)

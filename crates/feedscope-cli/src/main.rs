@@ -15,7 +15,7 @@ fn main() -> std::process::ExitCode {
     // an error naming the file, so its message would only look like a crash.
     let default_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
-        if !feedscope::trace::decoding_untrusted_parquet() {
+        if !feedscope_io::trace::decoding_untrusted_parquet() {
             default_hook(info);
         }
     }));

@@ -1,7 +1,5 @@
-//! Writing results: fast fixed-point CSV, atomic file creation, progress bars.
+//! Writing results: atomic file creation, progress bars.
 use std::io::Write;
-
-pub use feedscope::trace::push_fixed;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
@@ -67,7 +65,7 @@ pub fn write_atomic(dest: &Path, bytes: &[u8]) -> Result<()> {
 /// Print on stderr what a trace read warns about: position samples dropped as glitches (one
 /// line: the count, the speed limit, the first few times with their lines or rows), as
 /// `warning: SOURCE: ...`. Prints nothing for a clean read.
-pub fn print_read_warnings(source: &str, report: &feedscope::trace::ReadReport) {
+pub fn print_read_warnings(source: &str, report: &feedscope_io::trace::ReadReport) {
     if let Some(w) = report.glitch_warning() {
         eprintln!("warning: {source}: {w}");
     }

@@ -1,4 +1,4 @@
-//! Throughput of friction estimation and of trace reading.
+//! Throughput of friction estimation.
 //!
 //! The trace: back-and-forth 400 mm strokes at 600 mm/min (10 mm/s) with short dwells, lead
 //! 10 mm, both channels sampled at 1 kHz but 0.4 ms apart (asynchronous), friction with a
@@ -6,11 +6,10 @@
 //! about 1000 raw samples and 1024 resampled points per lead, the hardest ratio for the
 //! resampling stage.
 //!
-//! Run: `cargo bench -p feedscope --bench estimate`. The 10 M-sample CSV (≈ 640 MB, long
-//! layout) is written once to `target/bench-data/trace_10m.csv` and reused; the end-to-end
-//! timing of `feedscope estimate` on it is `scripts/bench-e2e.sh`.
+//! Run: `cargo bench -p feedscope --bench estimate`. Reading the same trace as a 10 M-sample CSV
+//! is `cargo bench -p feedscope-io --bench read_csv`; the end-to-end timing of
+//! `feedscope estimate` on it is `scripts/bench-e2e.sh`.
 use std::hint::black_box;
-use std::path::PathBuf;
 
 // The `feedscope` binary runs on mimalloc (it keeps freed pages instead of returning them to
 // the OS for every stroke); measure the library under the same allocator.
@@ -20,7 +19,7 @@ static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use feedscope::axis::{AxisParams, ConfigFormat};
 use feedscope::estimate::{estimate, estimate_streaming, EstimateParams};
-use feedscope::trace::{read_trace_file, Channel, EffortKind, Layout, ReadOptions, Trace};
+use feedscope::trace::{Channel, EffortKind, Trace};
 
 const AXIS: &str = "lead_mm = 10\ntable_mass_kg = 425\ninertia_kgm2 = 0.004\n\
     damping_nms_per_rad = 0.002\ntorque_constant_nm_per_a = 1.82\n";
@@ -158,33 +157,5 @@ fn bench_estimate(c: &mut Criterion) {
     g.finish();
 }
 
-fn data_file() -> PathBuf {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/bench-data");
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("trace_10m.csv");
-    if !path.exists() {
-        let tmp = dir.join("trace_10m.csv.tmp");
-        let trace = make_trace(10_000_000);
-        trace
-            .write_csv(std::fs::File::create(&tmp).unwrap(), Layout::Long)
-            .unwrap();
-        std::fs::write(dir.join("axis.toml"), AXIS).unwrap();
-        std::fs::rename(&tmp, &path).unwrap();
-    }
-    path
-}
-
-fn bench_read(c: &mut Criterion) {
-    let path = data_file();
-    let bytes = std::fs::metadata(&path).unwrap().len();
-    let mut g = c.benchmark_group("read_csv");
-    g.sample_size(10);
-    g.throughput(Throughput::Bytes(bytes));
-    g.bench_function("long_10m_per_channel", |b| {
-        b.iter(|| black_box(read_trace_file(&path, &ReadOptions::default()).unwrap()))
-    });
-    g.finish();
-}
-
-criterion_group!(benches, bench_estimate, bench_read);
+criterion_group!(benches, bench_estimate);
 criterion_main!(benches);

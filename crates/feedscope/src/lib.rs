@@ -2,6 +2,9 @@
 //!
 //! From what the controller already records (axis position and servo current or torque, with
 //! timestamps) feedscope estimates the friction of the drive along its whole travel.
+//!
+//! This crate works on values in memory and opens no file; trace files, controller imports
+//! and feedscope's own tables are read and written by the crate `feedscope-io`.
 #![warn(missing_docs)]
 #![deny(clippy::float_cmp)]
 
@@ -11,7 +14,6 @@ pub mod dynamics;
 pub mod estimate;
 pub mod history;
 pub mod ident;
-pub mod import;
 pub mod lugre;
 pub mod map;
 pub mod nc;

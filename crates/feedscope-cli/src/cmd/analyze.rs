@@ -1,22 +1,22 @@
 //! `feedscope analyze`: where along the travel friction changes, and which part does it.
 use std::collections::BTreeMap;
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use feedscope::axis::AxisParams;
-use feedscope::estimate::{estimate, Direction, EstimateParams, StrokeFriction, StrokeSummary};
+use feedscope::estimate::{estimate, Direction, EstimateParams, StrokeFriction};
 use feedscope::order::{SegmentSpec, SpectrumAnalyzer};
 use feedscope::profile::{
     analyze_stroke, fit_piecewise, order_scan_table, AnalysisParams, StrokeAnalysis,
     StrokeFriction as StrokeView,
 };
-use feedscope::trace::{read_trace_file_with, GlitchParams, ReadOptions};
+use feedscope::trace::GlitchParams;
+use feedscope_io::friction_csv;
+use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use serde::Serialize;
 
-use super::estimate::load_axis;
 use super::BadInput;
-use crate::output::{push_fixed, write_atomic, AtomicFile};
+use crate::output::{write_atomic, AtomicFile};
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
 
 /// Analyse friction along the travel (paper 000, section 4.1).
@@ -99,133 +99,10 @@ struct Conventions {
     amplitude: &'static str,
 }
 
-/// Strokes read back from a friction CSV of `feedscope estimate`.
-fn strokes_from_estimate_csv(path: &Path, text: &str, lead_m: f64) -> Result<Vec<StrokeFriction>> {
-    let summary_path = path.with_extension("json");
-    let (summaries, m): (Vec<StrokeSummary>, f64) = match std::fs::read_to_string(&summary_path) {
-        Ok(j) => {
-            let v: serde_json::Value = serde_json::from_str(&j)
-                .with_context(|| format!("reading {}", summary_path.display()))?;
-            let strokes = serde_json::from_value(v["strokes"].clone())
-                .with_context(|| format!("{}: no `strokes` list", summary_path.display()))?;
-            let m = v["params"]["samples_per_lead"].as_f64().unwrap_or(1024.0);
-            (strokes, m)
-        }
-        Err(_) => (Vec::new(), 1024.0),
-    };
-    // The CSV rounds positions to 1 nm; put them back on the exact grid k·p/m.
-    let step = lead_m / m;
-    let mut by_stroke: BTreeMap<usize, StrokeFriction> = BTreeMap::new();
-    let name = path.display().to_string();
-    for (k, line) in text.lines().enumerate().skip(1) {
-        let lineno = k + 1;
-        if line.trim().is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let f: Vec<&str> = line.split(',').collect();
-        if f.len() != 8 {
-            return Err(BadInput(format!(
-                "{name}:{lineno}: expected 8 fields, found {}",
-                f.len()
-            ))
-            .into());
-        }
-        let num = |i: usize, col: &str| -> Result<f64> {
-            let v: f64 = f[i].trim().parse().map_err(|_| {
-                BadInput(format!(
-                    "{name}:{lineno}: column `{col}`: `{}` is not a number",
-                    f[i]
-                ))
-            })?;
-            if !v.is_finite() {
-                return Err(
-                    BadInput(format!("{name}:{lineno}: column `{col}` is not finite")).into(),
-                );
-            }
-            Ok(v)
-        };
-        let stroke: usize = f[0]
-            .trim()
-            .parse()
-            .map_err(|_| BadInput(format!("{name}:{lineno}: bad stroke number `{}`", f[0])))?;
-        let direction = match f[1].trim() {
-            "forward" => Direction::Forward,
-            "backward" => Direction::Backward,
-            other => {
-                return Err(BadInput(format!("{name}:{lineno}: bad direction `{other}`")).into())
-            }
-        };
-        let s = by_stroke.entry(stroke).or_insert_with(|| StrokeFriction {
-            summary: summaries
-                .iter()
-                .find(|x| x.stroke == stroke)
-                .cloned()
-                .unwrap_or(StrokeSummary {
-                    stroke,
-                    direction,
-                    feed_mm_min: f64::NAN,
-                    start_mm: 0.0,
-                    end_mm: 0.0,
-                    length_mm: 0.0,
-                    start_time_s: 0.0,
-                    end_time_s: 0.0,
-                    mean_friction_n: 0.0,
-                    friction_std_n: 0.0,
-                    position_samples: 0,
-                    effort_samples: 0,
-                    points: 0,
-                    raw_samples_per_lead: f64::INFINITY,
-                    max_order: f64::INFINITY,
-                    kind: feedscope::estimate::MoveKind::Measuring,
-                    position_cutoff_order: None,
-                    position_cutoff_hz: None,
-                    settle_margin_s: 0.0,
-                    noise_floor: Default::default(),
-                    program_line: None,
-                    programmed_feed_mm_min: None,
-                    warnings: vec![format!(
-                        "no summary {} found: the aliasing limit is unknown",
-                        summary_path.display()
-                    )],
-                }),
-            position_m: Vec::new(),
-            time_s: Vec::new(),
-            velocity_m_s: Vec::new(),
-            accel_m_s2: Vec::new(),
-            effort: Vec::new(),
-            friction_n: Vec::new(),
-        });
-        s.position_m
-            .push((num(2, "position_mm")? * 1e-3 / step).round() * step);
-        s.time_s.push(num(3, "time_s")?);
-        s.velocity_m_s.push(num(4, "velocity_mm_s")? * 1e-3);
-        s.accel_m_s2.push(num(5, "accel_mm_s2")? * 1e-3);
-        s.effort.push(num(6, "effort")?);
-        s.friction_n.push(num(7, "friction_n")?);
-    }
-    if by_stroke.is_empty() {
-        return Err(BadInput(format!("{name}: no friction rows")).into());
-    }
-    Ok(by_stroke.into_values().collect())
-}
-
 fn load_strokes(args: &Args, axis: &AxisParams) -> Result<(Vec<StrokeFriction>, String)> {
     let source = args.input.display().to_string();
-    let head = {
-        let mut f = std::fs::File::open(&args.input)
-            .with_context(|| format!("opening {}", args.input.display()))?;
-        let mut buf = vec![0u8; 256];
-        let n = std::io::Read::read(&mut f, &mut buf)?;
-        buf.truncate(n);
-        buf
-    };
-    if head.starts_with(b"stroke,direction,position_mm,") {
-        let text = std::fs::read_to_string(&args.input)
-            .with_context(|| format!("reading {}", args.input.display()))?;
-        return Ok((
-            strokes_from_estimate_csv(&args.input, &text, axis.lead_m())?,
-            source,
-        ));
+    if friction_csv::is_friction_csv(&args.input)? {
+        return Ok((friction_csv::read(&args.input, axis.lead_m())?, source));
     }
     let (trace, report) = read_trace_file_with(
         &args.input,
@@ -242,7 +119,7 @@ fn load_strokes(args: &Args, axis: &AxisParams) -> Result<(Vec<StrokeFriction>, 
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let axis = load_axis(&args.axis)?;
+    let axis = feedscope_io::axis::load(&args.axis)?;
     let mut params = AnalysisParams::default();
     if let (Some(b), Some(o)) = (&args.breaks, &args.orders) {
         if o.len() != b.len() + 1 {
@@ -344,27 +221,7 @@ pub fn run(args: Args) -> Result<()> {
     let svgs = plots(&strokes, &analyses, &singles, args.segment)?;
 
     let mut fcsv = AtomicFile::create(&args.out.join("friction.csv"))?;
-    {
-        let w = fcsv.writer();
-        writeln!(w, "stroke,direction,position_mm,friction_n,iafv_n,ffs_n")?;
-        let mut b = Vec::with_capacity(1 << 16);
-        for (s, a) in strokes.iter().zip(&analyses) {
-            let dir = s.summary.direction.as_str();
-            for j in 0..s.position_m.len() {
-                b.clear();
-                b.extend_from_slice(format!("{},{dir},", s.summary.stroke).as_bytes());
-                push_fixed(&mut b, s.position_m[j] * 1e3, 6);
-                b.push(b',');
-                push_fixed(&mut b, s.friction_n[j], 4);
-                b.push(b',');
-                push_fixed(&mut b, a.iafv_n[j], 4);
-                b.push(b',');
-                push_fixed(&mut b, a.ffs_n[j], 4);
-                b.push(b'\n');
-                w.write_all(&b)?;
-            }
-        }
-    }
+    friction_csv::write_analyzed(fcsv.writer(), &strokes, &analyses)?;
     let mut comp = String::from(
         "stroke,direction,segment,start_mm,end_mm,order,amplitude_n,floor_n,cause,trusted\n",
     );

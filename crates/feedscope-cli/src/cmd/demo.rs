@@ -8,7 +8,8 @@ use feedscope::plan::{
     strokes_program, triangle_program, Limits, StrokeTestParams, TestProgram, TriangleParams,
 };
 use feedscope::sim::{simulate, simulate_profile, FrictionParams, SamplingMode, SimConfig};
-use feedscope::trace::{EffortKind, Layout, ReadReport};
+use feedscope::trace::EffortKind;
+use feedscope_io::trace::{write_csv, Layout, ReadReport};
 use feedscope_store::{NewTest, SqliteStore, Store, TestKind};
 use rayon::prelude::*;
 
@@ -171,7 +172,7 @@ fn weekly_test(
     let sim = simulate_profile(cfg, prog, &mut |_| {})
         .with_context(|| format!("simulating week {week}"))?;
     let mut bytes = Vec::new();
-    sim.trace.write_csv(&mut bytes, Layout::Long)?;
+    write_csv(&sim.trace, &mut bytes, Layout::Long)?;
     write_atomic(path, &bytes)?;
     let mut t = analyze_test(&TestInput {
         trace: &sim.trace,

@@ -4,18 +4,18 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::ValueEnum;
-use feedscope::axis::{AxisParams, ConfigFormat};
+use feedscope::axis::AxisParams;
 use feedscope::estimate::{
     estimate_map_streaming, EstimateParams, Move, MoveKind, PositionSmoothing, StrokeFriction,
     StrokeSummary, TimeOfPosition, Zone,
 };
 use feedscope::spline::EndCondition;
-use feedscope::trace::{
-    read_trace_file_with, DroppedSample, EffortKind, GlitchParams, ReadOptions, ReadReport, Trace,
-};
+use feedscope::trace::{EffortKind, GlitchParams, Trace};
+use feedscope_io::friction_csv;
+use feedscope_io::trace::{read_trace_file_with, DroppedSample, ReadOptions, ReadReport};
 use serde::Serialize;
 
-use crate::output::{bar, push_fixed, AtomicFile};
+use crate::output::{bar, AtomicFile};
 use crate::plot;
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -109,17 +109,6 @@ pub struct Args {
     /// What to print on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     pub format: Format,
-}
-
-/// Read and validate an axis file.
-pub fn load_axis(path: &Path) -> Result<AxisParams> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    Ok(AxisParams::parse(
-        &text,
-        ConfigFormat::from_path(path),
-        &path.display().to_string(),
-    )?)
 }
 
 /// The JSON summary written beside the friction CSV.
@@ -266,12 +255,8 @@ pub fn estimate_to_csv(
     csv_path: &Path,
 ) -> Result<Outcome> {
     let mut out = AtomicFile::create(csv_path)?;
-    let effort_col = trace.effort_kind.column();
-    writeln!(
-        out.writer(),
-        "stroke,direction,position_mm,time_s,velocity_mm_s,accel_mm_s2,{effort_col},friction_n"
-    )
-    .with_context(|| format!("writing {}", csv_path.display()))?;
+    friction_csv::write_header(out.writer(), trace.effort_kind)
+        .with_context(|| format!("writing {}", csv_path.display()))?;
     let n_threads = rayon::current_num_threads();
     let pb = bar(trace.position_m.len() as u64, "estimate");
     let mut summaries = Vec::new();
@@ -296,7 +281,13 @@ pub fn estimate_to_csv(
             axis,
             params,
             2 * n_threads,
-            |s: StrokeFriction| (format_stroke(&s), PlotData::points(&s), s.summary),
+            |s: StrokeFriction| {
+                (
+                    friction_csv::format_stroke(&s),
+                    PlotData::points(&s),
+                    s.summary,
+                )
+            },
             |(rows, pts, summary): (Vec<Vec<u8>>, Vec<(f64, f64)>, StrokeSummary)| -> Result<()> {
                 // A send fails only when the writer stopped on an error; join() reports it.
                 if tx.send(rows).is_err() {
@@ -337,43 +328,6 @@ pub fn estimate_to_csv(
         },
         plot,
     })
-}
-
-/// CSV rows of one stroke, formatted in parallel chunks (formatting dominates writing); the
-/// chunks go to the file in order without being joined first.
-fn format_stroke(s: &StrokeFriction) -> Vec<Vec<u8>> {
-    use rayon::prelude::*;
-    let n = s.position_m.len();
-    let dir = s.summary.direction.as_str().as_bytes();
-    let stroke = s.summary.stroke.to_string();
-    let chunk = 16_384;
-    (0..n.div_ceil(chunk))
-        .into_par_iter()
-        .map(|c| {
-            let mut b = Vec::with_capacity(chunk * 90);
-            for j in c * chunk..((c + 1) * chunk).min(n) {
-                b.extend_from_slice(stroke.as_bytes());
-                b.push(b',');
-                b.extend_from_slice(dir);
-                b.push(b',');
-                push_fixed(&mut b, s.position_m[j] * 1e3, 6);
-                b.push(b',');
-                push_fixed(&mut b, s.time_s[j], 6);
-                b.push(b',');
-                // Velocity to 0.1 µm/s and acceleration to 1 µm/s²: far below what a spline
-                // of sampled positions resolves, so more digits would only carry noise.
-                push_fixed(&mut b, s.velocity_m_s[j] * 1e3, 4);
-                b.push(b',');
-                push_fixed(&mut b, s.accel_m_s2[j] * 1e3, 3);
-                b.push(b',');
-                push_fixed(&mut b, s.effort[j], 6);
-                b.push(b',');
-                push_fixed(&mut b, s.friction_n[j], 4);
-                b.push(b'\n');
-            }
-            b
-        })
-        .collect()
 }
 
 /// The stroke table for people.
@@ -484,7 +438,7 @@ fn params_from(args: &Args) -> EstimateParams {
 
 pub fn run(args: Args) -> Result<()> {
     // Validate everything cheap before the expensive read.
-    let axis = load_axis(&args.axis)?;
+    let axis = feedscope_io::axis::load(&args.axis)?;
     let mut params = params_from(&args);
     // The program is read (and refused, naming its line) before the expensive trace read; its
     // positions are resolved from where the trace starts.
@@ -497,7 +451,7 @@ pub fn run(args: Args) -> Result<()> {
             Some((
                 path,
                 opts.axis_letter,
-                feedscope::nc::NcProgram::read_file(path, &opts)?,
+                feedscope_io::nc::read_program(path, &opts)?,
             ))
         }
         None => None,

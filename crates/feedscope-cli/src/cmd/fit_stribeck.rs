@@ -1,14 +1,14 @@
 //! `feedscope fit-stribeck`: Stribeck curves from a steady-speed torque or force table.
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use feedscope::estimate::Direction;
 use feedscope::stribeck::{
-    detect_nonconventional, friction_from_torque_n, DeltaMode, NonConventional,
-    NonConventionalParams, ParamEstimate, StribeckFit, StribeckFitParams, StribeckFitter,
-    M_S_PER_MM_MIN,
+    detect_nonconventional, DeltaMode, NonConventional, NonConventionalParams, ParamEstimate,
+    StribeckFit, StribeckFitParams, StribeckFitter, M_S_PER_MM_MIN,
 };
+use feedscope_io::stribeck_table::{self, EffortColumn, SpeedPoints, TableOptions};
 use serde::Serialize;
 
 use super::estimate::Format;
@@ -61,147 +61,8 @@ fn parse_delta(s: &str) -> Result<DeltaMode, String> {
     }
 }
 
-/// Which column carries the effort.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Input {
-    /// Motor torque (N·m), converted by Eq. 15.
-    TorqueNm,
-    /// Friction force (N).
-    ForceN,
-}
-
-/// One direction's points, SI.
-#[derive(Debug, Default)]
-struct Points {
-    speed_m_s: Vec<f64>,
-    friction_n: Vec<f64>,
-}
-
 fn bad(msg: String) -> anyhow::Error {
     BadInput(msg).into()
-}
-
-/// Parse and convert the table into per-direction points (forward, backward).
-fn read_table(
-    path: &Path,
-    lead_mm: Option<f64>,
-    efficiency: f64,
-) -> Result<(Input, Points, Points)> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let name = path.display().to_string();
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-    let (hline, header) = lines
-        .next()
-        .ok_or_else(|| bad(format!("{name}: empty file, expected a header line")))?;
-    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
-    let find = |c: &str| cols.iter().position(|h| *h == c);
-    let feed_col = find("feed_mm_min").ok_or_else(|| {
-        bad(format!(
-            "{name}:{hline}: no `feed_mm_min` column (header: {header})"
-        ))
-    })?;
-    let (input, eff_col) = match (find("torque_nm"), find("force_n")) {
-        (Some(c), None) => (Input::TorqueNm, c),
-        (None, Some(c)) => (Input::ForceN, c),
-        (Some(_), Some(_)) => {
-            return Err(bad(format!(
-                "{name}:{hline}: both `torque_nm` and `force_n` columns; keep one"
-            )))
-        }
-        (None, None) => {
-            return Err(bad(format!(
-                "{name}:{hline}: no `torque_nm` or `force_n` column (header: {header})"
-            )))
-        }
-    };
-    let dir_col = find("direction");
-    let lead_m = match (input, lead_mm) {
-        (Input::TorqueNm, None) => {
-            return Err(bad(format!(
-                "{name}: a `torque_nm` table needs --lead-mm (Eq. 15: F = 2π·η·T/p)"
-            )))
-        }
-        (_, Some(p)) if !(p.is_finite() && p > 0.0) => {
-            return Err(bad(format!("--lead-mm must be positive, got {p}")))
-        }
-        (_, p) => p.map(|p| p * 1e-3),
-    };
-    if !(efficiency > 0.0 && efficiency <= 1.0) {
-        return Err(bad(format!(
-            "--efficiency must be in (0, 1], got {efficiency}"
-        )));
-    }
-    let (mut fwd, mut bwd) = (Points::default(), Points::default());
-    for (line, l) in lines {
-        let fields: Vec<&str> = l.split(',').map(str::trim).collect();
-        if fields.len() != cols.len() {
-            return Err(bad(format!(
-                "{name}:{line}: {} fields, the header has {}",
-                fields.len(),
-                cols.len()
-            )));
-        }
-        let num = |c: usize| -> Result<f64> {
-            let v: f64 = fields[c].parse().map_err(|_| {
-                bad(format!(
-                    "{name}:{line}: column `{}`: `{}` is not a number",
-                    cols[c], fields[c]
-                ))
-            })?;
-            if !v.is_finite() {
-                return Err(bad(format!(
-                    "{name}:{line}: column `{}`: {v} is not finite",
-                    cols[c]
-                )));
-            }
-            Ok(v)
-        };
-        let feed = num(feed_col)?;
-        let effort = num(eff_col)?;
-        if feed == 0.0 {
-            return Err(bad(format!(
-                "{name}:{line}: feed 0 has no direction; a steady-speed table needs motion"
-            )));
-        }
-        let direction = match dir_col {
-            None => Direction::of_velocity(feed),
-            Some(c) => {
-                let d = match fields[c].to_ascii_lowercase().as_str() {
-                    "forward" | "+" => Direction::Forward,
-                    "backward" | "-" => Direction::Backward,
-                    other => {
-                        return Err(bad(format!(
-                            "{name}:{line}: direction `{other}`: expected forward or backward"
-                        )))
-                    }
-                };
-                if feed < 0.0 && d == Direction::Forward {
-                    return Err(bad(format!(
-                        "{name}:{line}: negative feed {feed} marked forward"
-                    )));
-                }
-                d
-            }
-        };
-        let friction = match (input, lead_m) {
-            (Input::TorqueNm, Some(p)) => friction_from_torque_n(effort, p, efficiency)
-                .map_err(|e| bad(format!("{name}:{line}: {e}")))?,
-            _ => effort,
-        };
-        let dst = match direction {
-            Direction::Forward => &mut fwd,
-            Direction::Backward => &mut bwd,
-        };
-        dst.speed_m_s.push(feed.abs() * M_S_PER_MM_MIN);
-        dst.friction_n.push(friction.abs());
-    }
-    Ok((input, fwd, bwd))
 }
 
 /// A parameter in user units with its uncertainty.
@@ -287,7 +148,7 @@ pub struct DirectionFit {
 #[derive(Debug, Serialize)]
 pub struct Report {
     pub source: String,
-    pub input: Input,
+    pub input: EffortColumn,
     pub lead_mm: Option<f64>,
     pub efficiency: f64,
     pub delta: String,
@@ -296,7 +157,7 @@ pub struct Report {
 
 fn direction_fit(
     direction: Direction,
-    pts: &Points,
+    pts: &SpeedPoints,
     fit: &StribeckFit,
     nc: &NonConventional,
 ) -> DirectionFit {
@@ -472,7 +333,14 @@ pub fn run(args: Args) -> Result<()> {
             return Err(bad(format!("--noise-n must be >= 0, got {s}")));
         }
     }
-    let (input, fwd, bwd) = read_table(&args.table, args.lead_mm, args.efficiency)?;
+    let table = stribeck_table::read(
+        &args.table,
+        &TableOptions {
+            lead_mm: args.lead_mm,
+            efficiency: args.efficiency,
+        },
+    )?;
+    let (input, fwd, bwd) = (table.effort, table.forward, table.backward);
     let fit_params = StribeckFitParams {
         delta: args.delta,
         ..StribeckFitParams::default()

@@ -14,7 +14,8 @@ use feedscope::history::{
 use feedscope::ident::{identify, IdentParams, Identification};
 use feedscope::order::SpectrumAnalyzer;
 use feedscope::profile::{analyze_stroke, AnalysisParams, StrokeFriction as StrokeView};
-use feedscope::trace::{read_trace_file_with, GlitchParams, ReadOptions, Trace};
+use feedscope::trace::{GlitchParams, Trace};
+use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use feedscope_store::time::{format_rfc3339, parse_rfc3339};
 use feedscope_store::{
     AddOutcome, ComponentRow, Filter, Identified, IndicatorRow, IntervalRow, NewTest, SqliteStore,
@@ -23,7 +24,6 @@ use feedscope_store::{
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use super::estimate::load_axis;
 use super::BadInput;
 
 /// Condition history: store tests in a database and trend their indicators.
@@ -580,7 +580,7 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
         })?),
         None => None,
     };
-    let axis = load_axis(&a.axis)?;
+    let axis = feedscope_io::axis::load(&a.axis)?;
     let bytes =
         std::fs::read(&a.trace).with_context(|| format!("reading {}", a.trace.display()))?;
     let time_s = match time_given {

@@ -7,10 +7,11 @@ use feedscope::estimate::EstimateParams;
 use feedscope::ident::{
     fit_groups, identify, ForceSide, Group, IdentParams, Identification, TorqueFit, TorqueStdError,
 };
-use feedscope::trace::{read_trace_file_with, EffortKind, GlitchParams, ReadOptions};
+use feedscope::trace::{EffortKind, GlitchParams};
+use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use serde::Serialize;
 
-use super::estimate::{load_axis, EffortArg, Format};
+use super::estimate::{EffortArg, Format};
 use super::BadInput;
 use crate::plot;
 
@@ -338,7 +339,7 @@ fn print_text(out: &Output) -> Result<()> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let axis = load_axis(&args.axis)?;
+    let axis = feedscope_io::axis::load(&args.axis)?;
     let params = params_from(&args);
     let plot_path = (!args.no_plot).then(|| {
         args.plot

@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::ValueEnum;
-use feedscope::import::devices::{Category, DeviceModel};
-use feedscope::import::shdr::{read_shdr, ShdrConvertParams, ShdrLog, TimeOrigin};
-use feedscope::import::umich::{read_umich, CurrentColumn, UmichParams, UmichTable};
-use feedscope::import::{write_trace_csv, ChannelReport, Imported};
+use feedscope_io::import::devices::{Category, DeviceModel};
+use feedscope_io::import::shdr::{read_shdr, ShdrConvertParams, ShdrLog, TimeOrigin};
+use feedscope_io::import::umich::{read_umich, CurrentColumn, UmichParams, UmichTable};
+use feedscope_io::import::{write_trace_csv, ChannelReport, Imported};
 
 use super::BadInput;
 use crate::output::AtomicFile;
@@ -252,7 +252,7 @@ fn warn(imp: &Imported) {
 }
 
 /// Seconds of a key's first and last observation from the log's first line.
-fn span(log: &ShdrLog, s: &feedscope::import::shdr::KeySeries) -> String {
+fn span(log: &ShdrLog, s: &feedscope_io::import::shdr::KeySeries) -> String {
     match (s.first, s.last) {
         (Some(a), Some(b)) => format!(
             "{:.3} to {:.3} s",

@@ -7,14 +7,16 @@ use anyhow::{anyhow, Context, Result};
 use clap::ValueEnum;
 use feedscope::estimate::{Direction, EstimateParams};
 use feedscope::map::{
-    build_map, estimate_set, nonconventional_spans, stribeck_profile, DirectionMap, FeedScale,
-    FrictionMap, MapParams, NonConventionalSpan, StribeckAtPosition, StribeckProfile, TestSet,
+    build_map, nonconventional_spans, stribeck_profile, DirectionMap, FeedScale, FrictionMap,
+    MapParams, NonConventionalSpan, StribeckAtPosition, StribeckProfile, TestSet,
 };
 use feedscope::stribeck::{ParamEstimate, M_S_PER_MM_MIN};
-use feedscope::trace::ReadOptions;
+use feedscope_io::compensation::CompensationTable;
+use feedscope_io::test_set::{estimate_set, read_index};
+use feedscope_io::trace::ReadOptions;
 use serde::Serialize;
 
-use super::estimate::{load_axis, Format};
+use super::estimate::Format;
 use super::BadInput;
 use crate::output::{bar, write_atomic, AtomicFile};
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
@@ -158,7 +160,7 @@ fn validate(args: &Args) -> Result<Config> {
 
 pub fn run(args: Args) -> Result<()> {
     let cfg = validate(&args)?;
-    let axis = load_axis(&args.axis)?;
+    let axis = feedscope_io::axis::load(&args.axis)?;
     // A position outside the declared travel is wrong whatever the data say.
     if let (Some(p), Some(lo), Some(hi)) = (&args.positions, axis.travel_min_mm, axis.travel_max_mm)
     {
@@ -169,7 +171,7 @@ pub fn run(args: Args) -> Result<()> {
             .into());
         }
     }
-    let set = TestSet::read_index(&args.index).map_err(|e| BadInput(e.to_string()))?;
+    let set = read_index(&args.index).map_err(|e| BadInput(e.to_string()))?;
     let est_params = EstimateParams {
         samples_per_lead: args.samples_per_lead,
         ..EstimateParams::default()
@@ -501,87 +503,20 @@ fn write_profile_csv(path: &Path, profiles: &[StribeckProfile]) -> Result<()> {
     f.commit()
 }
 
-fn table_header(
-    map: &FrictionMap,
-    feeds: &dyn Fn(&DirectionMap) -> Vec<f64>,
-    args: &Args,
-) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "# feedscope friction-compensation table (paper 000 Eq. 6 and 8: PPOCM coefficients polynomial in feed)");
-    let _ = writeln!(s, "# units: position_mm = table position in mm (machine coordinates); feed_mm_min = feed in mm/min; friction_n = friction force in N");
-    let _ = writeln!(s, "# sign: friction_n is signed as paper 000 Eq. 5: positive while moving forward (position increasing), negative backward; add it to the axial force command (torque = friction_n * lead / (2*pi)) to compensate");
-    for d in &map.directions {
-        let f = feeds(d);
-        let (lo, hi) = f
-            .iter()
-            .fold((f64::INFINITY, 0.0f64), |(l, h), &x| (l.min(x), h.max(x)));
-        let _ = writeln!(
-            s,
-            "# valid {}: positions {:.3} to {:.3} mm; measured feeds {} to {} mm/min; table feeds {} to {} mm/min{}",
-            dir_name(d.direction),
-            d.start_mm,
-            d.end_mm,
-            d.feed_model.feed_min_mm_min,
-            d.feed_model.feed_max_mm_min,
-            lo,
-            hi,
-            if args.extrapolate && (lo < d.feed_model.feed_min_mm_min || hi > d.feed_model.feed_max_mm_min) {
-                " (EXTRAPOLATED beyond the measured feeds: --extrapolate)"
-            } else {
-                ""
-            }
-        );
-    }
-    let _ = writeln!(s, "# no value is given outside these ranges");
-    s
-}
-
 fn write_compensation(
     out: &Path,
     map: &FrictionMap,
     feeds: &dyn Fn(&DirectionMap) -> Vec<f64>,
     args: &Args,
 ) -> Result<()> {
-    let header = table_header(map, feeds, args);
+    let table = CompensationTable::new(map, args.extrapolate, |d| {
+        (feeds(d), grid(d, args.position_step_mm))
+    })?;
     let mut long = csv_file(&out.join("compensation.csv"))?;
-    let w = long.writer();
-    w.write_all(header.as_bytes())?;
-    writeln!(w, "direction,position_mm,feed_mm_min,friction_n")?;
+    table.write_long(long.writer())?;
     for d in &map.directions {
-        let f = feeds(d);
-        let polys: Vec<_> = f
-            .iter()
-            .map(|&x| d.poly_at(x, args.extrapolate))
-            .collect::<Result<_, _>>()?;
-        let zs = grid(d, args.position_step_mm);
-        for (x, p) in f.iter().zip(&polys) {
-            for &z in &zs {
-                writeln!(
-                    w,
-                    "{},{:.6},{:.6},{:.6}",
-                    dir_name(d.direction),
-                    z,
-                    x,
-                    p.value_n(z * 1e-3)
-                )?;
-            }
-        }
         let mut wide = csv_file(&out.join(format!("compensation_{}.csv", dir_name(d.direction))))?;
-        let ww = wide.writer();
-        ww.write_all(header.as_bytes())?;
-        writeln!(ww, "# matrix: one row per position; first column position_mm, then friction_n (N) at the feed (mm/min) named in the header")?;
-        write!(ww, "position_mm")?;
-        for x in &f {
-            write!(ww, ",{x:.6}")?;
-        }
-        writeln!(ww)?;
-        for &z in &zs {
-            write!(ww, "{z:.6}")?;
-            for p in &polys {
-                write!(ww, ",{:.6}", p.value_n(z * 1e-3))?;
-            }
-            writeln!(ww)?;
-        }
+        table.write_matrix(wide.writer(), d.direction)?;
         wide.commit()?;
     }
     long.commit()

@@ -61,13 +61,22 @@ pub struct BadInput(pub String);
 
 /// Exit code for an error: 2 when any cause is bad input, else 1.
 pub fn exit_code(err: &anyhow::Error) -> u8 {
-    use feedscope::{axis::AxisError, estimate::EstimateError, trace::TraceError};
+    use feedscope::{axis::AxisError, estimate::EstimateError};
+    use feedscope_io::{
+        axis::AxisFileError, friction_csv::FrictionCsvError, stribeck_table::TableError,
+        trace::TraceError,
+    };
     let input = err.chain().any(|c| {
         c.is::<BadInput>()
             || c.is::<TraceError>()
             || c.is::<AxisError>()
+            // An unreadable axis file, friction CSV or table is bad input only when missing
+            // (its `std::io::Error` is next in the chain, below); what it holds always is.
+            || c.downcast_ref::<AxisFileError>().is_some_and(|e| !e.is_io())
+            || c.downcast_ref::<FrictionCsvError>().is_some_and(|e| !e.is_io())
+            || c.downcast_ref::<TableError>().is_some_and(|e| !e.is_io())
             || c.is::<EstimateError>()
-            || c.is::<feedscope::import::ImportError>()
+            || c.is::<feedscope_io::import::ImportError>()
             || c.is::<feedscope::nc::NcError>()
             || c.is::<feedscope::sim::SimError>()
             || c.is::<feedscope::profile::ProfileError>()
@@ -114,5 +123,69 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
             eprintln!("error: {e:#}");
             std::process::ExitCode::from(exit_code(&e))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use feedscope_io::axis::AxisFileError;
+    use feedscope_io::friction_csv::FrictionCsvError;
+    use feedscope_io::stribeck_table::TableError;
+    use std::io::{Error, ErrorKind};
+
+    /// The readers that moved to feedscope-io keep the exit codes of the CLI code they
+    /// replace: content errors are bad input (2); an unreadable file is bad input only when it
+    /// is missing (anyhow's `.context("reading …")` over the OS error did the same).
+    #[test]
+    fn exit_codes_of_the_feedscope_io_readers() {
+        let code = |e: anyhow::Error| exit_code(&e);
+        let read = |kind| AxisFileError::Read {
+            source_name: "a.toml".into(),
+            error: Error::from(kind),
+        };
+        assert_eq!(code(read(ErrorKind::NotFound).into()), 2);
+        assert_eq!(code(read(ErrorKind::PermissionDenied).into()), 1);
+        let bad_axis = feedscope::axis::AxisParams::parse(
+            "lead_mm = 1\n",
+            feedscope::axis::ConfigFormat::Toml,
+            "a.toml",
+        )
+        .unwrap_err();
+        assert_eq!(code(AxisFileError::from(bad_axis).into()), 2);
+
+        let csv_read = |kind| FrictionCsvError::Read {
+            source_name: "f.csv".into(),
+            error: Error::from(kind),
+        };
+        assert_eq!(code(csv_read(ErrorKind::NotFound).into()), 2);
+        assert_eq!(code(csv_read(ErrorKind::PermissionDenied).into()), 1);
+        // A directory opens but does not read: the bare OS error, as before.
+        assert_eq!(
+            code(FrictionCsvError::Head(Error::from(ErrorKind::IsADirectory)).into()),
+            1
+        );
+        let bad_row = FrictionCsvError::BadDirection {
+            source_name: "f.csv".into(),
+            line: 2,
+            text: "up".into(),
+        };
+        assert_eq!(code(bad_row.into()), 2);
+
+        let table_read = |kind| TableError::Read {
+            source_name: "t.csv".into(),
+            error: Error::from(kind),
+        };
+        assert_eq!(code(table_read(ErrorKind::NotFound).into()), 2);
+        assert_eq!(code(table_read(ErrorKind::PermissionDenied).into()), 1);
+        let zero = TableError::ZeroFeed {
+            source_name: "t.csv".into(),
+            line: 3,
+        };
+        assert_eq!(code(zero.into()), 2);
+        assert_eq!(
+            code(TableError::BadEfficiency { efficiency: 2.0 }.into()),
+            2
+        );
     }
 }

@@ -11,7 +11,7 @@ use feedscope::plan::{
 };
 use serde::Serialize;
 
-use super::estimate::{load_axis, Format};
+use super::estimate::Format;
 use super::BadInput;
 
 /// Write the NC program (G-code) of a friction test, with its run time and sample counts.
@@ -174,7 +174,7 @@ struct Summary {
 fn limits(c: &Common) -> Result<Limits> {
     let (mut lo, mut hi) = (None, None);
     if let Some(p) = &c.axis {
-        let a = load_axis(p)?;
+        let a = feedscope_io::axis::load(p)?;
         lo = a.travel_min_mm;
         hi = a.travel_max_mm;
     }

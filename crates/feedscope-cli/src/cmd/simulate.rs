@@ -11,7 +11,7 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use feedscope::sim::{simulate, SamplingMode, SimConfig};
-use feedscope::trace::Layout;
+use feedscope_io::trace::{write_csv, write_parquet, Layout};
 
 /// Simulate a feed drive with known friction and write its trace and truth.
 ///
@@ -133,7 +133,7 @@ fn prepare(args: &Args) -> anyhow::Result<(SimConfig, Layout, PathBuf)> {
                 .with_context(|| format!("reading config {}", path.display()))?;
             // A relative motion.program_file is read relative to the config file.
             let dir = path.parent().unwrap_or(Path::new("."));
-            SimConfig::from_toml_str_in_dir(&text, dir)
+            feedscope_io::sim::config_from_toml_str_in_dir(&text, dir)
                 .with_context(|| format!("config {}", path.display()))?
         }
         None => SimConfig::default(),
@@ -211,9 +211,9 @@ pub(crate) fn write_outputs_as(
             std::fs::File::create(&p).with_context(|| format!("creating {}", p.display()))
         };
         if parquet {
-            out.trace.write_parquet(create(trace_name)?, layout)
+            write_parquet(&out.trace, create(trace_name)?, layout)
         } else {
-            out.trace.write_csv(create(trace_name)?, layout)
+            write_csv(&out.trace, create(trace_name)?, layout)
         }
         .with_context(|| format!("writing {trace_name}"))?;
         let axis = toml::to_string_pretty(&out.truth.axis).context("serializing the axis")?;

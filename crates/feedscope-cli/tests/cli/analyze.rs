@@ -2,7 +2,7 @@
 use std::path::Path;
 
 use feedscope::sim::{simulate, SimConfig, StrokeConfig};
-use feedscope::trace::Layout;
+use feedscope_io::trace::{write_csv, Layout};
 
 use crate::util::{feedscope, run, stderr, stdout};
 
@@ -23,12 +23,12 @@ fn setup(dir: &Path) {
         },
     ];
     let out = simulate(&c, &mut |_| {}).unwrap();
-    out.trace
-        .write_csv(
-            std::fs::File::create(dir.join("trace.csv")).unwrap(),
-            Layout::Long,
-        )
-        .unwrap();
+    write_csv(
+        &out.trace,
+        std::fs::File::create(dir.join("trace.csv")).unwrap(),
+        Layout::Long,
+    )
+    .unwrap();
     std::fs::write(
         dir.join("axis.toml"),
         toml::to_string(&out.truth.axis).unwrap(),

@@ -8,7 +8,8 @@ use feedscope::plan::{
     strokes_program, triangle_program, Limits, StrokeTestParams, TriangleParams,
 };
 use feedscope::sim::{simulate_profile, DynamicsMode, SamplingMode, SimConfig};
-use feedscope::trace::{EffortKind, Layout};
+use feedscope::trace::EffortKind;
+use feedscope_io::trace::{write_csv, Layout};
 
 use crate::util::{feedscope, run, stderr, stdout};
 
@@ -49,7 +50,7 @@ pub fn triangle_trace(dir: &Path, name: &str, fs_scale: f64, seed: u64) -> PathB
     let sim = simulate_profile(&c, &prog, &mut |_| {}).unwrap();
     let p = dir.join(name);
     let mut f = std::fs::File::create(&p).unwrap();
-    sim.trace.write_csv(&mut f, Layout::Long).unwrap();
+    write_csv(&sim.trace, &mut f, Layout::Long).unwrap();
     p
 }
 
@@ -390,7 +391,7 @@ fn stroke_test_stores_intervals_and_components() {
     .unwrap();
     let sim = simulate_profile(&c, &prog, &mut |_| {}).unwrap();
     let mut f = std::fs::File::create(d.join("s.csv")).unwrap();
-    sim.trace.write_csv(&mut f, Layout::Long).unwrap();
+    write_csv(&sim.trace, &mut f, Layout::Long).unwrap();
     drop(f);
     let mut c = feedscope(d);
     c.args([

@@ -10,7 +10,8 @@ use feedscope::sim::{
     simulate_profile, DynamicsMode, FrictionParams, MeanLevel, MotionProfile, SamplingMode,
     SimConfig, VelocityTerm,
 };
-use feedscope::trace::{EffortKind, Layout};
+use feedscope::trace::EffortKind;
+use feedscope_io::trace::{write_csv, Layout};
 
 use crate::util::{feedscope, run, stderr, stdout};
 
@@ -66,7 +67,7 @@ fn cfg(sync: bool) -> SimConfig {
 fn write_trace(path: &Path, c: &SimConfig, profile: &dyn MotionProfile, layout: Layout) {
     let out = simulate_profile(c, profile, &mut |_| {}).unwrap();
     let f = std::fs::File::create(path).unwrap();
-    out.trace.write_csv(f, layout).unwrap();
+    write_csv(&out.trace, f, layout).unwrap();
 }
 
 fn triangle_trace(dir: &Path) {

@@ -4,9 +4,10 @@
 //! output left) and golden `--list` output.
 use std::path::{Path, PathBuf};
 
-use feedscope::import::devices::DeviceModel;
-use feedscope::import::shdr::{parse_shdr, ShdrConvertParams};
-use feedscope::trace::{parse_trace, read_trace_file, Layout, ReadOptions, Trace};
+use feedscope::trace::Trace;
+use feedscope_io::import::devices::DeviceModel;
+use feedscope_io::import::shdr::{parse_shdr, ShdrConvertParams};
+use feedscope_io::trace::{parse_trace, read_trace_file, write_csv, Layout, ReadOptions};
 
 use crate::util::{feedscope, run, stderr, stdout};
 
@@ -113,7 +114,7 @@ fn round_trip_through_the_trace_writer_and_reader_keeps_the_samples() {
     };
     let imp = log.to_trace(&model, "Z1", &p).unwrap();
     let mut buf = Vec::new();
-    feedscope::import::write_trace_csv(&imp, &mut buf).unwrap();
+    feedscope_io::import::write_trace_csv(&imp, &mut buf).unwrap();
     let (back, _) = parse_trace(&buf, "mem", &ReadOptions::default()).unwrap();
     // The writer rounds to 6 decimals of the file's units: half a unit of the last place is
     // 5e-7 s, 5e-7 mm (5e-10 m) and 5e-7 N·m.
@@ -134,13 +135,13 @@ fn round_trip_through_the_trace_writer_and_reader_keeps_the_samples() {
         }
     };
     close(&imp.trace, &back);
-    // And the same for a UMich trace through `Trace::write_csv` directly.
-    let t = feedscope::import::umich::read_umich(&data(UMICH_CR)).unwrap();
+    // And the same for a UMich trace through `feedscope_io::trace::write_csv` directly.
+    let t = feedscope_io::import::umich::read_umich(&data(UMICH_CR)).unwrap();
     let imp = t
-        .to_trace("X", &feedscope::import::umich::UmichParams::default())
+        .to_trace("X", &feedscope_io::import::umich::UmichParams::default())
         .unwrap();
     let mut buf = Vec::new();
-    imp.trace.write_csv(&mut buf, Layout::Long).unwrap();
+    write_csv(&imp.trace, &mut buf, Layout::Long).unwrap();
     let (back, _) = parse_trace(&buf, "mem", &ReadOptions::default()).unwrap();
     close(&imp.trace, &back);
 }

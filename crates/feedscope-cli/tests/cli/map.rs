@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use feedscope::sim::{simulate, DynamicsMode, SimConfig, StrokeConfig};
-use feedscope::trace::Layout;
+use feedscope_io::trace::{write_csv, Layout};
 
 use crate::util::{expect_bad_input, feedscope, run, stderr, stdout};
 
@@ -43,12 +43,12 @@ fn setup(dir: &Path, extra: &str) {
             c.truth.interval_ms = 1000.0;
             let out = simulate(&c, &mut |_| {}).unwrap();
             let name = format!("runs/f{f}_r{r}.csv");
-            out.trace
-                .write_csv(
-                    std::fs::File::create(dir.join(&name)).unwrap(),
-                    Layout::Long,
-                )
-                .unwrap();
+            write_csv(
+                &out.trace,
+                std::fs::File::create(dir.join(&name)).unwrap(),
+                Layout::Long,
+            )
+            .unwrap();
             index.push_str(&format!("{name},{f},{r},sim\n"));
             axis = Some(out.truth.axis);
         }

@@ -80,13 +80,13 @@ fn simulate_parquet_then_estimate_matches_csv() {
 
     // The same samples through either format give the same summary: the CSV's trace, as
     // read, written to Parquet by the library.
-    let (t, _) = feedscope::trace::read_trace_file(
+    let (t, _) = feedscope_io::trace::read_trace_file(
         &d.path().join("c/trace.csv"),
-        &feedscope::trace::ReadOptions::default(),
+        &feedscope_io::trace::ReadOptions::default(),
     )
     .unwrap();
     let f = std::fs::File::create(d.path().join("c/trace.parquet")).unwrap();
-    t.write_parquet(f, feedscope::trace::Layout::Long).unwrap();
+    feedscope_io::trace::write_parquet(&t, f, feedscope_io::trace::Layout::Long).unwrap();
     let same = strokes(&estimate(
         d.path(),
         "c/trace.parquet",
@@ -162,7 +162,7 @@ fn trace_name_must_be_a_plain_file_name() {
 /// reported like any other bad input: exit 2 and the file named, without a panic message.
 #[test]
 fn decoder_panic_on_damaged_parquet_is_a_clean_error() {
-    use feedscope::trace::{parse_trace, ReadOptions};
+    use feedscope_io::trace::{parse_trace, ReadOptions};
     let d = tempfile::tempdir().unwrap();
     let sync = format!("{SIM}[sampling]\nmode = \"synchronous\"\nsynchronous_rate_hz = 50\n");
     std::fs::write(d.path().join("sim.toml"), sync).unwrap();

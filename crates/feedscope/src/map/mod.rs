@@ -3,7 +3,8 @@
 //! # Method
 //! 1. **Test set** ([`TestSet`]): runs of one axis listed in an index CSV
 //!    `file,feed_mm_min,repeat` (paths relative to the index, more columns allowed). Every run
-//!    is estimated in parallel ([`estimate_set`]); a run that fails is kept as a
+//!    is estimated in parallel ([`estimate_set_with`]; from files: `feedscope_io::test_set`); a
+//!    run that fails is kept as a
 //!    [`RunFailure`] with its name and the others go on. Strokes whose measured feed differs
 //!    from the run's nominal feed by more than [`MapParams::stroke_feed_tolerance`] (e.g. a
 //!    rapid return) are left out with a warning. The map uses the nominal feeds of the index:
@@ -106,8 +107,8 @@ pub use ppocm::{
     build_map, DirectionMap, FeedGroup, FrictionMap, IntervalRepeatability, RepeatCurve,
 };
 pub use set::{
-    estimate_set, estimate_set_with, RunFailure, RunFriction, RunWarning, SetEstimate, TestRun,
-    TestSet,
+    estimate_set_with, estimate_set_with_warnings, RunFailure, RunFriction, RunWarning,
+    SetEstimate, TestRun, TestSet,
 };
 pub use stribeck_map::{
     nonconventional_spans, stribeck_profile, NonConventionalSpan, StribeckAtPosition,

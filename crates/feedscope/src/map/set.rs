@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::MapError;
 use crate::axis::AxisParams;
 use crate::estimate::{estimate, EstimateParams, StrokeFriction};
-use crate::trace::{read_trace_file_with, GlitchParams, ReadOptions, Trace};
+use crate::trace::Trace;
 
 /// One run of a test set: a trace recorded at one nominal feed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -33,21 +33,6 @@ pub struct TestSet {
 }
 
 impl TestSet {
-    /// Read an index CSV (see [`TestSet::parse_index`]); paths are relative to its folder.
-    ///
-    /// # Errors
-    /// [`MapError::Index`] when the file cannot be read or is malformed.
-    pub fn read_index(path: &Path) -> Result<Self, MapError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| MapError::Index {
-            source_name: name.clone(),
-            line: 0,
-            message: format!("cannot read: {e}"),
-        })?;
-        let base = path.parent().unwrap_or(Path::new(""));
-        Self::parse_index(&text, base, &name)
-    }
-
     /// Parse an index: a header naming at least the columns `file`, `feed_mm_min` and `repeat`
     /// (any order, more columns allowed, `#` lines and blank lines skipped), then one run per
     /// line. `file` is a path relative to `base_dir` (or absolute).
@@ -148,7 +133,7 @@ pub struct RunFailure {
     pub error: String,
 }
 
-/// Result of [`estimate_set`]: the runs that worked and those that failed, in index order.
+/// Result of [`estimate_set_with`]: the runs that worked and those that failed, in index order.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct SetEstimate {
     /// Estimated runs.
@@ -170,42 +155,12 @@ pub struct RunWarning {
     pub message: String,
 }
 
-/// Estimate every run of a test set in parallel, reading each trace with
-/// [`read_trace_file_with`] and the position screened at the axis' speed limit
-/// ([`GlitchParams::for_axis`]). `progress` is called once per finished run (from worker
-/// threads).
+/// Estimate every run of a test set in parallel, with each trace from `load` (in memory, or
+/// read from its file by `feedscope_io::test_set::estimate_set`). `progress` is called once
+/// per finished run (from worker threads).
 ///
-/// Never fails as a whole: a run whose file is missing or malformed, or that has no usable
-/// stroke, becomes a [`RunFailure`].
-pub fn estimate_set(
-    set: &TestSet,
-    axis: &AxisParams,
-    params: &EstimateParams,
-    read: &ReadOptions,
-    stroke_feed_tolerance: f64,
-    progress: &(dyn Fn(&TestRun) + Sync),
-) -> SetEstimate {
-    // Runs are the parallel unit; parse each file on one thread to avoid nested fan-out.
-    let read = ReadOptions {
-        threads: 1,
-        ..read.clone()
-    };
-    let glitch = GlitchParams::for_axis(axis);
-    estimate_runs(
-        &set.runs,
-        |run| {
-            read_trace_file_with(&run.file, &read, &glitch)
-                .map(|(t, report)| (t, report.glitch_warning()))
-                .map_err(|e| e.to_string())
-        },
-        axis,
-        params,
-        stroke_feed_tolerance,
-        progress,
-    )
-}
-
-/// As [`estimate_set`] with traces from `load` (e.g. in memory).
+/// Never fails as a whole: a run whose trace cannot be loaded, or that has no usable stroke,
+/// becomes a [`RunFailure`].
 ///
 /// Strokes whose measured feed differs from the run's nominal feed by more than the fraction
 /// `stroke_feed_tolerance` are left out with a warning (a rapid return, a test at another feed); a
@@ -221,7 +176,7 @@ pub fn estimate_set_with<L>(
 where
     L: Fn(&TestRun) -> Result<Trace, String> + Sync,
 {
-    estimate_runs(
+    estimate_set_with_warnings(
         runs,
         |run| load(run).map(|t| (t, None)),
         axis,
@@ -231,8 +186,10 @@ where
     )
 }
 
-/// [`estimate_set_with`] with a loader that may also return a warning about the read.
-fn estimate_runs<L>(
+/// [`estimate_set_with`] with a loader that may also return a warning about the read (e.g.
+/// position samples dropped as glitches); the warnings are listed in
+/// [`SetEstimate::read_warnings`] and first in [`RunFriction::warnings`].
+pub fn estimate_set_with_warnings<L>(
     runs: &[TestRun],
     load: L,
     axis: &AxisParams,
@@ -323,71 +280,4 @@ fn estimate_run(
         strokes,
         warnings,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::axis::ConfigFormat;
-
-    /// A wide 500 Hz trace: 0 → 20 mm at 600 mm/min and back, with a 5 mm spike at sample 700
-    /// (t = 1.4 s, line 702) and a 1e308 at sample 2000 (t = 4 s, line 2002).
-    fn spiky_trace() -> String {
-        let mut s = String::from("time_s,position_mm,current_a\n");
-        for k in 0..2750 {
-            let t = k as f64 / 500.0;
-            let (mm, dir) = match t {
-                t if t < 0.5 => (0.0, 0.0),
-                t if t < 2.5 => (10.0 * (t - 0.5), 1.0),
-                t if t < 3.0 => (20.0, 0.0),
-                t if t < 5.0 => (20.0 - 10.0 * (t - 3.0), -1.0),
-                _ => (0.0, 0.0),
-            };
-            let z = match k {
-                700 => format!("{:.4}", mm + 5.0),
-                2000 => "1e308".into(),
-                _ => format!("{mm:.4}"),
-            };
-            s.push_str(&format!("{t:.6},{z},{:.6}\n", dir * 0.8));
-        }
-        s
-    }
-
-    #[test]
-    fn read_warnings_name_the_run_and_use_the_axis_rapid_rate() {
-        let d = tempfile::tempdir().unwrap();
-        for name in ["r1.csv", "r2.csv"] {
-            std::fs::write(d.path().join(name), spiky_trace()).unwrap();
-        }
-        let index = d.path().join("index.csv");
-        std::fs::write(
-            &index,
-            "file,feed_mm_min,repeat\nr1.csv,600,1\nr2.csv,600,2\n",
-        )
-        .unwrap();
-        let set = TestSet::read_index(&index).unwrap();
-        let text = "lead_mm = 10\ntable_mass_kg = 300\ninertia_kgm2 = 0.002\n\
-                    damping_nms_per_rad = 0\ntorque_constant_nm_per_a = 1.5\n";
-        for (rapid, dropped) in [
-            ("", "1 position sample"),
-            ("rapid_rate_mm_min = 15000\n", "2 position samples"),
-        ] {
-            let axis =
-                AxisParams::parse(&format!("{text}{rapid}"), ConfigFormat::Toml, "a").unwrap();
-            let est = estimate_set(
-                &set,
-                &axis,
-                &EstimateParams::default(),
-                &ReadOptions::default(),
-                0.1,
-                &|_| {},
-            );
-            assert_eq!(est.ok.len(), 2, "{:?}", est.failed);
-            let names: Vec<&str> = est.read_warnings.iter().map(|w| w.run.as_str()).collect();
-            assert_eq!(names, ["r1.csv", "r2.csv"]);
-            let w = &est.read_warnings[0].message;
-            assert!(w.contains(dropped) && w.contains("4 s (line 2002)"), "{w}");
-            assert_eq!(&est.ok[0].warnings[0], w);
-        }
-    }
 }

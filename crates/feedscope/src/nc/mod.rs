@@ -101,12 +101,10 @@
 //!
 //! # Errors
 //! [`NcError`]: `"{source}: line {line}: {message}"`; line 0 for errors not tied to a line
-//! (a file that cannot be read, bad [`ParseOptions`]).
+//! (a file that `feedscope_io::nc::read_program` cannot read, bad [`ParseOptions`]).
 
 mod interp;
 mod lex;
-
-use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
@@ -243,9 +241,6 @@ pub struct NcError {
     pub message: String,
 }
 
-/// Largest program file read (bytes).
-const MAX_FILE_BYTES: u64 = 256 << 20;
-
 impl NcProgram {
     /// Read a program from text (errors name the source `program`).
     ///
@@ -301,31 +296,6 @@ impl NcProgram {
                 })
             }
         }
-    }
-
-    /// Read a program file; errors name the file.
-    ///
-    /// # Errors
-    /// [`NcError`] with line 0 when the file cannot be read (or is larger than 256 MiB),
-    /// else as [`NcProgram::parse`].
-    pub fn read_file(path: &Path, opts: &ParseOptions) -> Result<NcProgram, NcError> {
-        let name = path.display().to_string();
-        let file_error = |message: String| NcError {
-            source_name: name.clone(),
-            line: 0,
-            message,
-        };
-        let len = std::fs::metadata(path)
-            .map_err(|e| file_error(format!("cannot read the file: {e}")))?
-            .len();
-        if len > MAX_FILE_BYTES {
-            return Err(file_error(format!(
-                "{len} bytes, more than the {MAX_FILE_BYTES} this reader accepts"
-            )));
-        }
-        let bytes =
-            std::fs::read(path).map_err(|e| file_error(format!("cannot read the file: {e}")))?;
-        Self::parse_bytes(&bytes, &name, opts)
     }
 
     /// Absolute positions from a start position (mm): one entry per step, moves that do not

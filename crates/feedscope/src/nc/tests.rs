@@ -397,30 +397,6 @@ fn text_after_the_end_is_not_read() {
 }
 
 #[test]
-fn files_and_bytes() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("p.nc");
-    std::fs::write(&path, b"G21\r\nG1 Z1. F100\r\nG1 Z\xff2.\r\n").unwrap();
-    let e = NcProgram::read_file(&path, &ParseOptions::default()).unwrap_err();
-    assert_eq!(e.line, 3);
-    assert!(
-        e.message.contains("UTF-8") && e.message.contains("0xFF"),
-        "{e}"
-    );
-    assert!(
-        e.to_string().starts_with(&path.display().to_string()),
-        "{e}"
-    );
-    std::fs::write(&path, b"G21\r\nG1 Z1. F100\r\nG1 Z2.\r\n").unwrap();
-    let p = NcProgram::read_file(&path, &ParseOptions::default()).unwrap();
-    assert_eq!(p.steps.len(), 2);
-    let e =
-        NcProgram::read_file(&dir.path().join("missing.nc"), &ParseOptions::default()).unwrap_err();
-    assert_eq!(e.line, 0);
-    assert!(e.to_string().contains("missing.nc"), "{e}");
-}
-
-#[test]
 fn serde_shape_is_snake_case() {
     let p = parse("G21 G0 Z1.\nG1 Z2. F100\nG4 P10\n");
     let json = serde_json::to_string(&p).unwrap();

@@ -1,6 +1,6 @@
 //! Simulator configuration (TOML, user units in every key name) and its validation.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
@@ -8,7 +8,7 @@ use super::friction::{FrictionModel, FrictionParams};
 use super::motion::{FeedModulation, MotionLimits, NcPath, StrokeConfig};
 use super::SimError;
 use crate::axis::{AxisError, AxisParams};
-use crate::nc::{NcProgram, ParseOptions};
+use crate::nc::{NcError, NcProgram, ParseOptions};
 use crate::trace::EffortKind;
 
 /// Rapid rate when neither `motion.rapid_rate_mm_min` nor `axis.rapid_rate_mm_min` is given
@@ -109,9 +109,13 @@ pub struct MotionConfig {
     /// the strokes. Default none.
     pub program: Option<String>,
     /// A file holding the NC program instead of the strokes. A relative path is taken
-    /// relative to the config file by [`SimConfig::from_toml_file`] and the CLI, else relative
-    /// to the working directory. Default none.
+    /// relative to the config file by `feedscope_io::sim` and the CLI. The simulator opens no
+    /// file: it reads the program from [`MotionConfig::program_file_contents`]. Default none.
     pub program_file: Option<PathBuf>,
+    /// The bytes of `program_file`, as read by `feedscope_io::sim::load_program_file` (or put
+    /// here by the caller); not serialized. A `program_file` without them cannot be simulated
+    /// (an error naming the file). Default none.
+    pub program_file_contents: Option<Vec<u8>>,
     /// Address letter of the simulated axis in the program (X, Y, Z; or A, B, C, U, V, W).
     /// Default `'Z'`.
     pub program_axis: char,
@@ -146,6 +150,7 @@ impl Default for MotionConfig {
             ],
             program: None,
             program_file: None,
+            program_file_contents: None,
             program_axis: 'Z',
             program_lathe_incremental: false,
             modulation: None,
@@ -177,15 +182,32 @@ impl MotionConfig {
         }
     }
 
-    /// The NC program of `program` or `program_file`, read; `None` for strokes.
+    /// The NC program of `program`, or of `program_file` from its
+    /// [`MotionConfig::program_file_contents`], parsed; `None` for strokes.
     ///
     /// # Errors
-    /// [`SimError::Program`] naming `motion.program` or the file and the line.
+    /// [`SimError::Program`] naming `motion.program` or the file and the line; line 0 when the
+    /// contents of `program_file` are not there (the file was not read).
     pub fn read_program(&self) -> Result<Option<NcProgram>, SimError> {
         let opts = self.parse_options();
         Ok(match (&self.program, &self.program_file) {
             (Some(text), _) => Some(NcProgram::parse_named(text, "motion.program", &opts)?),
-            (None, Some(path)) => Some(NcProgram::read_file(path, &opts)?),
+            (None, Some(path)) => {
+                let name = path.display().to_string();
+                match &self.program_file_contents {
+                    Some(bytes) => Some(NcProgram::parse_bytes(bytes, &name, &opts)?),
+                    None => {
+                        return Err(SimError::Program(NcError {
+                            source_name: name,
+                            line: 0,
+                            message: "the file has not been read (the simulator opens no file: \
+                                      load the config with feedscope_io::sim, or set \
+                                      motion.program_file_contents)"
+                                .to_string(),
+                        }))
+                    }
+                }
+            }
             (None, None) => None,
         })
     }
@@ -259,6 +281,7 @@ impl TryFrom<MotionToml> for MotionConfig {
             strokes,
             program: t.program,
             program_file: t.program_file,
+            program_file_contents: None,
             program_axis: t.program_axis,
             program_lathe_incremental: t.program_lathe_incremental,
             modulation: t.modulation,
@@ -540,44 +563,20 @@ impl SimConfig {
     /// # Errors
     /// [`SimError::Parse`] for syntax errors, unknown or mistyped keys; the validation errors
     /// of [`SimConfig::validate`].
-    /// A relative `motion.program_file` is read relative to the working directory; see
-    /// [`SimConfig::from_toml_str_in_dir`] and [`SimConfig::from_toml_file`].
+    /// A `motion.program_file` is not read here (the library opens no file), so validating it
+    /// fails naming the file; `feedscope_io::sim` parses a config and reads its program file.
     pub fn from_toml_str(text: &str) -> Result<Self, SimError> {
         let cfg = Self::parse_toml(text)?;
         cfg.validate()?;
         Ok(cfg)
     }
 
-    /// [`SimConfig::from_toml_str`] for a config that lives in `dir`: a relative
-    /// `motion.program_file` is taken relative to `dir`.
+    /// Parse a TOML config without validating it (strokes default as in
+    /// [`MotionConfig::strokes`]); [`SimConfig::validate`] checks it.
     ///
     /// # Errors
-    /// As [`SimConfig::from_toml_str`].
-    pub fn from_toml_str_in_dir(text: &str, dir: &Path) -> Result<Self, SimError> {
-        let mut cfg = Self::parse_toml(text)?;
-        if let Some(p) = &cfg.motion.program_file {
-            if p.is_relative() {
-                cfg.motion.program_file = Some(dir.join(p));
-            }
-        }
-        cfg.validate()?;
-        Ok(cfg)
-    }
-
-    /// Read, parse and validate a config file; a relative `motion.program_file` is taken
-    /// relative to the config file.
-    ///
-    /// # Errors
-    /// [`SimError::Parse`] when the file cannot be read; as [`SimConfig::from_toml_str`].
-    pub fn from_toml_file(path: &Path) -> Result<Self, SimError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SimError::Parse {
-            message: format!("cannot read {}: {e}", path.display()),
-        })?;
-        let dir = path.parent().unwrap_or(Path::new("."));
-        Self::from_toml_str_in_dir(&text, dir)
-    }
-
-    fn parse_toml(text: &str) -> Result<Self, SimError> {
+    /// [`SimError::Parse`] for syntax errors, unknown or mistyped keys.
+    pub fn parse_toml(text: &str) -> Result<Self, SimError> {
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         toml::from_str(text).map_err(|e| SimError::Parse {
             message: e.to_string().trim_end().to_string(),
@@ -604,7 +603,7 @@ impl SimConfig {
     }
 
     /// Check every value, naming the first offending key (`motion.stroke[1].feed_mm_min`),
-    /// read the program if there is one, and check the sizes of the run.
+    /// parse the program if there is one, and check the sizes of the run.
     ///
     /// # Errors
     /// [`SimError::InvalidValue`] / [`SimError::InvalidSetting`] naming the key,
@@ -615,8 +614,12 @@ impl SimConfig {
         self.validate_path(&path)
     }
 
-    /// Every key on its own (without reading the program).
-    pub(crate) fn validate_settings(&self) -> Result<(), SimError> {
+    /// Every key on its own (without reading the program): the first step of
+    /// [`SimConfig::validate`].
+    ///
+    /// # Errors
+    /// [`SimError::InvalidValue`] / [`SimError::InvalidSetting`] naming the key.
+    pub fn validate_settings(&self) -> Result<(), SimError> {
         self.axis.validate("axis").map_err(|e| match e {
             AxisError::InvalidValue {
                 key, value, reason, ..

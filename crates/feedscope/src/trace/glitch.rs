@@ -33,7 +33,7 @@
 //!   follows or precedes to prove a return; dropping them loses nothing of a stroke);
 //! - otherwise a **discontinuity** (re-homing, two recordings stitched together, a logger that
 //!   skipped a stretch while the axis moved fast): [`screen_position`] returns the [`Jump`], and
-//!   the readers refuse the trace with [`super::TraceError::PositionJump`].
+//!   the readers of `feedscope-io` refuse the trace with its `TraceError::PositionJump`.
 //!
 //! Only the position is screened. Motor current and torque legitimately jump (an acceleration
 //! step, a reversal, a saturated current loop) and no bound on them follows from the axis

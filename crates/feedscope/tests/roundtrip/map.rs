@@ -219,8 +219,8 @@ fn map_recovers_stribeck_parameters_and_mean_friction() {
 /// (same seed) give repeats whose PPOCM equals each of them.
 #[test]
 fn failed_runs_are_named_and_the_rest_map_from_files() {
-    use feedscope::map::{estimate_set, TestSet};
-    use feedscope::trace::{Layout, ReadOptions};
+    use feedscope_io::test_set::{estimate_set, read_index};
+    use feedscope_io::trace::{write_csv, Layout, ReadOptions};
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("traces")).unwrap();
     let mut index = String::from("file,feed_mm_min,repeat,comment\n");
@@ -230,12 +230,12 @@ fn failed_runs_are_named_and_the_rest_map_from_files() {
         let out = run(&config(f, 7));
         for r in 1..=2 {
             let name = format!("traces/f{f}_r{r}.csv");
-            out.trace
-                .write_csv(
-                    std::fs::File::create(dir.path().join(&name)).unwrap(),
-                    Layout::Long,
-                )
-                .unwrap();
+            write_csv(
+                &out.trace,
+                std::fs::File::create(dir.path().join(&name)).unwrap(),
+                Layout::Long,
+            )
+            .unwrap();
             index.push_str(&format!("{name},{f},{r},ok\n"));
         }
         axis = Some(out.truth.axis);
@@ -250,7 +250,7 @@ fn failed_runs_are_named_and_the_rest_map_from_files() {
     std::fs::write(&index_path, index).unwrap();
     let axis = axis.unwrap();
 
-    let set = TestSet::read_index(&index_path).unwrap();
+    let set = read_index(&index_path).unwrap();
     assert_eq!(set.runs.len(), 8);
     let est = estimate_set(
         &set,

@@ -15,7 +15,7 @@
 //!
 //! # Example
 //! ```
-//! use feedscope::import::{devices::DeviceModel, shdr::{parse_shdr, ShdrConvertParams}};
+//! use feedscope_io::import::{devices::DeviceModel, shdr::{parse_shdr, ShdrConvertParams}};
 //!
 //! let xml = r#"<MTConnectDevices><Devices><Device id="d" name="mill"><Components>
 //!   <Axes id="ax"><Components><Linear id="z" name="Z">
@@ -36,12 +36,14 @@
 //! // Load 8 % of 20 N·m; the repeated `Zload` at 1.5 s kept its last value and was counted.
 //! assert!((imported.trace.effort.value[3] - 1.6).abs() < 1e-12);
 //! assert_eq!(imported.report.effort.repeated_times, 1);
-//! # Ok::<(), feedscope::import::ImportError>(())
+//! # Ok::<(), feedscope_io::import::ImportError>(())
 //! ```
 use std::io::Write;
 
-use crate::calendar::{civil_from_days, days_from_civil, days_in_month};
-use crate::trace::{Layout, Trace};
+use feedscope::calendar::{civil_from_days, days_from_civil, days_in_month};
+use feedscope::trace::Trace;
+
+use crate::trace::{write_csv, Layout};
 
 pub mod devices;
 pub mod shdr;
@@ -439,7 +441,7 @@ pub struct ChannelReport {
 
 impl ChannelReport {
     /// Fill `samples`, `median_interval_s` and `span_s` from the channel.
-    fn finish(&mut self, ch: &crate::trace::Channel) {
+    fn finish(&mut self, ch: &feedscope::trace::Channel) {
         self.samples = ch.len();
         self.span_s = match (ch.time_s.first(), ch.time_s.last()) {
             (Some(&a), Some(&b)) => (a, b),
@@ -510,7 +512,7 @@ pub fn write_trace_csv<W: Write>(imported: &Imported, mut w: W) -> std::io::Resu
     for line in imported.report.comment_lines() {
         writeln!(w, "{line}")?;
     }
-    imported.trace.write_csv(w, Layout::Long)
+    write_csv(&imported.trace, w, Layout::Long)
 }
 
 /// Rough warnings common to every source: quantisation, sampling resolution, no motion.

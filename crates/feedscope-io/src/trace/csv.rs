@@ -1,4 +1,4 @@
-//! Reading trace CSV files fast and strictly.
+//! Reading and writing trace CSV files, fast and strictly.
 //!
 //! A reading thread reads the file in blocks of a few megabytes, ahead of the parser; each
 //! block is cut at line ends into one piece per worker thread and the pieces are parsed in
@@ -7,467 +7,38 @@
 //! (comments and header included).
 
 use std::fs::File;
-use std::io::Read;
+use std::io::{Read, Write};
 use std::path::Path;
 
-use super::glitch::GlitchParams;
-use super::{Channel, EffortKind, Trace};
+use feedscope::trace::{Channel, EffortKind, GlitchParams, Trace};
 
-/// Why a trace could not be read. Every variant names the input and, where it applies, the line.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum TraceError {
-    /// The file could not be opened or read.
-    #[error("{source_name}: cannot read: {error}")]
-    Io {
-        /// The file.
-        source_name: String,
-        /// The operating system's error.
-        error: std::io::Error,
-    },
-    /// The input has no header line (empty, or only comments).
-    #[error("{source_name}: no header line found (the file is empty or holds only comments)")]
-    Empty {
-        /// The file.
-        source_name: String,
-    },
-    /// The header does not describe a known layout.
-    #[error("{source_name}:{line}: bad header `{found}`: {reason}")]
-    BadHeader {
-        /// The file.
-        source_name: String,
-        /// 1-based line number.
-        line: u64,
-        /// The header as read (shortened).
-        found: String,
-        /// What is wrong with it.
-        reason: String,
-    },
-    /// A row has the wrong number of fields.
-    #[error("{source_name}:{line}: expected {expected} comma-separated fields, found {found}")]
-    FieldCount {
-        /// The file.
-        source_name: String,
-        /// 1-based line number.
-        line: u64,
-        /// Fields in the header.
-        expected: usize,
-        /// Fields in this row.
-        found: usize,
-    },
-    /// A field that must be a number is not.
-    #[error("{source_name}:{line}: column `{column}`: `{text}` is not a number")]
-    NotANumber {
-        /// The file.
-        source_name: String,
-        /// 1-based line number.
-        line: u64,
-        /// Column name.
-        column: String,
-        /// The text found (shortened).
-        text: String,
-    },
-    /// A number is NaN or infinite.
-    #[error("{source_name}:{line}: column `{column}`: `{text}` is not finite")]
-    NonFinite {
-        /// The file.
-        source_name: String,
-        /// 1-based line number.
-        line: u64,
-        /// Column name.
-        column: String,
-        /// The text found.
-        text: String,
-    },
-    /// Time does not strictly increase within a channel.
-    #[error(
-        "{source_name}:{line}: channel `{channel}`: time {time_s} s does not come after the \
-         previous sample at {previous_time_s} s (time must strictly increase within a channel)"
-    )]
-    TimeNotIncreasing {
-        /// The file.
-        source_name: String,
-        /// Channel name.
-        channel: String,
-        /// 1-based line number.
-        line: u64,
-        /// The offending time (s).
-        time_s: f64,
-        /// The previous time of this channel (s).
-        previous_time_s: f64,
-    },
-    /// A required channel is absent.
-    #[error("{source_name}: no `{channel}` samples found (channels seen: {found})")]
-    MissingChannel {
-        /// The file.
-        source_name: String,
-        /// The channel wanted, e.g. `position_mm`.
-        channel: String,
-        /// Channel names that were present.
-        found: String,
-    },
-    /// Both current and torque are present and no choice was made.
-    #[error(
-        "{source_name}: both `current_a` and `torque_nm` are present; choose one \
-         (option `effort`)"
-    )]
-    AmbiguousEffort {
-        /// The file.
-        source_name: String,
-    },
-    /// Too few samples to interpolate a channel.
-    #[error(
-        "{source_name}: channel `{channel}` has {found} samples, at least {needed} are needed"
-    )]
-    TooFewSamples {
-        /// The file.
-        source_name: String,
-        /// Channel name.
-        channel: String,
-        /// Samples found.
-        found: usize,
-        /// Minimum needed.
-        needed: usize,
-    },
-    /// The axis never moves.
-    #[error(
-        "{source_name}: the position never moves (it spans only {range_mm} mm); \
-         friction needs motion"
-    )]
-    NoMotion {
-        /// The file.
-        source_name: String,
-        /// Range of the position channel (mm).
-        range_mm: f64,
-    },
-    /// A Parquet file cannot be decoded: not Parquet, truncated, corrupt or unsupported.
-    #[error("{source_name}: not a readable Parquet file: {reason}")]
-    Parquet {
-        /// The file.
-        source_name: String,
-        /// What the decoder reported.
-        reason: String,
-    },
-    /// A Parquet column is missing or of a type that cannot hold what it should.
-    #[error("{source_name}: column `{column}`: {reason}")]
-    BadColumn {
-        /// The file.
-        source_name: String,
-        /// Column name.
-        column: String,
-        /// What is wrong with it.
-        reason: String,
-    },
-    /// A Parquet cell that must hold a value does not (a null time, a null or empty channel).
-    #[error("{source_name}: row {row}: column `{column}` {reason}")]
-    BadCell {
-        /// The file.
-        source_name: String,
-        /// 1-based data row.
-        row: u64,
-        /// Column name.
-        column: String,
-        /// What is wrong with it.
-        reason: String,
-    },
-    /// A Parquet value is NaN or infinite ([`TraceError::NonFinite`] of a row, not a line).
-    #[error("{source_name}: row {row}: column `{column}`: {value} is not finite")]
-    NonFiniteInRow {
-        /// The file.
-        source_name: String,
-        /// 1-based data row.
-        row: u64,
-        /// Column name.
-        column: String,
-        /// The value found.
-        value: f64,
-    },
-    /// A channel name of the long layout is too long or holds a control character (a header
-    /// column name is [`TraceError::BadHeader`], a Parquet column name
-    /// [`TraceError::BadColumn`], a Parquet channel value [`TraceError::BadCell`]).
-    #[error("{source_name}:{line}: channel name `{name}` {reason}")]
-    BadChannelName {
-        /// The file.
-        source_name: String,
-        /// 1-based line number.
-        line: u64,
-        /// The name as found, shortened, control characters escaped.
-        name: String,
-        /// What is wrong with it.
-        reason: String,
-    },
-    /// The position jumps at a speed the axis cannot reach and does not come back: the trace
-    /// is discontinuous (see [`super::glitch`]). Isolated jumps that come back are dropped
-    /// instead and listed in [`ReadReport::dropped_position`].
-    #[error(
-        "{source_name}{}: the position jumps by {} mm between t = {} s and t = {} s, \
-         implying {} mm/min, above the limit of {} mm/min, and does not come back \
-         (re-homed, or two recordings joined?); split the trace at the jump",
-        at(.line, .row),
-        mm(*.jump_mm),
-        secs(*.previous_time_s),
-        secs(*.time_s),
-        mm_min(*.speed_mm_min),
-        mm_min(*.limit_mm_min)
-    )]
-    PositionJump {
-        /// The file.
-        source_name: String,
-        /// 1-based line of the sample after the jump (CSV).
-        line: Option<u64>,
-        /// 1-based data row of the sample after the jump (Parquet).
-        row: Option<u64>,
-        /// Time of the sample after the jump (s).
-        time_s: f64,
-        /// Time of the last consistent sample before it (s).
-        previous_time_s: f64,
-        /// The jump (mm), signed.
-        jump_mm: f64,
-        /// The speed it implies (mm/min).
-        speed_mm_min: f64,
-        /// The speed limit of the screening (mm/min).
-        limit_mm_min: f64,
-    },
-    /// Time does not strictly increase within a channel of a Parquet file
-    /// ([`TraceError::TimeNotIncreasing`] of a row, not a line).
-    #[error(
-        "{source_name}: row {row}: channel `{channel}`: time {time_s} s does not come after the \
-         previous sample at {previous_time_s} s (time must strictly increase within a channel)"
-    )]
-    TimeNotIncreasingInRow {
-        /// The file.
-        source_name: String,
-        /// Channel name.
-        channel: String,
-        /// 1-based data row.
-        row: u64,
-        /// The offending time (s).
-        time_s: f64,
-        /// The previous time of this channel (s).
-        previous_time_s: f64,
-    },
-}
+use super::format::Layout;
+use super::read::{
+    choose_effort, name_problem, screen_and_check, shorten, show_name, EffortChoice, Origin,
+    ReadOptions, ReadReport, TraceError,
+};
+use crate::fixed::push_fixed;
 
-/// Options for reading a trace.
-#[derive(Debug, Clone, Default)]
-pub struct ReadOptions {
-    /// Which effort channel to use when a file has both current and torque; `None` takes the
-    /// one present and fails when both are.
-    pub effort: Option<EffortKind>,
-    /// Worker threads for parsing; `0` = the rayon pool size.
-    pub threads: usize,
-}
+/// Bytes read ahead of the parser at a time.
+pub(super) const BLOCK_BYTES: usize = 8 << 20;
 
-/// Facts about a file that was read successfully.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct ReadReport {
-    /// Rows of the long layout whose channel is not one feedscope uses.
-    pub ignored_rows: u64,
-    /// Names of the ignored channels (at most 16 listed).
-    pub ignored_channels: Vec<String>,
-    /// Lines in the file (CSV), or data rows (Parquet).
-    pub lines: u64,
-    /// The layout detected.
-    pub layout: Option<super::Layout>,
-    /// Position samples dropped as glitches (see [`super::glitch`]), in time order; they are
-    /// not in the trace.
-    pub dropped_position: Vec<DroppedSample>,
-    /// The speed limit the position was screened with (m/s); `None` when it was not screened
-    /// (a report made by hand).
-    pub max_axis_speed_m_s: Option<f64>,
-}
-
-/// A position sample dropped as a glitch.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct DroppedSample {
-    /// Its time (s).
-    pub time_s: f64,
-    /// The position it held (m), as read.
-    pub position_m: f64,
-    /// Its 1-based line in a CSV file.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub line: Option<u64>,
-    /// Its 1-based data row in a Parquet file.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub row: Option<u64>,
-}
-
-/// Dropped samples named in full in [`ReadReport::glitch_warning`]; the rest are counted.
-const SHOWN_DROPPED: usize = 5;
-
-impl ReadReport {
-    /// One sentence for people when position samples were dropped as glitches: the count, the
-    /// limit, and the time (and line or row) of the first few. `None` when nothing was dropped.
-    pub fn glitch_warning(&self) -> Option<String> {
-        let d = &self.dropped_position;
-        if d.is_empty() {
-            return None;
-        }
-        let limit = self
-            .max_axis_speed_m_s
-            .map(|v| format!(" beyond {} mm/min", mm_min(v * 60_000.0)))
-            .unwrap_or_default();
-        let shown: Vec<String> = d
-            .iter()
-            .take(SHOWN_DROPPED)
-            .map(|s| format!("{} s{}", secs(s.time_s), where_in_parens(s.line, s.row)))
-            .collect();
-        let more = if d.len() > SHOWN_DROPPED {
-            format!(" and {} more", d.len() - SHOWN_DROPPED)
-        } else {
-            String::new()
-        };
-        let what = if d.len() == 1 {
-            format!("1 position sample as a logger glitch (an isolated jump{limit} and back)")
-        } else {
-            format!(
-                "{} position samples as logger glitches (isolated jumps{limit} and back)",
-                d.len()
-            )
-        };
-        Some(format!("dropped {what} at t = {}{more}", shown.join(", ")))
-    }
-}
-
-/// `:line` or `: row N` after a file name, or nothing.
-fn at(line: &Option<u64>, row: &Option<u64>) -> String {
-    match (line, row) {
-        (Some(l), _) => format!(":{l}"),
-        (None, Some(r)) => format!(": row {r}"),
-        (None, None) => String::new(),
-    }
-}
-
-/// ` (line N)`, ` (row N)` or nothing.
-fn where_in_parens(line: Option<u64>, row: Option<u64>) -> String {
-    match (line, row) {
-        (Some(l), _) => format!(" (line {l})"),
-        (None, Some(r)) => format!(" (row {r})"),
-        (None, None) => String::new(),
-    }
-}
-
-/// A number for messages: at most `decimals` decimals without trailing zeros, or 4
-/// significant digits in scientific notation when it is huge (a glitch can be 1e308) or
-/// nonzero and too small for the decimals.
-fn num(x: f64, decimals: usize) -> String {
-    let a = x.abs();
-    let smallest = 0.5 * 10f64.powi(-(decimals as i32));
-    if a.is_finite() && (a == 0.0 || (smallest..1e9).contains(&a)) {
-        let s = format!("{x:.decimals$}");
-        let s = if s.contains('.') {
-            s.trim_end_matches('0').trim_end_matches('.')
-        } else {
-            &s
-        };
-        if s == "-0" {
-            "0".into()
-        } else {
-            s.into()
-        }
-    } else {
-        format!("{x:.3e}")
-    }
-}
-
-/// Time (s) for messages, to the microsecond.
-fn secs(x: f64) -> String {
-    num(x, 6)
-}
-
-/// Length (mm) for messages, to the micrometre.
-fn mm(x: f64) -> String {
-    num(x, 3)
-}
-
-/// Speed (mm/min) for messages, to the mm/min.
-fn mm_min(x: f64) -> String {
-    num(x, 0)
-}
-
-/// Longest channel or column name accepted (bytes of UTF-8).
-pub const MAX_NAME_BYTES: usize = 64;
-
-/// Why a channel or column name is refused, or `None` when it is fine: longer than
-/// [`MAX_NAME_BYTES`] or holding a control character (C0, DEL or C1).
-pub(super) fn name_problem(name: &[u8]) -> Option<String> {
-    if name.len() > MAX_NAME_BYTES {
-        return Some(format!(
-            "is {} bytes long; names are at most {MAX_NAME_BYTES} bytes",
-            name.len()
-        ));
-    }
-    String::from_utf8_lossy(name)
-        .chars()
-        .find(|c| c.is_control())
-        .map(|c| format!("holds the control character U+{:04X}", c as u32))
-}
-
-/// A name for a message: at most 40 characters, control characters escaped.
-pub(super) fn show_name(name: &[u8]) -> String {
-    shorten_to(name, 40)
-}
-
-/// Fewest samples a channel needs (a not-a-knot cubic needs four knots).
-pub const MIN_SAMPLES: usize = 4;
-const BLOCK_BYTES: usize = 8 << 20;
-
-/// Read a trace file: CSV or Parquet (told by the magic bytes `PAR1`), either layout, with
-/// the position screened for glitches at the default limit ([`GlitchParams::default`], 200
-/// m/min). [`read_trace_file_with`] takes the axis' own limit.
-///
-/// # Errors
-/// Any [`TraceError`]: unreadable file, bad header or Parquet columns, malformed or non-finite
-/// numbers, a bad channel name, time not increasing within a channel, a missing channel, too
-/// few samples, no motion, or a position jump that does not come back.
-pub fn read_trace_file(path: &Path, opts: &ReadOptions) -> Result<(Trace, ReadReport), TraceError> {
-    read_trace_file_with(path, opts, &GlitchParams::default())
-}
-
-/// [`read_trace_file`] with the position screened for glitches at `glitch`'s speed limit (see
-/// [`super::glitch`]): isolated jumps that come back are dropped and listed in
-/// [`ReadReport::dropped_position`] with their lines (CSV) or rows (Parquet); a jump that does
-/// not come back is [`TraceError::PositionJump`].
-///
-/// # Errors
-/// As [`read_trace_file`].
-///
-/// # Panics
-/// When `glitch.max_axis_speed_m_s` is NaN, zero or negative.
-pub fn read_trace_file_with(
+/// Read an open CSV file (its magic already checked: not Parquet) in blocks of about
+/// `block_bytes` (tests use small blocks to cross boundaries), then end with the checks of
+/// every reader; `path` is opened again only to find the lines of dropped samples.
+pub(super) fn read_file(
+    file: File,
     path: &Path,
-    opts: &ReadOptions,
-    glitch: &GlitchParams,
-) -> Result<(Trace, ReadReport), TraceError> {
-    read_file_in_blocks(path, opts, glitch, BLOCK_BYTES)
-}
-
-/// [`read_trace_file_with`] with a chosen block size (tests use small blocks to cross
-/// boundaries).
-fn read_file_in_blocks(
-    path: &Path,
+    name: &str,
     opts: &ReadOptions,
     glitch: &GlitchParams,
     block_bytes: usize,
 ) -> Result<(Trace, ReadReport), TraceError> {
-    let name = path.display().to_string();
     let io = |error| TraceError::Io {
-        source_name: name.clone(),
+        source_name: name.to_string(),
         error,
     };
-    let mut file = File::open(path).map_err(io)?;
-    if super::parquet::starts_with_magic(&mut file).map_err(io)? {
-        let read = super::parquet::read_parquet(file, &name, opts)?;
-        // Rows of dropped samples come from a second decode, only when something was dropped.
-        let locate = |wanted: &[usize]| match File::open(path) {
-            Ok(f) => super::parquet::position_rows(f, &name, opts, wanted),
-            Err(_) => vec![None; wanted.len()],
-        };
-        return screen_and_check(&name, read, glitch, Origin::Row, locate);
-    }
-    super::parquet::refuse_misnamed(path, &name)?;
     let size_hint = file.metadata().map(|m| m.len()).unwrap_or(0);
-    let mut reader = BlockParser::new(name.clone(), opts, size_hint);
+    let mut reader = BlockParser::new(name.to_string(), opts, size_hint);
     // A reading thread fills the next block while the workers parse this one. Blocks hold
     // complete lines only (a partial last line moves to the next block); two buffers circulate.
     let (full_tx, full_rx) = std::sync::mpsc::sync_channel::<std::io::Result<(Vec<u8>, bool)>>(1);
@@ -502,70 +73,87 @@ fn read_file_in_blocks(
         .unwrap_or_else(|_| vec![None; wanted.len()]),
         Err(_) => vec![None; wanted.len()],
     };
-    screen_and_check(&name, (trace, report), glitch, Origin::Line, locate)
+    screen_and_check(name, (trace, report), glitch, Origin::Line, locate)
 }
 
-/// Where the numbers of [`screen_and_check`]'s `locate` point: CSV lines or Parquet rows.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Origin {
-    Line,
-    Row,
-}
-
-/// The checks every reader ends with: enough samples and motion ([`check_channels`]), then the
-/// position screened for glitches (dropped samples named by `locate`, which maps ascending
-/// position-sample indices to 1-based lines or rows), then the first checks again on what is
-/// left.
-fn screen_and_check(
-    name: &str,
-    (mut trace, mut report): (Trace, ReadReport),
+/// Parse a CSV trace held in memory, then end with the checks of every reader.
+pub(super) fn parse_bytes(
+    bytes: &[u8],
+    source_name: &str,
+    opts: &ReadOptions,
     glitch: &GlitchParams,
-    origin: Origin,
-    locate: impl FnOnce(&[usize]) -> Vec<Option<u64>>,
 ) -> Result<(Trace, ReadReport), TraceError> {
-    check_channels(name, &trace.position_m, &trace.effort, trace.effort_kind)?;
-    report.max_axis_speed_m_s = Some(glitch.max_axis_speed_m_s);
-    let split = |at: Option<u64>| match origin {
-        Origin::Line => (at, None),
-        Origin::Row => (None, at),
+    let mut reader = BlockParser::new(source_name.to_string(), opts, bytes.len() as u64);
+    let consumed = reader.feed(bytes, true)?;
+    debug_assert_eq!(consumed, bytes.len());
+    let (trace, report, layout) = reader.finish()?;
+    let locate = |wanted: &[usize]| {
+        position_lines(bytes, &layout, wanted).unwrap_or_else(|_| vec![None; wanted.len()])
     };
-    let p = &trace.position_m;
-    match super::glitch::screen_position(p, glitch) {
-        Ok(s) if s.glitches.is_empty() => {}
-        Ok(s) => {
-            let at = locate(&s.glitches);
-            report.dropped_position = s
-                .glitches
-                .iter()
-                .zip(at.into_iter().chain(std::iter::repeat(None)))
-                .map(|(&k, at)| {
-                    let (line, row) = split(at);
-                    DroppedSample {
-                        time_s: p.time_s[k],
-                        position_m: p.value[k],
-                        line,
-                        row,
-                    }
-                })
-                .collect();
-            super::glitch::remove_samples(&mut trace.position_m, &s.glitches);
-            check_channels(name, &trace.position_m, &trace.effort, trace.effort_kind)?;
+    screen_and_check(source_name, (trace, report), glitch, Origin::Line, locate)
+}
+
+/// Write a trace as CSV in user units: time in s with 6 decimals (1 µs), position in mm with
+/// 6 decimals (1 nm), current (A) or torque (N·m) with 6 decimals, as a controller logger
+/// would.
+///
+/// The long layout merges both channels in time order. The wide layout needs both channels on
+/// the same timestamps.
+///
+/// # Errors
+/// I/O errors; `InvalidInput` when the wide layout is asked for channels with different
+/// timestamps.
+pub fn write_csv<W: Write>(trace: &Trace, w: W, layout: Layout) -> std::io::Result<()> {
+    let mut w = std::io::BufWriter::new(w);
+    let effort = trace.effort_kind.column();
+    match layout {
+        Layout::Long => {
+            writeln!(w, "time_s,channel,value")?;
+            let (p, e) = (&trace.position_m, &trace.effort);
+            let (mut i, mut j) = (0, 0);
+            let mut line = Vec::with_capacity(64);
+            while i < p.len() || j < e.len() {
+                let take_p = j >= e.len() || (i < p.len() && p.time_s[i] <= e.time_s[j]);
+                line.clear();
+                if take_p {
+                    push_fixed(&mut line, p.time_s[i], 6);
+                    line.extend_from_slice(b",position_mm,");
+                    push_fixed(&mut line, p.value[i] * 1e3, 6);
+                    i += 1;
+                } else {
+                    push_fixed(&mut line, e.time_s[j], 6);
+                    line.push(b',');
+                    line.extend_from_slice(effort.as_bytes());
+                    line.push(b',');
+                    push_fixed(&mut line, e.value[j], 6);
+                    j += 1;
+                }
+                line.push(b'\n');
+                w.write_all(&line)?;
+            }
         }
-        Err(j) => {
-            let (line, row) = split(locate(&[j.index]).first().copied().flatten());
-            return Err(TraceError::PositionJump {
-                source_name: name.to_string(),
-                line,
-                row,
-                time_s: p.time_s[j.index],
-                previous_time_s: p.time_s[j.from_index],
-                jump_mm: j.jump_m * 1e3,
-                speed_mm_min: j.speed_m_s * 60_000.0,
-                limit_mm_min: glitch.max_axis_speed_mm_min(),
-            });
+        Layout::Wide => {
+            if trace.position_m.time_s != trace.effort.time_s {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    "the wide layout needs position and effort on the same timestamps",
+                ));
+            }
+            writeln!(w, "time_s,position_mm,{effort}")?;
+            let mut line = Vec::with_capacity(64);
+            for k in 0..trace.position_m.len() {
+                line.clear();
+                push_fixed(&mut line, trace.position_m.time_s[k], 6);
+                line.push(b',');
+                push_fixed(&mut line, trace.position_m.value[k] * 1e3, 6);
+                line.push(b',');
+                push_fixed(&mut line, trace.effort.value[k], 6);
+                line.push(b'\n');
+                w.write_all(&line)?;
+            }
         }
     }
-    Ok((trace, report))
+    w.flush()
 }
 
 /// 1-based lines of the position samples with the given indices (ascending; counted from 0 in
@@ -682,52 +270,6 @@ fn line_terminator(buf: &[u8]) -> u8 {
     }
 }
 
-/// Parse a trace held in memory (CSV, or Parquet when it starts with `PAR1`); `source_name`
-/// labels errors. The position is screened for glitches at the default limit, as by
-/// [`read_trace_file`].
-///
-/// # Errors
-/// As [`read_trace_file`].
-pub fn parse_trace(
-    bytes: &[u8],
-    source_name: &str,
-    opts: &ReadOptions,
-) -> Result<(Trace, ReadReport), TraceError> {
-    parse_trace_with(bytes, source_name, opts, &GlitchParams::default())
-}
-
-/// [`parse_trace`] with the position screened at `glitch`'s speed limit, as
-/// [`read_trace_file_with`].
-///
-/// # Errors
-/// As [`read_trace_file`].
-///
-/// # Panics
-/// When `glitch.max_axis_speed_m_s` is NaN, zero or negative.
-pub fn parse_trace_with(
-    bytes: &[u8],
-    source_name: &str,
-    opts: &ReadOptions,
-    glitch: &GlitchParams,
-) -> Result<(Trace, ReadReport), TraceError> {
-    if bytes.starts_with(super::parquet::MAGIC) {
-        let buf = bytes::Bytes::copy_from_slice(bytes);
-        let read = super::parquet::read_parquet(buf.clone(), source_name, opts)?;
-        let locate = |wanted: &[usize]| {
-            super::parquet::position_rows(buf.clone(), source_name, opts, wanted)
-        };
-        return screen_and_check(source_name, read, glitch, Origin::Row, locate);
-    }
-    let mut reader = BlockParser::new(source_name.to_string(), opts, bytes.len() as u64);
-    let consumed = reader.feed(bytes, true)?;
-    debug_assert_eq!(consumed, bytes.len());
-    let (trace, report, layout) = reader.finish()?;
-    let locate = |wanted: &[usize]| {
-        position_lines(bytes, &layout, wanted).unwrap_or_else(|_| vec![None; wanted.len()])
-    };
-    screen_and_check(source_name, (trace, report), glitch, Origin::Line, locate)
-}
-
 /// Which channel a long-layout row belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Slot {
@@ -783,32 +325,6 @@ struct BlockParser {
     bytes_seen: u64,
     /// Whether the channels were reserved for the whole file.
     reserved: bool,
-}
-
-/// Text from a file for a message: trimmed, at most 60 characters, control characters escaped
-/// (a terminal must not receive the file's escape sequences).
-fn shorten(b: &[u8]) -> String {
-    shorten_to(b, 60)
-}
-
-/// [`shorten`] to at most `max_chars` characters (and `…`).
-fn shorten_to(b: &[u8], max_chars: usize) -> String {
-    // A UTF-8 character is at most 4 bytes: enough bytes for `max_chars` after trimming a few.
-    let cap = 4 * max_chars + 8;
-    let s = String::from_utf8_lossy(&b[..b.len().min(cap)]);
-    let s = s.trim();
-    let escape = |c: char| -> String {
-        if c.is_control() {
-            c.escape_debug().collect()
-        } else {
-            c.to_string()
-        }
-    };
-    let mut out: String = s.chars().take(max_chars).map(escape).collect();
-    if s.chars().count() > max_chars || b.len() > cap {
-        out.push('…');
-    }
-    out
 }
 
 impl BlockParser {
@@ -1062,7 +578,7 @@ impl BlockParser {
                     EffortKind::CurrentA => self.cur,
                     EffortKind::TorqueNm => self.tor,
                 };
-                (ch, effort_kind, super::Layout::Wide)
+                (ch, effort_kind, Layout::Wide)
             }
             Header::Long { .. } => {
                 let seen = || {
@@ -1121,7 +637,7 @@ impl BlockParser {
                     EffortKind::CurrentA => self.cur,
                     EffortKind::TorqueNm => self.tor,
                 };
-                (ch, choice, super::Layout::Long)
+                (ch, choice, Layout::Long)
             }
         };
         let report = ReadReport {
@@ -1140,69 +656,6 @@ impl BlockParser {
             report,
             csv_layout,
         ))
-    }
-}
-
-/// The first checks every reader ends with: enough samples in both channels, and motion.
-fn check_channels(
-    name: &str,
-    position_m: &Channel,
-    effort: &Channel,
-    effort_kind: EffortKind,
-) -> Result<(), TraceError> {
-    for (ch, label) in [(position_m, "position"), (effort, effort_kind.column())] {
-        if ch.len() < MIN_SAMPLES {
-            return Err(TraceError::TooFewSamples {
-                source_name: name.to_string(),
-                channel: label.into(),
-                found: ch.len(),
-                needed: MIN_SAMPLES,
-            });
-        }
-    }
-    let (lo, hi) = position_m
-        .value
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    // Below a nanometre nothing measurable moved.
-    if hi - lo <= 1e-9 {
-        return Err(TraceError::NoMotion {
-            source_name: name.to_string(),
-            range_mm: (hi - lo) * 1e3,
-        });
-    }
-    Ok(())
-}
-
-/// Why no effort column could be picked.
-pub(super) enum EffortChoice {
-    /// Both current and torque are present and none was chosen.
-    Ambiguous,
-    /// The chosen kind is absent.
-    Missing(EffortKind),
-    /// Neither is present.
-    Neither,
-}
-
-/// The effort column (any index type) from the current and torque columns found and the
-/// user's choice: the one present, or the chosen one.
-pub(super) fn choose_effort<T>(
-    cur: Option<T>,
-    tor: Option<T>,
-    choice: Option<EffortKind>,
-) -> Result<(T, EffortKind), EffortChoice> {
-    match (cur, tor, choice) {
-        (Some(c), _, Some(EffortKind::CurrentA)) | (Some(c), None, None) => {
-            Ok((c, EffortKind::CurrentA))
-        }
-        (_, Some(t), Some(EffortKind::TorqueNm)) | (None, Some(t), None) => {
-            Ok((t, EffortKind::TorqueNm))
-        }
-        (Some(_), Some(_), None) => Err(EffortChoice::Ambiguous),
-        (_, _, Some(k)) => Err(EffortChoice::Missing(k)),
-        (None, None, None) => Err(EffortChoice::Neither),
     }
 }
 
@@ -1553,9 +1006,28 @@ fn parse_piece(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::trace::{parse_trace, parse_trace_with, DroppedSample};
 
     fn parse(s: &str) -> Result<(Trace, ReadReport), TraceError> {
         parse_trace(s.as_bytes(), "t.csv", &ReadOptions::default())
+    }
+
+    /// [`read_file`] of the CSV file at `path` with blocks of `block_bytes`.
+    fn read_file_in_blocks(
+        path: &Path,
+        opts: &ReadOptions,
+        glitch: &GlitchParams,
+        block_bytes: usize,
+    ) -> Result<(Trace, ReadReport), TraceError> {
+        let name = path.display().to_string();
+        read_file(
+            File::open(path).unwrap(),
+            path,
+            &name,
+            opts,
+            glitch,
+            block_bytes,
+        )
     }
 
     #[test]
@@ -1602,6 +1074,42 @@ mod tests {
         assert_eq!(t.effort_kind, EffortKind::CurrentA);
         assert_eq!(r.ignored_rows, 1);
         assert_eq!(r.lines, 11);
+    }
+
+    /// A synchronous simulation (both channels on one clock, some samples dropped) is written
+    /// in the wide layout with the effort's column name.
+    #[test]
+    fn synchronous_simulation_writes_the_wide_layout() {
+        use feedscope::sim::{simulate, SamplingMode, SimConfig, StrokeConfig};
+        let mut c = SimConfig::default();
+        c.motion.strokes = vec![
+            StrokeConfig {
+                to_mm: 20.0,
+                feed_mm_min: 600.0,
+                dwell_s: 0.2,
+            },
+            StrokeConfig {
+                to_mm: 0.0,
+                feed_mm_min: 600.0,
+                dwell_s: 0.0,
+            },
+        ];
+        c.motion.lead_in_s = 0.2;
+        c.motion.lead_out_s = 0.2;
+        c.sampling.mode = SamplingMode::Synchronous;
+        c.sampling.synchronous_rate_hz = 1000.0;
+        c.sampling.synchronous_dropout_probability = 0.01;
+        let out = simulate(&c, &mut |_| {}).unwrap();
+        let mut buf = Vec::new();
+        write_csv(&out.trace, &mut buf, Layout::Wide).unwrap();
+        assert!(String::from_utf8(buf)
+            .unwrap()
+            .starts_with("time_s,position_mm,current_a\n"));
+        // Asynchronous channels have no wide layout.
+        let mut t = out.trace;
+        t.effort.time_s[0] -= 1e-4;
+        let e = write_csv(&t, Vec::new(), Layout::Wide).unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::InvalidInput);
     }
 
     #[test]
@@ -1987,19 +1495,5 @@ mod tests {
                 e => panic!("{e}"),
             }
         }
-    }
-
-    #[test]
-    fn messages_numbers() {
-        assert_eq!(secs(1.5), "1.5");
-        assert_eq!(secs(1.2340000000000002), "1.234");
-        assert_eq!(mm_min(200_000.0), "200000");
-        assert_eq!(mm_min(59_998_559.7), "59998560");
-        assert_eq!(mm(999.975995), "999.976");
-        assert_eq!(mm(-0.0), "0");
-        assert_eq!(mm(-0.0001), "-1.000e-4");
-        assert_eq!(mm(f64::MAX), "1.798e308");
-        assert_eq!(mm_min(f64::INFINITY), "inf");
-        assert_eq!(secs(1e-7), "1.000e-7");
     }
 }

@@ -1,12 +1,12 @@
 //! Throughput of reading a Parquet trace.
 //!
-//! The trace is the one of `benches/estimate.rs` in shape: 10 M samples per channel at 1 kHz,
-//! the current 0.4 ms after the position (asynchronous), so the long layout (20 M rows:
-//! `time_s`, dictionary-encoded `channel`, `value`). A wide file of the same size (both channels
+//! The trace is the one of `crates/feedscope/benches/estimate.rs` in shape: 10 M samples per
+//! channel at 1 kHz, the current 0.4 ms after the position (asynchronous), so the long layout
+//! (20 M rows: `time_s`, dictionary-encoded `channel`, `value`). A wide file of the same size (both channels
 //! on one clock, 10 M rows) is read too. Both are written once to `target/bench-data/` and
 //! reused.
 //!
-//! Run: `cargo bench -p feedscope --bench read_parquet`. Criterion reports bytes/s of the file;
+//! Run: `cargo bench -p feedscope-io --bench read_parquet`. Criterion reports bytes/s of the file;
 //! samples/s (both channels) is printed for each file beside it.
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -16,7 +16,8 @@ use std::path::PathBuf;
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use feedscope::trace::{read_trace_file, Channel, EffortKind, Layout, ReadOptions, Trace};
+use feedscope::trace::{Channel, EffortKind, Trace};
+use feedscope_io::trace::{read_trace_file, write_parquet, Layout, ReadOptions};
 
 const N: usize = 10_000_000;
 
@@ -58,9 +59,7 @@ fn data_file(name: &str, layout: Layout) -> PathBuf {
     if !path.exists() {
         let tmp = dir.join(format!("{name}.tmp"));
         let trace = make_trace(N, layout == Layout::Wide);
-        trace
-            .write_parquet(std::fs::File::create(&tmp).unwrap(), layout)
-            .unwrap();
+        write_parquet(&trace, std::fs::File::create(&tmp).unwrap(), layout).unwrap();
         std::fs::rename(&tmp, &path).unwrap();
     }
     path

@@ -13,7 +13,7 @@ use std::path::Path;
 
 use super::LineEndings;
 use super::{read_text, shorten, split_lines, ChannelReport, ImportError, ImportReport, Imported};
-use crate::trace::{Channel, EffortKind, Trace, MIN_SAMPLES};
+use feedscope::trace::{Channel, EffortKind, Trace, MIN_SAMPLES};
 
 /// Which current column becomes `current_a`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

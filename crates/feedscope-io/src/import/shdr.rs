@@ -29,7 +29,7 @@ use std::path::Path;
 use super::devices::{Category, DeviceModel, Shape};
 use super::{read_text, shorten, split_lines, ChannelReport, ImportError, ImportReport, Imported};
 use super::{LineEndings, Timestamp};
-use crate::trace::{Channel, EffortKind, Trace, MIN_SAMPLES};
+use feedscope::trace::{Channel, EffortKind, Trace, MIN_SAMPLES};
 
 /// Observations of one key.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -7,7 +7,7 @@
 //! decoder's current row group. Errors name the file and, for bad values, the 1-based data row.
 
 use std::fs::File;
-use std::io::{Read, Seek, Write};
+use std::io::Write;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -16,6 +16,7 @@ use arrow_array::types::{Float32Type, Float64Type, Int32Type, Int64Type, Int8Typ
 use arrow_array::{Array, ArrayRef, DictionaryArray, Float64Array, Int8Array, RecordBatch};
 use arrow_array::{StringArray, StringViewArray};
 use arrow_schema::{DataType, Field, Schema};
+use feedscope::trace::{Channel, EffortKind, GlitchParams, Trace};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::arrow::{ArrowWriter, ProjectionMask};
 use parquet::basic::Compression;
@@ -23,48 +24,15 @@ use parquet::file::properties::WriterProperties;
 use parquet::file::reader::ChunkReader;
 use parquet::schema::types::ColumnPath;
 
-use super::read::{choose_effort, name_problem, show_name, EffortChoice};
-use super::{Channel, EffortKind, Layout, ReadOptions, ReadReport, Trace, TraceError};
-
-/// The four bytes every Parquet file starts (and ends) with.
-pub(super) const MAGIC: &[u8; 4] = b"PAR1";
+use super::format::Layout;
+use super::read::{
+    choose_effort, name_problem, screen_and_check, show_name, EffortChoice, Origin, ReadOptions,
+    ReadReport, TraceError,
+};
 
 /// Rows per record batch, read and written: large enough that per-batch work is noise, small
 /// enough (64 Ki rows ≈ 1.5 MB of decoded columns) to stay in cache-friendly sizes.
 const BATCH_ROWS: usize = 1 << 16;
-
-/// True when the file starts with the Parquet magic; the file is rewound either way.
-pub(super) fn starts_with_magic(file: &mut File) -> std::io::Result<bool> {
-    let mut head = [0u8; 4];
-    let mut filled = 0;
-    while filled < head.len() {
-        match file.read(&mut head[filled..]) {
-            Ok(0) => break,
-            Ok(n) => filled += n,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-    file.rewind()?;
-    Ok(filled == head.len() && &head == MAGIC)
-}
-
-/// A file named `*.parquet` that lacks the magic is refused rather than parsed as CSV, which
-/// would only report a confusing bad header.
-pub(super) fn refuse_misnamed(path: &Path, name: &str) -> Result<(), TraceError> {
-    let is_parquet_name = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("parquet"));
-    if is_parquet_name {
-        return Err(TraceError::Parquet {
-            source_name: name.to_string(),
-            reason: "the name ends in .parquet but the file does not start with the Parquet \
-                     magic bytes `PAR1`"
-                .into(),
-        });
-    }
-    Ok(())
-}
 
 /// Where each needed column sits in the projected batches, and how to scale it.
 #[derive(Debug, Clone)]
@@ -134,6 +102,38 @@ fn is_string(t: &DataType) -> bool {
     matches!(t, DataType::Utf8 | DataType::LargeUtf8 | DataType::Utf8View)
 }
 
+/// Read an open Parquet file (its magic already checked), then end with the checks of every
+/// reader; `path` is opened again only to find the rows of dropped samples.
+pub(super) fn read_file(
+    file: File,
+    path: &Path,
+    name: &str,
+    opts: &ReadOptions,
+    glitch: &GlitchParams,
+) -> Result<(Trace, ReadReport), TraceError> {
+    let read = read_parquet(file, name, opts)?;
+    // Rows of dropped samples come from a second decode, only when something was dropped.
+    let locate = |wanted: &[usize]| match File::open(path) {
+        Ok(f) => position_rows(f, name, opts, wanted),
+        Err(_) => vec![None; wanted.len()],
+    };
+    screen_and_check(name, read, glitch, Origin::Row, locate)
+}
+
+/// Parse a Parquet trace held in memory (its magic already checked), then end with the checks
+/// of every reader.
+pub(super) fn parse_bytes(
+    bytes: &[u8],
+    source_name: &str,
+    opts: &ReadOptions,
+    glitch: &GlitchParams,
+) -> Result<(Trace, ReadReport), TraceError> {
+    let buf = bytes::Bytes::copy_from_slice(bytes);
+    let read = read_parquet(buf.clone(), source_name, opts)?;
+    let locate = |wanted: &[usize]| position_rows(buf.clone(), source_name, opts, wanted);
+    screen_and_check(source_name, read, glitch, Origin::Row, locate)
+}
+
 /// Read a trace from an open Parquet file or a buffer (its magic already checked), without the
 /// final checks (the caller's, as for CSV).
 ///
@@ -144,7 +144,7 @@ fn is_string(t: &DataType) -> bool {
 /// [`TraceError::Parquet`]. While the decoder runs, [`decoding_untrusted_parquet`] is true on
 /// this thread, so a program's panic hook can stay silent for a panic that is about to become
 /// that error.
-pub(super) fn read_parquet<R: ChunkReader + 'static>(
+fn read_parquet<R: ChunkReader + 'static>(
     file: R,
     name: &str,
     opts: &ReadOptions,
@@ -177,7 +177,7 @@ fn guarded<T>(name: &str, f: impl FnOnce() -> Result<T, TraceError>) -> Result<T
 /// 0 in file order) in a Parquet file that [`read_parquet`] read without error: a second
 /// decode of the time and position (wide) or channel (long) columns only. `None` for an index
 /// that is not found or when the file cannot be decoded again.
-pub(super) fn position_rows<R: ChunkReader + 'static>(
+fn position_rows<R: ChunkReader + 'static>(
     file: R,
     name: &str,
     opts: &ReadOptions,
@@ -900,119 +900,117 @@ fn for_each_string(col: &dyn Array, mut f: impl FnMut(Option<&str>)) -> Option<(
     Some(())
 }
 
-impl Trace {
-    /// Write the trace as Parquet (Snappy-compressed), the Parquet counterpart of
-    /// [`Trace::write_csv`] with the same two layouts:
-    /// - wide: columns `time_s`, `position_m`, and `current_a` or `torque_nm`, all Float64;
-    ///   needs both channels on the same timestamps;
-    /// - long: `time_s` (Float64), `channel` (dictionary-encoded string: `position_m`,
-    ///   `current_a` or `torque_nm`), `value` (Float64), both channels merged in time order.
-    ///
-    /// Unlike CSV nothing is rounded: values are stored in SI at full `f64` precision (hence
-    /// `position_m`, not `position_mm`), so [`read_trace_file`](super::read_trace_file) gives
-    /// back exactly this trace.
-    ///
-    /// # Errors
-    /// I/O and encoder errors; `InvalidInput` when the wide layout is asked for channels with
-    /// different timestamps.
-    pub fn write_parquet<W: Write + Send>(&self, w: W, layout: Layout) -> std::io::Result<()> {
-        let effort = self.effort_kind.column();
-        // Dictionary pages only pay for the channel names; time and value are all distinct.
-        let props = WriterProperties::builder()
-            .set_compression(Compression::SNAPPY)
-            .set_dictionary_enabled(false)
-            .set_column_dictionary_enabled(ColumnPath::from("channel"), true)
-            .build();
-        let f64_col = |s: &[f64]| -> ArrayRef { Arc::new(Float64Array::from(s.to_vec())) };
-        match layout {
-            Layout::Wide => {
-                if self.position_m.time_s != self.effort.time_s {
-                    return Err(std::io::Error::new(
-                        std::io::ErrorKind::InvalidInput,
-                        "the wide layout needs position and effort on the same timestamps",
-                    ));
+/// Write the trace as Parquet (Snappy-compressed), the Parquet counterpart of
+/// [`write_csv`](super::write_csv) with the same two layouts:
+/// - wide: columns `time_s`, `position_m`, and `current_a` or `torque_nm`, all Float64;
+///   needs both channels on the same timestamps;
+/// - long: `time_s` (Float64), `channel` (dictionary-encoded string: `position_m`,
+///   `current_a` or `torque_nm`), `value` (Float64), both channels merged in time order.
+///
+/// Unlike CSV nothing is rounded: values are stored in SI at full `f64` precision (hence
+/// `position_m`, not `position_mm`), so [`read_trace_file`](super::read_trace_file) gives
+/// back exactly this trace.
+///
+/// # Errors
+/// I/O and encoder errors; `InvalidInput` when the wide layout is asked for channels with
+/// different timestamps.
+pub fn write_parquet<W: Write + Send>(trace: &Trace, w: W, layout: Layout) -> std::io::Result<()> {
+    let effort = trace.effort_kind.column();
+    // Dictionary pages only pay for the channel names; time and value are all distinct.
+    let props = WriterProperties::builder()
+        .set_compression(Compression::SNAPPY)
+        .set_dictionary_enabled(false)
+        .set_column_dictionary_enabled(ColumnPath::from("channel"), true)
+        .build();
+    let f64_col = |s: &[f64]| -> ArrayRef { Arc::new(Float64Array::from(s.to_vec())) };
+    match layout {
+        Layout::Wide => {
+            if trace.position_m.time_s != trace.effort.time_s {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    "the wide layout needs position and effort on the same timestamps",
+                ));
+            }
+            let schema = Arc::new(Schema::new(vec![
+                Field::new("time_s", DataType::Float64, false),
+                Field::new("position_m", DataType::Float64, false),
+                Field::new(effort, DataType::Float64, false),
+            ]));
+            let mut writer = ArrowWriter::try_new(w, schema.clone(), Some(props))
+                .map_err(std::io::Error::other)?;
+            let n = trace.position_m.len();
+            let mut k = 0;
+            while k < n {
+                let end = (k + BATCH_ROWS).min(n);
+                let batch = RecordBatch::try_new(
+                    schema.clone(),
+                    vec![
+                        f64_col(&trace.position_m.time_s[k..end]),
+                        f64_col(&trace.position_m.value[k..end]),
+                        f64_col(&trace.effort.value[k..end]),
+                    ],
+                )
+                .map_err(std::io::Error::other)?;
+                writer.write(&batch).map_err(std::io::Error::other)?;
+                k = end;
+            }
+            writer.close().map_err(std::io::Error::other)?;
+        }
+        Layout::Long => {
+            let dict = DataType::Dictionary(Box::new(DataType::Int8), Box::new(DataType::Utf8));
+            let schema = Arc::new(Schema::new(vec![
+                Field::new("time_s", DataType::Float64, false),
+                Field::new("channel", dict, false),
+                Field::new("value", DataType::Float64, false),
+            ]));
+            let names: ArrayRef = Arc::new(StringArray::from(vec!["position_m", effort]));
+            let mut writer = ArrowWriter::try_new(w, schema.clone(), Some(props))
+                .map_err(std::io::Error::other)?;
+            let (p, e) = (&trace.position_m, &trace.effort);
+            let (mut i, mut j) = (0, 0);
+            let mut time = Vec::with_capacity(BATCH_ROWS);
+            let mut key: Vec<i8> = Vec::with_capacity(BATCH_ROWS);
+            let mut value = Vec::with_capacity(BATCH_ROWS);
+            while i < p.len() || j < e.len() {
+                // The merge of `write_csv`: position first on equal times.
+                let take_p = j >= e.len() || (i < p.len() && p.time_s[i] <= e.time_s[j]);
+                if take_p {
+                    time.push(p.time_s[i]);
+                    key.push(0);
+                    value.push(p.value[i]);
+                    i += 1;
+                } else {
+                    time.push(e.time_s[j]);
+                    key.push(1);
+                    value.push(e.value[j]);
+                    j += 1;
                 }
-                let schema = Arc::new(Schema::new(vec![
-                    Field::new("time_s", DataType::Float64, false),
-                    Field::new("position_m", DataType::Float64, false),
-                    Field::new(effort, DataType::Float64, false),
-                ]));
-                let mut writer = ArrowWriter::try_new(w, schema.clone(), Some(props))
+                let last = i == p.len() && j == e.len();
+                if time.len() == BATCH_ROWS || last {
+                    let channel = DictionaryArray::<Int8Type>::try_new(
+                        Int8Array::from(std::mem::take(&mut key)),
+                        names.clone(),
+                    )
                     .map_err(std::io::Error::other)?;
-                let n = self.position_m.len();
-                let mut k = 0;
-                while k < n {
-                    let end = (k + BATCH_ROWS).min(n);
                     let batch = RecordBatch::try_new(
                         schema.clone(),
                         vec![
-                            f64_col(&self.position_m.time_s[k..end]),
-                            f64_col(&self.position_m.value[k..end]),
-                            f64_col(&self.effort.value[k..end]),
+                            Arc::new(Float64Array::from(std::mem::take(&mut time))),
+                            Arc::new(channel),
+                            Arc::new(Float64Array::from(std::mem::take(&mut value))),
                         ],
                     )
                     .map_err(std::io::Error::other)?;
                     writer.write(&batch).map_err(std::io::Error::other)?;
-                    k = end;
+                    time.reserve(BATCH_ROWS);
+                    key.reserve(BATCH_ROWS);
+                    value.reserve(BATCH_ROWS);
                 }
-                writer.close().map_err(std::io::Error::other)?;
             }
-            Layout::Long => {
-                let dict = DataType::Dictionary(Box::new(DataType::Int8), Box::new(DataType::Utf8));
-                let schema = Arc::new(Schema::new(vec![
-                    Field::new("time_s", DataType::Float64, false),
-                    Field::new("channel", dict, false),
-                    Field::new("value", DataType::Float64, false),
-                ]));
-                let names: ArrayRef = Arc::new(StringArray::from(vec!["position_m", effort]));
-                let mut writer = ArrowWriter::try_new(w, schema.clone(), Some(props))
-                    .map_err(std::io::Error::other)?;
-                let (p, e) = (&self.position_m, &self.effort);
-                let (mut i, mut j) = (0, 0);
-                let mut time = Vec::with_capacity(BATCH_ROWS);
-                let mut key: Vec<i8> = Vec::with_capacity(BATCH_ROWS);
-                let mut value = Vec::with_capacity(BATCH_ROWS);
-                while i < p.len() || j < e.len() {
-                    // The merge of `write_csv`: position first on equal times.
-                    let take_p = j >= e.len() || (i < p.len() && p.time_s[i] <= e.time_s[j]);
-                    if take_p {
-                        time.push(p.time_s[i]);
-                        key.push(0);
-                        value.push(p.value[i]);
-                        i += 1;
-                    } else {
-                        time.push(e.time_s[j]);
-                        key.push(1);
-                        value.push(e.value[j]);
-                        j += 1;
-                    }
-                    let last = i == p.len() && j == e.len();
-                    if time.len() == BATCH_ROWS || last {
-                        let channel = DictionaryArray::<Int8Type>::try_new(
-                            Int8Array::from(std::mem::take(&mut key)),
-                            names.clone(),
-                        )
-                        .map_err(std::io::Error::other)?;
-                        let batch = RecordBatch::try_new(
-                            schema.clone(),
-                            vec![
-                                Arc::new(Float64Array::from(std::mem::take(&mut time))),
-                                Arc::new(channel),
-                                Arc::new(Float64Array::from(std::mem::take(&mut value))),
-                            ],
-                        )
-                        .map_err(std::io::Error::other)?;
-                        writer.write(&batch).map_err(std::io::Error::other)?;
-                        time.reserve(BATCH_ROWS);
-                        key.reserve(BATCH_ROWS);
-                        value.reserve(BATCH_ROWS);
-                    }
-                }
-                writer.close().map_err(std::io::Error::other)?;
-            }
+            writer.close().map_err(std::io::Error::other)?;
         }
-        Ok(())
     }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -1054,8 +1052,7 @@ mod tests {
     }
 
     fn write_parquet(path: &Path, t: &Trace, layout: Layout) {
-        t.write_parquet(File::create(path).unwrap(), layout)
-            .unwrap();
+        super::write_parquet(t, File::create(path).unwrap(), layout).unwrap();
     }
 
     fn write_columns(path: &Path, cols: Vec<(&str, ArrayRef)>) {
@@ -1112,7 +1109,7 @@ mod tests {
                 let pq = d.path().join("t.parquet");
                 let csv = d.path().join("t.csv");
                 write_parquet(&pq, &t, layout);
-                t.write_csv(File::create(&csv).unwrap(), layout).unwrap();
+                crate::trace::write_csv(&t, File::create(&csv).unwrap(), layout).unwrap();
                 let (from_pq, report) = read(&pq).unwrap();
                 let (from_csv, _) = read(&csv).unwrap();
                 // Parquet keeps every bit.
@@ -1136,20 +1133,18 @@ mod tests {
             }
         }
         // The wide layout needs one clock, as for CSV.
-        let err = trace(100, false)
-            .write_parquet(Vec::new(), Layout::Wide)
-            .unwrap_err();
+        let err = super::write_parquet(&trace(100, false), Vec::new(), Layout::Wide).unwrap_err();
         assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
     }
 
     #[test]
     fn simulated_trace_round_trips() {
-        let cfg = crate::sim::SimConfig::from_toml_str(
+        let cfg = feedscope::sim::SimConfig::from_toml_str(
             "seed = 7\n[motion]\nlead_in_s = 0.2\nlead_out_s = 0.2\n\
              [[motion.stroke]]\nto_mm = 5\nfeed_mm_min = 600\n",
         )
         .unwrap();
-        let out = crate::sim::simulate(&cfg, &mut |_| {}).unwrap();
+        let out = feedscope::sim::simulate(&cfg, &mut |_| {}).unwrap();
         let d = tempfile::tempdir().unwrap();
         let p = d.path().join("sim.parquet");
         write_parquet(&p, &out.trace, Layout::Long);
@@ -1353,7 +1348,7 @@ mod tests {
         // (a changed digit of a value) or fail, but must not panic.
         for layout in [Layout::Wide, Layout::Long] {
             let mut bytes = Vec::new();
-            trace(200, true).write_parquet(&mut bytes, layout).unwrap();
+            super::write_parquet(&trace(200, true), &mut bytes, layout).unwrap();
             assert!(parse_trace(&bytes, "c.parquet", &ReadOptions::default()).is_ok());
             for k in 4..bytes.len() {
                 for pattern in [0xff, 0x00, bytes[k] ^ 0x55] {
@@ -1379,8 +1374,7 @@ mod tests {
         }
         // A CSV that is not named .parquet is still CSV.
         let c = d.path().join("t.csv");
-        trace(100, true)
-            .write_csv(File::create(&c).unwrap(), Layout::Wide)
+        crate::trace::write_csv(&trace(100, true), File::create(&c).unwrap(), Layout::Wide)
             .unwrap();
         read(&c).unwrap();
     }

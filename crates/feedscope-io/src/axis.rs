@@ -1,0 +1,70 @@
+//! Axis description files: [`load`] reads one and validates it with [`AxisParams::parse`],
+//! TOML or (named `*.json`) JSON.
+
+use std::path::Path;
+
+use feedscope::axis::{AxisError, AxisParams, ConfigFormat};
+
+/// Why an axis file could not be loaded.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum AxisFileError {
+    /// The file could not be read; the operating system's error is the source.
+    #[error("reading {source_name}")]
+    Read {
+        /// The file.
+        source_name: String,
+        /// The operating system's error.
+        #[source]
+        error: std::io::Error,
+    },
+    /// The file was read but is not a valid axis description (the error names the file).
+    #[error(transparent)]
+    Axis(#[from] AxisError),
+}
+
+impl AxisFileError {
+    /// True when the file could not be read (the operating system's error is the source),
+    /// false when what it holds is wrong.
+    pub fn is_io(&self) -> bool {
+        matches!(self, Self::Read { .. })
+    }
+}
+
+/// Read and validate an axis file; its syntax is told by its name
+/// ([`ConfigFormat::from_path`]) and errors name it.
+///
+/// # Errors
+/// [`AxisFileError::Read`] when the file cannot be read; [`AxisFileError::Axis`] as
+/// [`AxisParams::parse`].
+pub fn load(path: &Path) -> Result<AxisParams, AxisFileError> {
+    let source_name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|error| AxisFileError::Read {
+        source_name: source_name.clone(),
+        error,
+    })?;
+    Ok(AxisParams::parse(
+        &text,
+        ConfigFormat::from_path(path),
+        &source_name,
+    )?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn errors_name_the_file_and_tell_io_from_content() {
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("gone.toml");
+        let e = load(&missing).unwrap_err();
+        assert!(e.is_io());
+        assert_eq!(e.to_string(), format!("reading {}", missing.display()));
+        let bad = dir.path().join("a.json");
+        std::fs::write(&bad, "{\"lead_mm\": -1}").unwrap();
+        let e = load(&bad).unwrap_err();
+        assert!(!e.is_io());
+        assert!(e.to_string().starts_with(&bad.display().to_string()), "{e}");
+    }
+}

@@ -1,0 +1,575 @@
+//! What a trace read takes and gives, shared by the CSV and Parquet readers: the options, the
+//! report, the error, the rules for channel and column names, and the checks every reader ends
+//! with (enough samples, motion, the position screened for glitches). Nothing here reads a
+//! file; the readers call it, never the other way round.
+
+use feedscope::trace::glitch::{remove_samples, screen_position, GlitchParams};
+use feedscope::trace::{Channel, EffortKind, Trace, MIN_SAMPLES};
+
+use super::format::Layout;
+
+/// Why a trace could not be read. Every variant names the input and, where it applies, the line.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TraceError {
+    /// The file could not be opened or read.
+    #[error("{source_name}: cannot read: {error}")]
+    Io {
+        /// The file.
+        source_name: String,
+        /// The operating system's error.
+        error: std::io::Error,
+    },
+    /// The input has no header line (empty, or only comments).
+    #[error("{source_name}: no header line found (the file is empty or holds only comments)")]
+    Empty {
+        /// The file.
+        source_name: String,
+    },
+    /// The header does not describe a known layout.
+    #[error("{source_name}:{line}: bad header `{found}`: {reason}")]
+    BadHeader {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// The header as read (shortened).
+        found: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A row has the wrong number of fields.
+    #[error("{source_name}:{line}: expected {expected} comma-separated fields, found {found}")]
+    FieldCount {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// Fields in the header.
+        expected: usize,
+        /// Fields in this row.
+        found: usize,
+    },
+    /// A field that must be a number is not.
+    #[error("{source_name}:{line}: column `{column}`: `{text}` is not a number")]
+    NotANumber {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// Column name.
+        column: String,
+        /// The text found (shortened).
+        text: String,
+    },
+    /// A number is NaN or infinite.
+    #[error("{source_name}:{line}: column `{column}`: `{text}` is not finite")]
+    NonFinite {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// Column name.
+        column: String,
+        /// The text found.
+        text: String,
+    },
+    /// Time does not strictly increase within a channel.
+    #[error(
+        "{source_name}:{line}: channel `{channel}`: time {time_s} s does not come after the \
+         previous sample at {previous_time_s} s (time must strictly increase within a channel)"
+    )]
+    TimeNotIncreasing {
+        /// The file.
+        source_name: String,
+        /// Channel name.
+        channel: String,
+        /// 1-based line number.
+        line: u64,
+        /// The offending time (s).
+        time_s: f64,
+        /// The previous time of this channel (s).
+        previous_time_s: f64,
+    },
+    /// A required channel is absent.
+    #[error("{source_name}: no `{channel}` samples found (channels seen: {found})")]
+    MissingChannel {
+        /// The file.
+        source_name: String,
+        /// The channel wanted, e.g. `position_mm`.
+        channel: String,
+        /// Channel names that were present.
+        found: String,
+    },
+    /// Both current and torque are present and no choice was made.
+    #[error(
+        "{source_name}: both `current_a` and `torque_nm` are present; choose one \
+         (option `effort`)"
+    )]
+    AmbiguousEffort {
+        /// The file.
+        source_name: String,
+    },
+    /// Too few samples to interpolate a channel.
+    #[error(
+        "{source_name}: channel `{channel}` has {found} samples, at least {needed} are needed"
+    )]
+    TooFewSamples {
+        /// The file.
+        source_name: String,
+        /// Channel name.
+        channel: String,
+        /// Samples found.
+        found: usize,
+        /// Minimum needed.
+        needed: usize,
+    },
+    /// The axis never moves.
+    #[error(
+        "{source_name}: the position never moves (it spans only {range_mm} mm); \
+         friction needs motion"
+    )]
+    NoMotion {
+        /// The file.
+        source_name: String,
+        /// Range of the position channel (mm).
+        range_mm: f64,
+    },
+    /// A Parquet file cannot be decoded: not Parquet, truncated, corrupt or unsupported.
+    #[error("{source_name}: not a readable Parquet file: {reason}")]
+    Parquet {
+        /// The file.
+        source_name: String,
+        /// What the decoder reported.
+        reason: String,
+    },
+    /// A Parquet column is missing or of a type that cannot hold what it should.
+    #[error("{source_name}: column `{column}`: {reason}")]
+    BadColumn {
+        /// The file.
+        source_name: String,
+        /// Column name.
+        column: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A Parquet cell that must hold a value does not (a null time, a null or empty channel).
+    #[error("{source_name}: row {row}: column `{column}` {reason}")]
+    BadCell {
+        /// The file.
+        source_name: String,
+        /// 1-based data row.
+        row: u64,
+        /// Column name.
+        column: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A Parquet value is NaN or infinite ([`TraceError::NonFinite`] of a row, not a line).
+    #[error("{source_name}: row {row}: column `{column}`: {value} is not finite")]
+    NonFiniteInRow {
+        /// The file.
+        source_name: String,
+        /// 1-based data row.
+        row: u64,
+        /// Column name.
+        column: String,
+        /// The value found.
+        value: f64,
+    },
+    /// A channel name of the long layout is too long or holds a control character (a header
+    /// column name is [`TraceError::BadHeader`], a Parquet column name
+    /// [`TraceError::BadColumn`], a Parquet channel value [`TraceError::BadCell`]).
+    #[error("{source_name}:{line}: channel name `{name}` {reason}")]
+    BadChannelName {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// The name as found, shortened, control characters escaped.
+        name: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The position jumps at a speed the axis cannot reach and does not come back: the trace
+    /// is discontinuous (see [`feedscope::trace::glitch`]). Isolated jumps that come back are
+    /// dropped instead and listed in [`ReadReport::dropped_position`].
+    #[error(
+        "{source_name}{}: the position jumps by {} mm between t = {} s and t = {} s, \
+         implying {} mm/min, above the limit of {} mm/min, and does not come back \
+         (re-homed, or two recordings joined?); split the trace at the jump",
+        at(.line, .row),
+        mm(*.jump_mm),
+        secs(*.previous_time_s),
+        secs(*.time_s),
+        mm_min(*.speed_mm_min),
+        mm_min(*.limit_mm_min)
+    )]
+    PositionJump {
+        /// The file.
+        source_name: String,
+        /// 1-based line of the sample after the jump (CSV).
+        line: Option<u64>,
+        /// 1-based data row of the sample after the jump (Parquet).
+        row: Option<u64>,
+        /// Time of the sample after the jump (s).
+        time_s: f64,
+        /// Time of the last consistent sample before it (s).
+        previous_time_s: f64,
+        /// The jump (mm), signed.
+        jump_mm: f64,
+        /// The speed it implies (mm/min).
+        speed_mm_min: f64,
+        /// The speed limit of the screening (mm/min).
+        limit_mm_min: f64,
+    },
+    /// Time does not strictly increase within a channel of a Parquet file
+    /// ([`TraceError::TimeNotIncreasing`] of a row, not a line).
+    #[error(
+        "{source_name}: row {row}: channel `{channel}`: time {time_s} s does not come after the \
+         previous sample at {previous_time_s} s (time must strictly increase within a channel)"
+    )]
+    TimeNotIncreasingInRow {
+        /// The file.
+        source_name: String,
+        /// Channel name.
+        channel: String,
+        /// 1-based data row.
+        row: u64,
+        /// The offending time (s).
+        time_s: f64,
+        /// The previous time of this channel (s).
+        previous_time_s: f64,
+    },
+}
+
+/// Options for reading a trace.
+#[derive(Debug, Clone, Default)]
+pub struct ReadOptions {
+    /// Which effort channel to use when a file has both current and torque; `None` takes the
+    /// one present and fails when both are.
+    pub effort: Option<EffortKind>,
+    /// Worker threads for parsing; `0` = the rayon pool size.
+    pub threads: usize,
+}
+
+/// Facts about a file that was read successfully.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReadReport {
+    /// Rows of the long layout whose channel is not one feedscope uses.
+    pub ignored_rows: u64,
+    /// Names of the ignored channels (at most 16 listed).
+    pub ignored_channels: Vec<String>,
+    /// Lines in the file (CSV), or data rows (Parquet).
+    pub lines: u64,
+    /// The layout detected.
+    pub layout: Option<Layout>,
+    /// Position samples dropped as glitches (see [`feedscope::trace::glitch`]), in time order;
+    /// they are not in the trace.
+    pub dropped_position: Vec<DroppedSample>,
+    /// The speed limit the position was screened with (m/s); `None` when it was not screened
+    /// (a report made by hand).
+    pub max_axis_speed_m_s: Option<f64>,
+}
+
+/// A position sample dropped as a glitch.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DroppedSample {
+    /// Its time (s).
+    pub time_s: f64,
+    /// The position it held (m), as read.
+    pub position_m: f64,
+    /// Its 1-based line in a CSV file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub line: Option<u64>,
+    /// Its 1-based data row in a Parquet file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub row: Option<u64>,
+}
+
+/// Dropped samples named in full in [`ReadReport::glitch_warning`]; the rest are counted.
+const SHOWN_DROPPED: usize = 5;
+
+impl ReadReport {
+    /// One sentence for people when position samples were dropped as glitches: the count, the
+    /// limit, and the time (and line or row) of the first few. `None` when nothing was dropped.
+    pub fn glitch_warning(&self) -> Option<String> {
+        let d = &self.dropped_position;
+        if d.is_empty() {
+            return None;
+        }
+        let limit = self
+            .max_axis_speed_m_s
+            .map(|v| format!(" beyond {} mm/min", mm_min(v * 60_000.0)))
+            .unwrap_or_default();
+        let shown: Vec<String> = d
+            .iter()
+            .take(SHOWN_DROPPED)
+            .map(|s| format!("{} s{}", secs(s.time_s), where_in_parens(s.line, s.row)))
+            .collect();
+        let more = if d.len() > SHOWN_DROPPED {
+            format!(" and {} more", d.len() - SHOWN_DROPPED)
+        } else {
+            String::new()
+        };
+        let what = if d.len() == 1 {
+            format!("1 position sample as a logger glitch (an isolated jump{limit} and back)")
+        } else {
+            format!(
+                "{} position samples as logger glitches (isolated jumps{limit} and back)",
+                d.len()
+            )
+        };
+        Some(format!("dropped {what} at t = {}{more}", shown.join(", ")))
+    }
+}
+
+/// `:line` or `: row N` after a file name, or nothing.
+fn at(line: &Option<u64>, row: &Option<u64>) -> String {
+    match (line, row) {
+        (Some(l), _) => format!(":{l}"),
+        (None, Some(r)) => format!(": row {r}"),
+        (None, None) => String::new(),
+    }
+}
+
+/// ` (line N)`, ` (row N)` or nothing.
+fn where_in_parens(line: Option<u64>, row: Option<u64>) -> String {
+    match (line, row) {
+        (Some(l), _) => format!(" (line {l})"),
+        (None, Some(r)) => format!(" (row {r})"),
+        (None, None) => String::new(),
+    }
+}
+
+/// A number for messages: at most `decimals` decimals without trailing zeros, or 4
+/// significant digits in scientific notation when it is huge (a glitch can be 1e308) or
+/// nonzero and too small for the decimals.
+fn num(x: f64, decimals: usize) -> String {
+    let a = x.abs();
+    let smallest = 0.5 * 10f64.powi(-(decimals as i32));
+    if a.is_finite() && (a == 0.0 || (smallest..1e9).contains(&a)) {
+        let s = format!("{x:.decimals$}");
+        let s = if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.')
+        } else {
+            &s
+        };
+        if s == "-0" {
+            "0".into()
+        } else {
+            s.into()
+        }
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+/// Time (s) for messages, to the microsecond.
+fn secs(x: f64) -> String {
+    num(x, 6)
+}
+
+/// Length (mm) for messages, to the micrometre.
+fn mm(x: f64) -> String {
+    num(x, 3)
+}
+
+/// Speed (mm/min) for messages, to the mm/min.
+fn mm_min(x: f64) -> String {
+    num(x, 0)
+}
+
+/// Longest channel or column name accepted (bytes of UTF-8).
+pub const MAX_NAME_BYTES: usize = 64;
+
+/// Why a channel or column name is refused, or `None` when it is fine: longer than
+/// [`MAX_NAME_BYTES`] or holding a control character (C0, DEL or C1).
+pub(super) fn name_problem(name: &[u8]) -> Option<String> {
+    if name.len() > MAX_NAME_BYTES {
+        return Some(format!(
+            "is {} bytes long; names are at most {MAX_NAME_BYTES} bytes",
+            name.len()
+        ));
+    }
+    String::from_utf8_lossy(name)
+        .chars()
+        .find(|c| c.is_control())
+        .map(|c| format!("holds the control character U+{:04X}", c as u32))
+}
+
+/// A name for a message: at most 40 characters, control characters escaped.
+pub(super) fn show_name(name: &[u8]) -> String {
+    shorten_to(name, 40)
+}
+
+/// Text from a file for a message: trimmed, at most 60 characters, control characters escaped
+/// (a terminal must not receive the file's escape sequences).
+pub(super) fn shorten(b: &[u8]) -> String {
+    shorten_to(b, 60)
+}
+
+/// [`shorten`] to at most `max_chars` characters (and `…`).
+fn shorten_to(b: &[u8], max_chars: usize) -> String {
+    // A UTF-8 character is at most 4 bytes: enough bytes for `max_chars` after trimming a few.
+    let cap = 4 * max_chars + 8;
+    let s = String::from_utf8_lossy(&b[..b.len().min(cap)]);
+    let s = s.trim();
+    let escape = |c: char| -> String {
+        if c.is_control() {
+            c.escape_debug().collect()
+        } else {
+            c.to_string()
+        }
+    };
+    let mut out: String = s.chars().take(max_chars).map(escape).collect();
+    if s.chars().count() > max_chars || b.len() > cap {
+        out.push('…');
+    }
+    out
+}
+
+/// Where the numbers of [`screen_and_check`]'s `locate` point: CSV lines or Parquet rows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Origin {
+    Line,
+    Row,
+}
+
+/// The checks every reader ends with: enough samples and motion ([`check_channels`]), then the
+/// position screened for glitches (dropped samples named by `locate`, which maps ascending
+/// position-sample indices to 1-based lines or rows), then the first checks again on what is
+/// left.
+pub(super) fn screen_and_check(
+    name: &str,
+    (mut trace, mut report): (Trace, ReadReport),
+    glitch: &GlitchParams,
+    origin: Origin,
+    locate: impl FnOnce(&[usize]) -> Vec<Option<u64>>,
+) -> Result<(Trace, ReadReport), TraceError> {
+    check_channels(name, &trace.position_m, &trace.effort, trace.effort_kind)?;
+    report.max_axis_speed_m_s = Some(glitch.max_axis_speed_m_s);
+    let split = |at: Option<u64>| match origin {
+        Origin::Line => (at, None),
+        Origin::Row => (None, at),
+    };
+    let p = &trace.position_m;
+    match screen_position(p, glitch) {
+        Ok(s) if s.glitches.is_empty() => {}
+        Ok(s) => {
+            let at = locate(&s.glitches);
+            report.dropped_position = s
+                .glitches
+                .iter()
+                .zip(at.into_iter().chain(std::iter::repeat(None)))
+                .map(|(&k, at)| {
+                    let (line, row) = split(at);
+                    DroppedSample {
+                        time_s: p.time_s[k],
+                        position_m: p.value[k],
+                        line,
+                        row,
+                    }
+                })
+                .collect();
+            remove_samples(&mut trace.position_m, &s.glitches);
+            check_channels(name, &trace.position_m, &trace.effort, trace.effort_kind)?;
+        }
+        Err(j) => {
+            let (line, row) = split(locate(&[j.index]).first().copied().flatten());
+            return Err(TraceError::PositionJump {
+                source_name: name.to_string(),
+                line,
+                row,
+                time_s: p.time_s[j.index],
+                previous_time_s: p.time_s[j.from_index],
+                jump_mm: j.jump_m * 1e3,
+                speed_mm_min: j.speed_m_s * 60_000.0,
+                limit_mm_min: glitch.max_axis_speed_mm_min(),
+            });
+        }
+    }
+    Ok((trace, report))
+}
+
+/// The first checks every reader ends with: enough samples in both channels, and motion.
+fn check_channels(
+    name: &str,
+    position_m: &Channel,
+    effort: &Channel,
+    effort_kind: EffortKind,
+) -> Result<(), TraceError> {
+    for (ch, label) in [(position_m, "position"), (effort, effort_kind.column())] {
+        if ch.len() < MIN_SAMPLES {
+            return Err(TraceError::TooFewSamples {
+                source_name: name.to_string(),
+                channel: label.into(),
+                found: ch.len(),
+                needed: MIN_SAMPLES,
+            });
+        }
+    }
+    let (lo, hi) = position_m
+        .value
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    // Below a nanometre nothing measurable moved.
+    if hi - lo <= 1e-9 {
+        return Err(TraceError::NoMotion {
+            source_name: name.to_string(),
+            range_mm: (hi - lo) * 1e3,
+        });
+    }
+    Ok(())
+}
+
+/// Why no effort column could be picked.
+pub(super) enum EffortChoice {
+    /// Both current and torque are present and none was chosen.
+    Ambiguous,
+    /// The chosen kind is absent.
+    Missing(EffortKind),
+    /// Neither is present.
+    Neither,
+}
+
+/// The effort column (any index type) from the current and torque columns found and the
+/// user's choice: the one present, or the chosen one.
+pub(super) fn choose_effort<T>(
+    cur: Option<T>,
+    tor: Option<T>,
+    choice: Option<EffortKind>,
+) -> Result<(T, EffortKind), EffortChoice> {
+    match (cur, tor, choice) {
+        (Some(c), _, Some(EffortKind::CurrentA)) | (Some(c), None, None) => {
+            Ok((c, EffortKind::CurrentA))
+        }
+        (_, Some(t), Some(EffortKind::TorqueNm)) | (None, Some(t), None) => {
+            Ok((t, EffortKind::TorqueNm))
+        }
+        (Some(_), Some(_), None) => Err(EffortChoice::Ambiguous),
+        (_, _, Some(k)) => Err(EffortChoice::Missing(k)),
+        (None, None, None) => Err(EffortChoice::Neither),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_numbers() {
+        assert_eq!(secs(1.5), "1.5");
+        assert_eq!(secs(1.2340000000000002), "1.234");
+        assert_eq!(mm_min(200_000.0), "200000");
+        assert_eq!(mm_min(59_998_559.7), "59998560");
+        assert_eq!(mm(999.975995), "999.976");
+        assert_eq!(mm(-0.0), "0");
+        assert_eq!(mm(-0.0001), "-1.000e-4");
+        assert_eq!(mm(f64::MAX), "1.798e308");
+        assert_eq!(mm_min(f64::INFINITY), "inf");
+        assert_eq!(secs(1e-7), "1.000e-7");
+    }
+}
