@@ -1137,6 +1137,39 @@ mod tests {
         assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
     }
 
+    /// Files as other tools write them: polars defaults to zstd, pyarrow to snappy, Spark and
+    /// older writers to gzip, some to LZ4. Each codec is read bit for bit.
+    #[test]
+    fn every_common_codec_is_read() {
+        use parquet::basic::{GzipLevel, ZstdLevel};
+        let d = tempfile::tempdir().unwrap();
+        let t = trace(5_000, true);
+        let cols = vec![
+            ("time_s", f64s(&t.position_m.time_s)),
+            ("position_m", f64s(&t.position_m.value)),
+            (t.effort_kind.column(), f64s(&t.effort.value)),
+        ];
+        let batch = RecordBatch::try_from_iter(cols).unwrap();
+        for codec in [
+            Compression::UNCOMPRESSED,
+            Compression::SNAPPY,
+            Compression::ZSTD(ZstdLevel::default()),
+            Compression::GZIP(GzipLevel::default()),
+            Compression::LZ4_RAW,
+            Compression::LZ4,
+        ] {
+            let p = d.path().join("c.parquet");
+            let props = WriterProperties::builder().set_compression(codec).build();
+            let mut w =
+                ArrowWriter::try_new(File::create(&p).unwrap(), batch.schema(), Some(props))
+                    .unwrap();
+            w.write(&batch).unwrap();
+            w.close().unwrap();
+            let (back, _) = read(&p).unwrap_or_else(|e| panic!("{codec:?}: {e}"));
+            assert_eq!(back, t, "{codec:?}");
+        }
+    }
+
     #[test]
     fn simulated_trace_round_trips() {
         let cfg = feedscope::sim::SimConfig::from_toml_str(
