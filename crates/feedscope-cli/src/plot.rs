@@ -90,7 +90,14 @@ const PALETTE: [RGBColor; 8] = [
 const WIDTH: u32 = 960;
 const HEIGHT: u32 = 540;
 
-/// Finite extent of the data with a small margin; errors when nothing finite is there.
+/// Largest magnitude drawn: beyond it the axis arithmetic (margins, tick steps) overflows,
+/// and the plotting library's tick search then never ends.
+const MAX_PLOT_MAGNITUDE: f64 = 1e100;
+
+/// Finite extent of the data with a small margin; errors when nothing finite is there or the
+/// values are too large to draw. The margin is at least 1e-9 of the values' magnitude, so that
+/// tick steps stay above the rounding step of the numbers they label (a range narrower than
+/// that never advances and hangs the tick search).
 fn extent(values: impl Iterator<Item = f64>) -> Result<(f64, f64)> {
     let (lo, hi) = values
         .filter(|v| v.is_finite())
@@ -100,11 +107,19 @@ fn extent(values: impl Iterator<Item = f64>) -> Result<(f64, f64)> {
     if !lo.is_finite() {
         return Err(anyhow!("no finite value to plot"));
     }
+    let mag = lo.abs().max(hi.abs());
+    if mag > MAX_PLOT_MAGNITUDE {
+        return Err(anyhow!(
+            "values up to {:.3e} cannot be plotted (at most {MAX_PLOT_MAGNITUDE:e}); the data \
+             holds an implausible number",
+            if hi.abs() >= lo.abs() { hi } else { lo }
+        ));
+    }
     let span = hi - lo;
     let pad = if span > 0.0 {
-        0.03 * span
+        (0.03 * span).max(1e-9 * mag)
     } else {
-        0.5 * lo.abs().max(1.0)
+        0.5 * mag.max(1.0)
     };
     Ok((lo - pad, hi + pad))
 }
@@ -362,6 +377,29 @@ mod tests {
             z: vec![vec![0.0]],
         });
         assert!(bad.is_err());
+    }
+
+    /// Found by fuzzing: a value of 1.797e308 overflowed the margins and hung the tick search;
+    /// a range far below the values' rounding step did the same.
+    #[test]
+    fn huge_values_are_an_error_and_narrow_ranges_render() {
+        let chart = |ys: [f64; 2]| LineChart {
+            title: "t",
+            x_label: "position (mm)",
+            y_label: "friction (N)",
+            series: vec![Series {
+                name: String::new(),
+                points: vec![(0.0, ys[0]), (1.0, ys[1])],
+                style: Style::Line,
+            }],
+        };
+        let err = line_chart_svg(&chart([1.797e308, 0.0])).unwrap_err();
+        assert!(format!("{err:#}").contains("cannot be plotted"), "{err:#}");
+        assert!(line_chart_svg(&chart([-1e200, 0.0])).is_err());
+        for ys in [[1e20, 1e20 + 4096.0], [5.0, 5.0], [0.0, 0.0], [1e99, -1e99]] {
+            let svg = line_chart_svg(&chart(ys)).unwrap();
+            assert!(svg.contains("friction (N)"), "{ys:?}");
+        }
     }
 
     #[test]
