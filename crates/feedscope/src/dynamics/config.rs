@@ -335,11 +335,17 @@ fn angle(key: &'static str, value: f64) -> Result<(), DynamicsError> {
     }
 }
 
-fn count(key: &'static str, value: usize, min: usize) -> Result<(), DynamicsError> {
-    if value >= min {
-        Ok(())
-    } else {
-        Err(DynamicsError::InvalidValue {
+/// Sizes are bounded above as well: they set how much is allocated and solved (a sweep of
+/// 2^63 points or a mesh of 10^9 elements would abort the process instead of failing cleanly).
+fn count(
+    key: &'static str,
+    value: usize,
+    min: usize,
+    max: usize,
+    too_many: &'static str,
+) -> Result<(), DynamicsError> {
+    if value < min {
+        return Err(DynamicsError::InvalidValue {
             key,
             value: value as f64,
             reason: if min <= 1 {
@@ -347,8 +353,16 @@ fn count(key: &'static str, value: usize, min: usize) -> Result<(), DynamicsErro
             } else {
                 "must be at least 2"
             },
-        })
+        });
     }
+    if value > max {
+        return Err(DynamicsError::InvalidValue {
+            key,
+            value: value as f64,
+            reason: too_many,
+        });
+    }
+    Ok(())
 }
 
 impl DriveConfig {
@@ -432,9 +446,21 @@ impl DriveConfig {
         non_negative("ripple.margin_hz", r.margin_hz)?;
         let w = &self.sweep;
         positive("sweep.feed_max_mm_min", w.feed_max_mm_min)?;
-        count("sweep.feed_points", w.feed_points, 2)?;
-        count("sweep.position_points", w.position_points, 2)?;
-        count("sweep.modes", w.modes, 1)?;
+        count(
+            "sweep.feed_points",
+            w.feed_points,
+            2,
+            100_000,
+            "must be at most 100000",
+        )?;
+        count(
+            "sweep.position_points",
+            w.position_points,
+            2,
+            10_000,
+            "must be at most 10000",
+        )?;
+        count("sweep.modes", w.modes, 1, 100, "must be at most 100")?;
         inside("sweep.position_mm", w.position_mm, s.length_mm)?;
         inside("sweep.position_min_mm", w.position_min_mm, s.length_mm)?;
         inside("sweep.position_max_mm", w.position_max_mm, s.length_mm)?;
@@ -461,7 +487,14 @@ impl DriveConfig {
                 });
             }
         }
-        count("mesh.elements_per_side", self.mesh.elements_per_side, 1)?;
+        // 500 per side is a 1001-node model, far finer than the modes need (tests converge by 20).
+        count(
+            "mesh.elements_per_side",
+            self.mesh.elements_per_side,
+            1,
+            500,
+            "must be at most 500",
+        )?;
         Ok(())
     }
 }

@@ -333,3 +333,37 @@ fn position_outside_the_screw_is_an_error() {
     ));
     assert!(model.at_position(0.0).is_err());
 }
+
+/// Found by fuzzing: sizes of 2^63 − 1 aborted on "capacity overflow" and 10^9 elements tried
+/// to allocate ~16 GB. Each is an error naming its key before anything is allocated.
+#[test]
+fn oversized_sweeps_and_meshes_are_errors_naming_the_key() {
+    let cases: [(&str, fn(&mut DriveConfig)); 4] = [
+        ("sweep.feed_points", |c| {
+            c.sweep.feed_points = usize::MAX / 2
+        }),
+        ("sweep.position_points", |c| {
+            c.sweep.position_points = 9_223_372_036_854_775_807
+        }),
+        ("sweep.modes", |c| c.sweep.modes = 1_000_000),
+        ("mesh.elements_per_side", |c| {
+            c.mesh.elements_per_side = 1_000_000_000
+        }),
+    ];
+    for (key, set) in cases {
+        let mut cfg = DriveConfig::default();
+        set(&mut cfg);
+        match cfg.validate() {
+            Err(DynamicsError::InvalidValue { key: k, reason, .. }) => {
+                assert_eq!(k, key);
+                assert!(reason.starts_with("must be at most"), "{reason}");
+            }
+            other => panic!("{key}: {other:?}"),
+        }
+    }
+    // The largest accepted sizes are still valid.
+    let mut cfg = DriveConfig::default();
+    cfg.sweep.feed_points = 100_000;
+    cfg.mesh.elements_per_side = 500;
+    assert!(cfg.validate().is_ok());
+}
