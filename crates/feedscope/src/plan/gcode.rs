@@ -24,16 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{PlanError, TestKind, TestProgram};
 
-/// Control family.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Dialect {
-    /// FANUC 0i / 30i: `%` framing, `O` number, `( )` comments.
-    #[default]
-    Fanuc,
-    /// Siemens SINUMERIK 840D: `;` comments.
-    Siemens,
-}
+pub use crate::nc::Dialect;
 
 /// FANUC machine type, which decides the feed-per-minute code (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
