@@ -7,8 +7,7 @@ use feedscope::axis::AxisParams;
 use feedscope::estimate::{estimate, Direction, EstimateParams, StrokeFriction};
 use feedscope::order::{SegmentSpec, SpectrumAnalyzer};
 use feedscope::profile::{
-    analyze_stroke, fit_piecewise, order_scan_table, AnalysisParams, StrokeAnalysis,
-    StrokeFriction as StrokeView,
+    analyze_stroke, fit_piecewise, order_scan_table, AnalysisParams, StrokeAnalysis, StrokeView,
 };
 use feedscope::trace::GlitchParams;
 use feedscope_io::friction_csv;

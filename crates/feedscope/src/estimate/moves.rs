@@ -19,7 +19,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::segment::{Direction, MoveSpan};
+use super::segment::MoveSpan;
+use crate::stroke::Direction;
 use crate::trace::Channel;
 
 /// One motion block of an NC program, resolved to absolute axis positions (from

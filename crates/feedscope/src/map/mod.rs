@@ -117,9 +117,9 @@ pub use stribeck_map::{
 
 use serde::{Deserialize, Serialize};
 
-use crate::estimate::Direction;
 use crate::profile::ProfileError;
 use crate::stribeck::{NonConventionalParams, StribeckError, StribeckFitParams};
+use crate::stroke::Direction;
 
 /// Why building or using a friction map failed.
 #[derive(Debug, thiserror::Error)]

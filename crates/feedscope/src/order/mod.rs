@@ -20,7 +20,7 @@ use rustfft::num_complex::Complex;
 use serde::{Deserialize, Serialize};
 
 use crate::axis::AxisParams;
-use crate::profile::StrokeFriction;
+use crate::stroke::StrokeView;
 
 /// Errors of the spectral analysis.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -773,7 +773,7 @@ impl FluctuationAnalysis {
 /// [`OrderError::InvalidParameter`].
 pub fn analyze_fluctuation(
     analyzer: &mut SpectrumAnalyzer,
-    stroke: &StrokeFriction<'_>,
+    stroke: &StrokeView<'_>,
     ffs_n: &[f64],
     breaks_mm: &[f64],
     kinematic: &[KinematicOrder],
@@ -909,7 +909,7 @@ pub fn analyze_fluctuation(
 /// The aliasing guard: warn when a kinematic order or a detected component lies above the
 /// stroke's highest trusted order, and say which feed would resolve the highest kinematic order.
 fn aliasing_warnings(
-    stroke: &StrokeFriction<'_>,
+    stroke: &StrokeView<'_>,
     kinematic: &[KinematicOrder],
     components: &[SignificantComponent],
 ) -> Vec<String> {

@@ -5,7 +5,7 @@
 //!
 //! # Input and conventions
 //! One stroke of estimated friction resampled on a uniform position grid (the estimator uses
-//! step lead/1024), as a [`StrokeFriction`]: positions in metres, increasing (forward) or
+//! step lead/1024), as a [`StrokeView`]: positions in metres, increasing (forward) or
 //! decreasing (backward), friction in newtons signed as in Eq. 5 (positive forward, negative
 //! backward). Results give positions in mm (machine coordinates) and forces in N.
 //!
@@ -27,7 +27,7 @@
 //!
 //! # Example
 //! ```
-//! use feedscope::profile::{fit_iafv, Direction, ProfileParams, StrokeFriction};
+//! use feedscope::profile::{fit_iafv, Direction, ProfileParams, StrokeView};
 //! use feedscope::order::SpectrumAnalyzer;
 //! let lead_m = 0.01;
 //! let x: Vec<f64> = (0..=20 * 256).map(|i| i as f64 * lead_m / 256.0).collect(); // 200 mm
@@ -35,7 +35,7 @@
 //!     .iter()
 //!     .map(|&p| 80.0 + 50.0 * p + 6.0 * (2.0 * std::f64::consts::PI * 3.0 * p / lead_m).sin())
 //!     .collect();
-//! let stroke = StrokeFriction {
+//! let stroke = StrokeView {
 //!     direction: Direction::Forward,
 //!     position_m: &x,
 //!     friction_n: &f,
@@ -65,39 +65,7 @@ use crate::order::{
 use piecewise::{solve, validate_layout, Layout};
 use select::{order_cap, select, SelectParams};
 
-pub use crate::estimate::Direction;
-
-/// Friction of one stroke on a uniform position grid (the estimator's output; see
-/// [`StrokeFriction::from_estimate`]).
-#[derive(Debug, Clone, Copy)]
-pub struct StrokeFriction<'a> {
-    /// Direction of travel.
-    pub direction: Direction,
-    /// Positions (m), uniformly spaced, increasing or decreasing.
-    pub position_m: &'a [f64],
-    /// Friction (N) at those positions, signed as in Eq. 5.
-    pub friction_n: &'a [f64],
-    /// Screw lead p (m).
-    pub lead_m: f64,
-    /// Highest order resolvable without aliasing: raw samples per lead / 2 (cycles per lead).
-    pub max_trusted_order: f64,
-    /// Feed of the stroke (mm/min) if known; used to phrase the aliasing advice.
-    pub feed_mm_min: Option<f64>,
-}
-
-impl<'a> StrokeFriction<'a> {
-    /// View an estimated stroke ([`crate::estimate::StrokeFriction`]) for analysis.
-    pub fn from_estimate(s: &'a crate::estimate::StrokeFriction, lead_m: f64) -> Self {
-        Self {
-            direction: s.summary.direction,
-            position_m: &s.position_m,
-            friction_n: &s.friction_n,
-            lead_m,
-            max_trusted_order: s.summary.max_order,
-            feed_mm_min: Some(s.summary.feed_mm_min),
-        }
-    }
-}
+pub use crate::stroke::{Direction, StrokeView};
 
 /// Errors of the profile analysis.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -238,7 +206,7 @@ impl Prepared {
     }
 }
 
-fn prepare(s: &StrokeFriction<'_>) -> Result<Prepared, ProfileError> {
+fn prepare(s: &StrokeView<'_>) -> Result<Prepared, ProfileError> {
     let n = s.position_m.len();
     if n != s.friction_n.len() {
         return Err(ProfileError::LengthMismatch {
@@ -411,10 +379,7 @@ pub struct OrderScan {
 /// # Errors
 /// The input errors of [`fit_iafv`]; [`ProfileError::InvalidParameter`] for `max_order` 0 or
 /// above 20.
-pub fn order_scan(
-    stroke: &StrokeFriction<'_>,
-    max_order: usize,
-) -> Result<OrderScan, ProfileError> {
+pub fn order_scan(stroke: &StrokeView<'_>, max_order: usize) -> Result<OrderScan, ProfileError> {
     if max_order == 0 || max_order > MAX_INTERVAL_ORDER {
         return Err(ProfileError::InvalidParameter {
             name: "max_order",
@@ -475,7 +440,7 @@ pub struct OrderScanTable {
 /// # Errors
 /// The first error of [`order_scan`] on any stroke.
 pub fn order_scan_table(
-    strokes: &[StrokeFriction<'_>],
+    strokes: &[StrokeView<'_>],
     max_order: usize,
 ) -> Result<OrderScanTable, ProfileError> {
     let scans = strokes
@@ -636,7 +601,7 @@ impl IafvFit {
 /// breakpoint/order errors for bad overrides; [`ProfileError::RankDeficient`] if the data
 /// cannot determine the layout's coefficients.
 pub fn fit_iafv(
-    stroke: &StrokeFriction<'_>,
+    stroke: &StrokeView<'_>,
     params: &ProfileParams,
     analyzer: &mut SpectrumAnalyzer,
 ) -> Result<IafvFit, ProfileError> {
@@ -831,7 +796,7 @@ pub fn fit_iafv(
 }
 
 /// IAFV and FFS (friction − IAFV) at every sample of the stroke, aligned with its positions.
-pub fn iafv_and_ffs(stroke: &StrokeFriction<'_>, fit: &IafvFit) -> (Vec<f64>, Vec<f64>) {
+pub fn iafv_and_ffs(stroke: &StrokeView<'_>, fit: &IafvFit) -> (Vec<f64>, Vec<f64>) {
     let iafv = fit.evaluate(stroke.position_m);
     let ffs = stroke
         .friction_n
@@ -885,7 +850,7 @@ pub struct StrokeAnalysis {
 /// ```
 /// use feedscope::axis::{AxisParams, ConfigFormat};
 /// use feedscope::order::SpectrumAnalyzer;
-/// use feedscope::profile::{analyze_stroke, AnalysisParams, Direction, StrokeFriction};
+/// use feedscope::profile::{analyze_stroke, AnalysisParams, Direction, StrokeView};
 /// let axis = AxisParams::parse(
 ///     "lead_mm = 10\ntable_mass_kg = 425\ninertia_kgm2 = 0.004\n\
 ///      damping_nms_per_rad = 0.002\ntorque_constant_nm_per_a = 1.82\n",
@@ -897,7 +862,7 @@ pub struct StrokeAnalysis {
 /// let x: Vec<f64> = (0..=20 * 256).map(|i| i as f64 * 0.01 / 256.0).collect();
 /// let f: Vec<f64> =
 ///     x.iter().map(|&p| 70.0 + 5.0 * (2.0 * std::f64::consts::PI * p / 0.01).cos()).collect();
-/// let stroke = StrokeFriction {
+/// let stroke = StrokeView {
 ///     direction: Direction::Forward,
 ///     position_m: &x,
 ///     friction_n: &f,
@@ -912,7 +877,7 @@ pub struct StrokeAnalysis {
 /// assert!((c.amplitude_n - 5.0).abs() < 0.05);
 /// ```
 pub fn analyze_stroke(
-    stroke: &StrokeFriction<'_>,
+    stroke: &StrokeView<'_>,
     axis: &AxisParams,
     params: &AnalysisParams,
     analyzer: &mut SpectrumAnalyzer,

@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::axis::AxisParams;
 
-pub use crate::estimate::Direction;
+pub use crate::stroke::Direction;
 
 /// In which direction(s) of travel a fluctuation component acts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
