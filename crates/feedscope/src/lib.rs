@@ -25,3 +25,4 @@ pub mod spline;
 pub mod stribeck;
 pub mod stroke;
 pub mod trace;
+pub mod units;

@@ -67,6 +67,7 @@ use crate::lugre::sign;
 use crate::spline::{alpha_for_cutoff, smoothing_moments, CubicSpline, SplineError};
 use crate::stribeck::StribeckParams;
 use crate::trace::{EffortKind, Trace};
+use crate::units::{feed_m_s_to_mm_min, feed_mm_min_to_m_s};
 
 /// Settings of the identification. The defaults suit a kHz synchronous trace of the test
 /// planned by [`crate::plan::triangle_program`].
@@ -228,7 +229,7 @@ impl TorqueFit {
     /// Friction torque of the fitted model at table velocity v (N·m), T_0 included.
     pub fn friction_torque_nm(&self, velocity_m_s: f64) -> f64 {
         let s = velocity_m_s.abs();
-        let vs = self.vs_mm_min / 60_000.0;
+        let vs = feed_mm_min_to_m_s(self.vs_mm_min);
         let sgn = sign(velocity_m_s);
         sgn * (self.tc_nm + (self.ts_nm - self.tc_nm) * (-(s / vs).powf(self.delta)).exp())
             + self.sigma_nm_s_per_m * velocity_m_s
@@ -246,7 +247,7 @@ impl TorqueFit {
         StribeckParams {
             fc_n: k * self.tc_nm,
             fs_n: k * self.ts_nm,
-            vs_m_s: self.vs_mm_min / 60_000.0,
+            vs_m_s: feed_mm_min_to_m_s(self.vs_mm_min),
             sigma_n_s_per_m: k * self.sigma_nm_s_per_m,
             delta: self.delta,
         }
@@ -485,7 +486,7 @@ pub fn identify(
 
     // Step 3: exclude slow samples and those near them (reversals, starts, stops) and the
     // spline's end regions.
-    let v_min = params.min_speed_mm_min / 60_000.0;
+    let v_min = feed_mm_min_to_m_s(params.min_speed_mm_min);
     let slow: Vec<bool> = vel.iter().map(|v| v.abs() < v_min).collect();
     let mut used = vec![true; n];
     let mut last_slow = f64::NEG_INFINITY;
@@ -640,7 +641,7 @@ fn check_excitation(
     let mut bins = std::collections::BTreeMap::<i64, usize>::new();
     for v in &r.velocity_m_s {
         *bins
-            .entry((v.abs() * 60_000.0).log2().floor() as i64)
+            .entry(feed_m_s_to_mm_min(v.abs()).log2().floor() as i64)
             .or_default() += 1;
     }
     let min_count = (n / 200).max(5);
@@ -898,8 +899,8 @@ pub fn fit_torque(r: &Regressors, params: &IdentParams) -> Result<TorqueFit, Ide
         delta: params.delta,
     };
     let (vs, sol, evals, at_bound) = sep.minimise(
-        params.vs_min_mm_min / 60_000.0,
-        params.vs_max_mm_min / 60_000.0,
+        feed_mm_min_to_m_s(params.vs_min_mm_min),
+        feed_mm_min_to_m_s(params.vs_max_mm_min),
         params.vs_grid_points,
     );
     let th = &sol.theta;
@@ -918,7 +919,7 @@ pub fn fit_torque(r: &Regressors, params: &IdentParams) -> Result<TorqueFit, Ide
         j_total_kgm2: j,
         tc_nm: tc,
         ts_nm: tc + ds,
-        vs_mm_min: vs * 60_000.0,
+        vs_mm_min: feed_m_s_to_mm_min(vs),
         sigma_nm_s_per_m: sigma,
         offset_nm: offset,
         delta: params.delta,
@@ -926,7 +927,7 @@ pub fn fit_torque(r: &Regressors, params: &IdentParams) -> Result<TorqueFit, Ide
             j_total_kgm2: var(0),
             tc_nm: var(1),
             ts_nm: ts_se,
-            vs_mm_min: var(iv) * 60_000.0,
+            vs_mm_min: feed_m_s_to_mm_min(var(iv)),
             sigma_nm_s_per_m: var(2),
             offset_nm: if params.fit_offset { var(3) } else { 0.0 },
         },
@@ -989,7 +990,7 @@ pub fn fit_groups(
                 Direction::Forward => 1.0,
                 Direction::Backward => -1.0,
             };
-            let v = sgn * s.summary.feed_mm_min / 60_000.0;
+            let v = feed_mm_min_to_m_s(sgn * s.summary.feed_mm_min);
             Group {
                 stroke: s.summary.stroke,
                 direction: s.summary.direction,
@@ -1004,7 +1005,11 @@ pub fn fit_groups(
             Direction::Forward => 1.0,
             Direction::Backward => -1.0,
         };
-        r.push(sgn * g.feed_mm_min / 60_000.0, 0.0, g.friction_torque_nm);
+        r.push(
+            feed_mm_min_to_m_s(sgn * g.feed_mm_min),
+            0.0,
+            g.friction_torque_nm,
+        );
     }
     let fwd = r.velocity_m_s.iter().filter(|&&v| v > 0.0).count();
     let mut feeds: Vec<f64> = groups.iter().map(|g| g.feed_mm_min).collect();
@@ -1038,8 +1043,8 @@ pub fn fit_groups(
         delta: params.delta,
     };
     let (vs, sol, evals, at_bound) = sep.minimise(
-        params.vs_min_mm_min / 60_000.0,
-        params.vs_max_mm_min / 60_000.0,
+        feed_mm_min_to_m_s(params.vs_min_mm_min),
+        feed_mm_min_to_m_s(params.vs_max_mm_min),
         params.vs_grid_points,
     );
     let th = &sol.theta;
@@ -1057,7 +1062,7 @@ pub fn fit_groups(
         j_total_kgm2: 0.0,
         tc_nm: th[0],
         ts_nm: th[0] + ds,
-        vs_mm_min: vs * 60_000.0,
+        vs_mm_min: feed_m_s_to_mm_min(vs),
         sigma_nm_s_per_m: th[1],
         offset_nm: if params.fit_offset { th[2] } else { 0.0 },
         delta: params.delta,
@@ -1067,7 +1072,7 @@ pub fn fit_groups(
             ts_nm: ((cov[(0, 0)] + cov[(ia, ia)] + 2.0 * cov[(0, ia)]) * s2)
                 .max(0.0)
                 .sqrt(),
-            vs_mm_min: var(p - 1) * 60_000.0,
+            vs_mm_min: feed_m_s_to_mm_min(var(p - 1)),
             sigma_nm_s_per_m: var(1),
             offset_nm: if params.fit_offset { var(2) } else { 0.0 },
         },

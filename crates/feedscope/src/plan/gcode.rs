@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 use super::{PlanError, TestKind, TestProgram};
 
 pub use crate::nc::Dialect;
+use crate::units::s_to_min;
 
 /// FANUC machine type, which decides the feed-per-minute code (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -104,7 +105,7 @@ pub fn header_lines(prog: &TestProgram, opts: &GcodeOptions) -> Vec<String> {
         "MOVES {}, EXPECTED RUN TIME {} S = {} MIN AT ACCEL {} MM/S2",
         prog.moves.len(),
         fixed(t, 1),
-        fixed(t / 60.0, 2),
+        fixed(s_to_min(t), 2),
         fixed(prog.accel_mm_s2, 0)
     ));
     h.push(format!(
