@@ -7,8 +7,10 @@ use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
 use super::lsq::{legendre, lstsq, Mat};
+use super::piecewise::Layout;
 use super::*;
 use crate::axis::{AxisParams, DeclaredOrder};
+use crate::order::SpectrumAnalyzer;
 
 /// A true fluctuation component.
 #[derive(Clone, Copy)]
