@@ -3,12 +3,17 @@
 use std::f64::consts::PI;
 
 use super::*;
+use crate::axis::AxisParams;
+use crate::estimate::EstimateParams;
+use crate::lugre::sign;
 use crate::plan::{strokes_program, triangle_program, Limits, StrokeTestParams, TriangleParams};
 use crate::sim::{
     simulate_profile, DynamicsMode, FrictionParams, MeanLevel, MotionProfile, SamplingMode,
     SimConfig, VelocityTerm,
 };
+use crate::stribeck::StribeckParams;
 use crate::trace::{Channel, EffortKind, Trace};
+use crate::units::feed_mm_min_to_m_s;
 
 /// Truth of the round trips, deliberately unlike papers 000-002: lead 12 mm, 180 kg table,
 /// F_c = 180 N, F_s = 250 N, v_s = 90 mm/min, σ = 3500 N·s/m.
