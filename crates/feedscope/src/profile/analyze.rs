@@ -11,6 +11,9 @@ use crate::order::{
 };
 use crate::stroke::{Direction, StrokeView};
 
+/// Highest order of the Table 2 scan when [`AnalysisParams::scan_max_order`] is left at 0.
+pub const DEFAULT_SCAN_MAX_ORDER: usize = 8;
+
 /// Options of [`analyze_stroke`].
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -19,8 +22,22 @@ pub struct AnalysisParams {
     pub profile: ProfileParams,
     /// Spectra and significant components.
     pub spectrum: SpectrumParams,
-    /// Highest order of the Table 2 scan (default 8 when 0).
+    /// Highest order of the Table 2 scan; 0 (the default) means [`DEFAULT_SCAN_MAX_ORDER`].
+    /// A `usize` with 0 for "default" rather than an `Option`, so that a config or report
+    /// written before keeps its meaning; read it through [`AnalysisParams::scan_max_order`].
     pub scan_max_order: usize,
+}
+
+impl AnalysisParams {
+    /// The highest order of the Table 2 scan in effect: `scan_max_order`, or
+    /// [`DEFAULT_SCAN_MAX_ORDER`] when it is 0.
+    pub fn scan_max_order(&self) -> usize {
+        if self.scan_max_order == 0 {
+            DEFAULT_SCAN_MAX_ORDER
+        } else {
+            self.scan_max_order
+        }
+    }
 }
 
 /// Everything issue 3 reports for one stroke.
@@ -86,12 +103,7 @@ pub fn analyze_stroke(
     params: &AnalysisParams,
     analyzer: &mut SpectrumAnalyzer,
 ) -> Result<StrokeAnalysis, ProfileError> {
-    let scan_max = if params.scan_max_order == 0 {
-        8
-    } else {
-        params.scan_max_order
-    };
-    let order_scan = order_scan(stroke, scan_max)?;
+    let order_scan = order_scan(stroke, params.scan_max_order())?;
     let iafv = fit_iafv(stroke, &params.profile, analyzer)?;
     let (iafv_n, ffs_n) = iafv_and_ffs(stroke, &iafv);
     let kin = kinematic_orders(axis);

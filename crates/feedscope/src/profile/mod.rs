@@ -63,7 +63,7 @@ mod prepare;
 mod scan;
 mod select;
 
-pub use analyze::{analyze_stroke, AnalysisParams, StrokeAnalysis};
+pub use analyze::{analyze_stroke, AnalysisParams, StrokeAnalysis, DEFAULT_SCAN_MAX_ORDER};
 pub use iafv::{
     fit_iafv, iafv_and_ffs, IafvFit, LayoutSelection, LinearTrend, NuisanceSinusoid, ProfileParams,
 };
