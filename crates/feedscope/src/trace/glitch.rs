@@ -140,6 +140,7 @@ pub struct Jump {
 ///
 /// ```
 /// use feedscope::trace::{screen_position, Channel, GlitchParams};
+/// use feedscope::units::feed_mm_min_to_m_s;
 /// // 100 mm/min at 100 Hz with one logger glitch at index 50
 /// let time_s: Vec<f64> = (0..200).map(|k| k as f64 * 0.01).collect();
 /// let mut value: Vec<f64> = time_s.iter().map(|t| 0.01 + feed_mm_min_to_m_s(t * 100.0)).collect();
