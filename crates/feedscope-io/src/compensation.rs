@@ -204,6 +204,7 @@ mod tests {
     use super::*;
     use feedscope::estimate::{MoveKind, StrokeFriction, StrokeSummary};
     use feedscope::map::{build_map, MapParams, RunFriction, TestRun};
+    use feedscope::units::feed_mm_min_to_m_s;
 
     const LEAD_M: f64 = 0.01;
 
@@ -253,7 +254,7 @@ mod tests {
             strokes: vec![StrokeFriction {
                 summary,
                 time_s: vec![0.0; n],
-                velocity_m_s: vec![feed / 60_000.0; n],
+                velocity_m_s: vec![feed_mm_min_to_m_s(feed); n],
                 accel_m_s2: vec![0.0; n],
                 effort: vec![0.0; n],
                 position_m: z,

@@ -9,7 +9,7 @@ use std::f64::consts::PI;
 use criterion::{criterion_group, criterion_main, Criterion};
 use feedscope::axis::{AxisParams, ConfigFormat, DeclaredOrder};
 use feedscope::order::SpectrumAnalyzer;
-use feedscope::profile::{analyze_stroke, AnalysisParams, Direction, StrokeFriction};
+use feedscope::profile::{analyze_stroke, AnalysisParams, Direction, StrokeView};
 
 fn axis(lead_mm: f64) -> AxisParams {
     let text = format!(
@@ -69,7 +69,7 @@ fn bench(c: &mut Criterion) {
     for lead_mm in [10.0, 5.0] {
         let (x, y) = stroke_data(lead_mm);
         let ax = axis(lead_mm);
-        let stroke = StrokeFriction {
+        let stroke = StrokeView {
             direction: Direction::Forward,
             position_m: &x,
             friction_n: &y,

@@ -4,6 +4,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use feedscope::stribeck::{
     fit_stribeck, DeltaMode, StribeckFitParams, StribeckFitter, StribeckParams,
 };
+use feedscope::units::feed_mm_min_to_m_s;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
@@ -11,7 +12,7 @@ use std::hint::black_box;
 
 fn feeds() -> Vec<f64> {
     (0..18)
-        .map(|k| 5.0 * 120f64.powf(k as f64 / 17.0) / 60_000.0)
+        .map(|k| feed_mm_min_to_m_s(5.0 * 120f64.powf(k as f64 / 17.0)))
         .collect()
 }
 
@@ -26,7 +27,7 @@ fn map(direction: u64) -> Vec<Vec<f64>> {
             let p = StribeckParams {
                 fc_n: 180.0 + 30.0 * (i as f64 / 30.0).sin() + 20.0 * direction as f64,
                 fs_n: 250.0,
-                vs_m_s: 35.0 / 60_000.0,
+                vs_m_s: feed_mm_min_to_m_s(35.0),
                 sigma_n_s_per_m: 9000.0,
                 delta: 2.0,
             };

@@ -23,4 +23,6 @@ pub mod profile;
 pub mod sim;
 pub mod spline;
 pub mod stribeck;
+pub mod stroke;
 pub mod trace;
+pub mod units;

@@ -7,8 +7,8 @@ use feedscope::axis::AxisParams;
 use feedscope::estimate::{estimate, Direction, EstimateParams, StrokeFriction};
 use feedscope::order::{SegmentSpec, SpectrumAnalyzer};
 use feedscope::profile::{
-    analyze_stroke, fit_piecewise, order_scan_table, AnalysisParams, StrokeAnalysis,
-    StrokeFriction as StrokeView,
+    analyze_stroke, fit_piecewise, order_scan_table, AnalysisParams, StrokeAnalysis, StrokeView,
+    DEFAULT_SCAN_MAX_ORDER,
 };
 use feedscope::trace::GlitchParams;
 use feedscope_io::friction_csv;
@@ -181,7 +181,7 @@ pub fn run(args: Args) -> Result<()> {
         pb.inc(1);
     }
     pb.finish_and_clear();
-    let table = order_scan_table(&views, params.scan_max_order.max(8))?;
+    let table = order_scan_table(&views, params.scan_max_order.max(DEFAULT_SCAN_MAX_ORDER))?;
 
     // Render everything before anything is written.
     std::fs::create_dir_all(&args.out)

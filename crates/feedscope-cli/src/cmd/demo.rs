@@ -9,6 +9,7 @@ use feedscope::plan::{
 };
 use feedscope::sim::{simulate, simulate_profile, FrictionParams, SamplingMode, SimConfig};
 use feedscope::trace::EffortKind;
+use feedscope::units::feed_mm_min_to_m_s;
 use feedscope_io::trace::{write_csv, Layout, ReadReport};
 use feedscope_store::{NewTest, SqliteStore, Store, TestKind};
 use rayon::prelude::*;
@@ -81,7 +82,7 @@ pub fn run(args: Args) -> Result<()> {
     .enumerate()
     {
         if let Some(pts) = strokes.first() {
-            let v = dir.sign() * cfg.motion.strokes[0].feed_mm_min / 60e3;
+            let v = feed_mm_min_to_m_s(dir.sign() * cfg.motion.strokes[0].feed_mm_min);
             truth_series[k].push(Series {
                 name: format!("{} (true)", dir.as_str()),
                 points: pts

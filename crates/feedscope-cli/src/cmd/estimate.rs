@@ -11,6 +11,7 @@ use feedscope::estimate::{
 };
 use feedscope::spline::EndCondition;
 use feedscope::trace::{EffortKind, GlitchParams, Trace};
+use feedscope::units::feed_m_s_to_mm_min;
 use feedscope_io::friction_csv;
 use feedscope_io::trace::{read_trace_file_with, DroppedSample, ReadOptions, ReadReport};
 use serde::Serialize;
@@ -324,7 +325,7 @@ pub fn estimate_to_csv(
             ignored_rows: report.ignored_rows,
             ignored_channels: report.ignored_channels.clone(),
             dropped_position_samples: report.dropped_position.iter().map(Into::into).collect(),
-            max_axis_speed_mm_min: report.max_axis_speed_m_s.map(|v| v * 60e3),
+            max_axis_speed_mm_min: report.max_axis_speed_m_s.map(feed_m_s_to_mm_min),
         },
         plot,
     })

@@ -13,7 +13,7 @@ use feedscope::history::{
 };
 use feedscope::ident::{identify, IdentParams, Identification};
 use feedscope::order::SpectrumAnalyzer;
-use feedscope::profile::{analyze_stroke, AnalysisParams, StrokeFriction as StrokeView};
+use feedscope::profile::{analyze_stroke, AnalysisParams, StrokeView};
 use feedscope::trace::{GlitchParams, Trace};
 use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use feedscope_store::time::{format_rfc3339, parse_rfc3339};

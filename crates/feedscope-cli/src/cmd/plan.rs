@@ -9,6 +9,7 @@ use feedscope::plan::{
     strokes_program, triangle_program, Limits, Move, StrokeTestParams, TestKind, TestProgram,
     TriangleParams,
 };
+use feedscope::units::s_to_min;
 use serde::Serialize;
 
 use super::estimate::Format;
@@ -293,7 +294,7 @@ pub fn run(args: Args) -> Result<()> {
                 w,
                 "expected run time {:.1} s ({:.2} min) at {:.0} mm/s²",
                 summary.run_time_s,
-                summary.run_time_s / 60.0,
+                s_to_min(summary.run_time_s),
                 summary.accel_mm_s2
             )?;
             writeln!(

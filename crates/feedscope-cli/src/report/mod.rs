@@ -2,6 +2,7 @@
 //! script, no network), rendered from `report.html` with minijinja.
 use anyhow::{Context, Result};
 use feedscope::history::{IndicatorTrend, Status};
+use feedscope::units::MM_MIN_PER_M_S;
 use feedscope_store::{Identified, Store, TestDetail};
 use serde::Serialize;
 
@@ -234,7 +235,7 @@ fn stribeck_points(p: &Identified, v_max_mm_min: f64) -> Vec<(f64, f64)> {
             let v = v_max_mm_min * k as f64 / 200.0;
             let f = p.fc_n
                 + (p.fs_n - p.fc_n) * (-(v / p.vs_mm_min).abs().powf(p.delta)).exp()
-                + p.sigma_n_s_per_m * v / 60e3;
+                + p.sigma_n_s_per_m * v / MM_MIN_PER_M_S;
             (v, f)
         })
         .collect()

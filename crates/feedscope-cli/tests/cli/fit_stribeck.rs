@@ -3,12 +3,14 @@
 //! file:line.
 use std::path::Path;
 
+use feedscope::units::feed_mm_min_to_m_s;
+
 use crate::util::{feedscope, run, stderr, stdout};
 
 /// Friction magnitude of a known curve (F_c 173 N, F_s 241 N, v_s 37 mm/min, σ 16000 N·s/m),
 /// feed in mm/min.
 fn truth_n(feed_mm_min: f64) -> f64 {
-    let v = feed_mm_min.abs() / 60_000.0;
+    let v = feed_mm_min_to_m_s(feed_mm_min.abs());
     173.0 + 68.0 * (-(feed_mm_min.abs() / 37.0).powi(2)).exp() + 16_000.0 * v
 }
 

@@ -5,6 +5,7 @@
 
 use feedscope::trace::glitch::{remove_samples, screen_position, GlitchParams};
 use feedscope::trace::{Channel, EffortKind, Trace, MIN_SAMPLES};
+use feedscope::units::feed_m_s_to_mm_min;
 
 use super::format::Layout;
 
@@ -300,7 +301,7 @@ impl ReadReport {
         }
         let limit = self
             .max_axis_speed_m_s
-            .map(|v| format!(" beyond {} mm/min", mm_min(v * 60_000.0)))
+            .map(|v| format!(" beyond {} mm/min", mm_min(feed_m_s_to_mm_min(v))))
             .unwrap_or_default();
         let shown: Vec<String> = d
             .iter()
@@ -484,7 +485,7 @@ pub(super) fn screen_and_check(
                 time_s: p.time_s[j.index],
                 previous_time_s: p.time_s[j.from_index],
                 jump_mm: j.jump_m * 1e3,
-                speed_mm_min: j.speed_m_s * 60_000.0,
+                speed_mm_min: feed_m_s_to_mm_min(j.speed_m_s),
                 limit_mm_min: glitch.max_axis_speed_mm_min(),
             });
         }

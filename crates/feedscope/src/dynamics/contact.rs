@@ -23,6 +23,7 @@ use serde::{Deserialize, Serialize};
 use crate::stribeck::StribeckParams;
 
 use super::config::DriveConfig;
+use crate::units::{feed_mm_min_to_m_s, MM_MIN_PER_M_S};
 
 /// Axial stiffness of `balls` Hertz point contacts sharing the axial load `load_n` (N) at an
 /// effective angle whose sine is `sin_eff`:
@@ -108,8 +109,8 @@ impl JointModel {
         let friction = StribeckParams {
             fc_n: f.coulomb_n,
             fs_n: f.static_n,
-            vs_m_s: f.stribeck_velocity_mm_min / 60_000.0,
-            sigma_n_s_per_m: f.viscous_n_per_mm_min * 60_000.0,
+            vs_m_s: feed_mm_min_to_m_s(f.stribeck_velocity_mm_min),
+            sigma_n_s_per_m: f.viscous_n_per_mm_min * MM_MIN_PER_M_S,
             delta: f.shape_exponent,
         };
         Self {

@@ -9,9 +9,7 @@ use super::modal::{DriveModel, ModalResult};
 use super::ripple::find_resonances;
 pub use super::ripple::Resonance;
 use super::DynamicsError;
-
-/// mm/min → m/s.
-const MM_MIN_TO_M_S: f64 = 1.0 / 60_000.0;
+use crate::units::M_S_PER_MM_MIN;
 
 /// Frequencies and joint state at one feed rate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -121,7 +119,7 @@ pub fn analyse(model: &DriveModel) -> Result<DynamicsReport, DynamicsError> {
     let plan = model.at_position(y)?;
 
     let feeds = linspace(0.0, sw.feed_max_mm_min, sw.feed_points);
-    let feeds_si: Vec<f64> = feeds.iter().map(|v| v * MM_MIN_TO_M_S).collect();
+    let feeds_si: Vec<f64> = feeds.iter().map(|v| v * M_S_PER_MM_MIN).collect();
     let freqs = model.sweep_feed(y, &feeds_si, n_modes)?;
     let feed_sweep = FeedSweep {
         position_mm: sw.position_mm,
@@ -131,7 +129,7 @@ pub fn analyse(model: &DriveModel) -> Result<DynamicsReport, DynamicsError> {
             .map(|(&v, f)| FeedPoint {
                 feed_mm_min: v,
                 frequencies_hz: f.clone(),
-                joints: model.joints(v * MM_MIN_TO_M_S),
+                joints: model.joints(v * M_S_PER_MM_MIN),
             })
             .collect(),
     };
@@ -156,7 +154,7 @@ pub fn analyse(model: &DriveModel) -> Result<DynamicsReport, DynamicsError> {
         let above = v * (1.0 + 1e-6) + 1e-9;
         UnloadEvent {
             bearing: "rear".to_owned(),
-            feed_mm_min: v / MM_MIN_TO_M_S,
+            feed_mm_min: v / M_S_PER_MM_MIN,
             pretension_n: cfg.bearings.screw_pretension_kn * 1e3,
             first_before_hz: plan.frequencies_hz(below, 1)[0],
             first_after_hz: plan.frequencies_hz(above, 1)[0],
@@ -167,7 +165,7 @@ pub fn analyse(model: &DriveModel) -> Result<DynamicsReport, DynamicsError> {
     let positions_si: Vec<f64> = positions.iter().map(|p| p / 1000.0).collect();
     let mut position_sweeps = Vec::with_capacity(sw.position_feeds_mm_min.len());
     for &v in &sw.position_feeds_mm_min {
-        let grid = model.sweep_grid(&positions_si, &[v * MM_MIN_TO_M_S], n_modes)?;
+        let grid = model.sweep_grid(&positions_si, &[v * M_S_PER_MM_MIN], n_modes)?;
         position_sweeps.push(PositionSweep {
             feed_mm_min: v,
             points: positions
@@ -185,7 +183,7 @@ pub fn analyse(model: &DriveModel) -> Result<DynamicsReport, DynamicsError> {
     for y_mm in [sw.position_mm, sw.position_min_mm, sw.position_max_mm] {
         let p = model.at_position(y_mm / 1000.0)?;
         for &v in &sw.position_feeds_mm_min {
-            mode_shapes.push(p.modes(v * MM_MIN_TO_M_S, n_modes));
+            mode_shapes.push(p.modes(v * M_S_PER_MM_MIN, n_modes));
         }
     }
 

@@ -4,6 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use super::config::RippleParams;
 use super::modal::PositionPlan;
+use crate::units::feed_mm_min_to_m_s;
 
 /// Torque-ripple harmonic frequency f_T = N_P·P_n·v/(60·p) (Hz), paper Eq. 16, with the feed
 /// rate v in mm/min and the lead p in mm (v/(60·p) is the screw speed in rev/s).
@@ -60,7 +61,7 @@ pub fn find_resonances(
     let mut out = Vec::new();
     for &h in &ripple.harmonics {
         for mode in 0..n_modes {
-            let fn_at = |v: f64| plan.frequencies_hz(v / 60_000.0, mode + 1)[mode];
+            let fn_at = |v: f64| plan.frequencies_hz(feed_mm_min_to_m_s(v), mode + 1)[mode];
             let d = |v: f64| ripple_frequency_hz(h, ripple.pole_pairs, v, lead_mm) - fn_at(v);
             let grid: Vec<f64> = feeds_mm_min
                 .iter()

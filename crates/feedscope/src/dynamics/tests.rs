@@ -9,6 +9,7 @@ use proptest::prelude::*;
 use super::assemble::{add_rod, ScrewModel};
 use super::modal::generalized_eigenvalues;
 use super::*;
+use crate::units::feed_mm_min_to_m_s;
 
 fn default_model() -> DriveModel {
     DriveModel::from_config(&DriveConfig::default()).unwrap()
@@ -254,7 +255,7 @@ fn paper_trends_on_example_drive() {
     // at unloading the rear bearing's stiffness is 0 and the frequency is below the peak
     assert!(unload.first_before_hz < report.peak_first_hz - 1.0);
     assert!(unload.first_after_hz <= unload.first_before_hz + 1e-9);
-    let after = model.joints(unload.feed_mm_min * 1.01 / 60_000.0);
+    let after = model.joints(feed_mm_min_to_m_s(unload.feed_mm_min * 1.01));
     assert!(after.k_rear_n_per_m == 0.0);
     // the minimum over feeds up to unloading sits at the unloading feed (paper: "reaches the
     // minimum at 64.65 m/min"), excluding rest
@@ -301,14 +302,14 @@ fn resonances_are_crossings_of_ripple_and_mode() {
     assert!(!report.resonances.is_empty());
     let plan = model.at_position(0.7).unwrap();
     for r in &report.resonances {
-        let fn_hz = plan.frequencies_hz(r.feed_mm_min / 60_000.0, r.mode)[r.mode - 1];
+        let fn_hz = plan.frequencies_hz(feed_mm_min_to_m_s(r.feed_mm_min), r.mode)[r.mode - 1];
         let ft = ripple_frequency_hz(r.harmonic, 4.0, r.feed_mm_min, 12.0);
         // bisection to round-off on a function that is smooth near the crossing
         assert!((fn_hz - ft).abs() < 1e-6, "{r:?}: {fn_hz} vs {ft}");
         assert!(r.feed_low_mm_min <= r.feed_mm_min && r.feed_mm_min <= r.feed_high_mm_min);
         for v in [r.feed_low_mm_min, r.feed_high_mm_min] {
             let d = ripple_frequency_hz(r.harmonic, 4.0, v, 12.0)
-                - plan.frequencies_hz(v / 60_000.0, r.mode)[r.mode - 1];
+                - plan.frequencies_hz(feed_mm_min_to_m_s(v), r.mode)[r.mode - 1];
             assert!(d.abs() <= r.margin_hz + 1e-6, "{d}");
         }
     }

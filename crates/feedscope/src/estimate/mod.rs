@@ -49,6 +49,7 @@
 pub mod floor;
 pub mod moves;
 pub mod segment;
+mod view;
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -58,7 +59,9 @@ use crate::spline::{CubicSpline, EndCondition, SplineError};
 use crate::trace::{EffortKind, Trace};
 pub use floor::NoiseFloor;
 pub use moves::{Move, MoveKind, ProgrammedMove};
-pub use segment::{Direction, MoveSpan, SegmentParams, StrokeSpan, Zone, ZoneKind};
+pub use segment::{MoveSpan, SegmentParams, StrokeSpan, Zone, ZoneKind};
+
+pub use crate::stroke::Direction;
 
 /// How the run time t(z) of step 3 is obtained.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

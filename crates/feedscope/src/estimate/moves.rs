@@ -19,8 +19,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::segment::{Direction, MoveSpan};
+use super::segment::MoveSpan;
+use crate::stroke::Direction;
 use crate::trace::Channel;
+use crate::units::feed_m_s_to_mm_min;
 
 /// One motion block of an NC program, resolved to absolute axis positions (from
 /// [`crate::nc`] or any other source).
@@ -127,7 +129,7 @@ pub(crate) fn classify(
 ) -> (Vec<Move>, Option<String>) {
     // Rapids are told by their top speed: a long rapid spends much of its time on its ramps,
     // which pull the plateau (a median) below the rapid rate.
-    let top_mm_min = |m: &MoveSpan| m.top_speed_m_s * 60e3;
+    let top_mm_min = |m: &MoveSpan| feed_m_s_to_mm_min(m.top_speed_m_s);
     let mut note = None;
     let rapid_above = match rapid_rate_mm_min {
         Some(r) => Some(RAPID_FRACTION * r),
@@ -194,9 +196,9 @@ fn steady_feed_mm_min(position: &Channel, m: &MoveSpan) -> f64 {
         )
     });
     if dur > 0.0 {
-        dist / dur * 60e3
+        feed_m_s_to_mm_min(dist / dur)
     } else {
-        m.plateau_speed_m_s * 60e3
+        feed_m_s_to_mm_min(m.plateau_speed_m_s)
     }
 }
 

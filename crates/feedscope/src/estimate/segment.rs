@@ -17,42 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::trace::Channel;
 
-/// Direction of travel. Forward means increasing position.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Direction {
-    /// Position increasing.
-    Forward,
-    /// Position decreasing.
-    Backward,
-}
-
-impl Direction {
-    /// Direction of a velocity: forward for v ≥ 0, backward for v < 0.
-    pub fn of_velocity(velocity_m_s: f64) -> Self {
-        if velocity_m_s < 0.0 {
-            Self::Backward
-        } else {
-            Self::Forward
-        }
-    }
-
-    /// +1 forward, −1 backward.
-    pub fn sign(self) -> f64 {
-        match self {
-            Self::Forward => 1.0,
-            Self::Backward => -1.0,
-        }
-    }
-
-    /// `"forward"` or `"backward"`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Forward => "forward",
-            Self::Backward => "backward",
-        }
-    }
-}
+pub use crate::stroke::Direction;
 
 /// Knot range of one steady stroke in the position channel.
 #[derive(Debug, Clone, PartialEq)]

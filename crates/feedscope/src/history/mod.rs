@@ -40,7 +40,7 @@ pub use control::{
 };
 pub use diagnose::diagnose;
 
-use crate::estimate::Direction;
+use crate::stroke::Direction;
 
 /// Errors of the trend computations.
 #[derive(Debug, thiserror::Error, PartialEq)]

@@ -3,7 +3,7 @@ use rand::{rngs::StdRng, Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
 use super::*;
-use crate::estimate::Direction;
+use crate::stroke::Direction;
 
 const DAY: f64 = 86_400.0;
 

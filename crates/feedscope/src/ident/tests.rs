@@ -3,12 +3,17 @@
 use std::f64::consts::PI;
 
 use super::*;
+use crate::axis::AxisParams;
+use crate::estimate::EstimateParams;
+use crate::lugre::sign;
 use crate::plan::{strokes_program, triangle_program, Limits, StrokeTestParams, TriangleParams};
 use crate::sim::{
     simulate_profile, DynamicsMode, FrictionParams, MeanLevel, MotionProfile, SamplingMode,
     SimConfig, VelocityTerm,
 };
+use crate::stribeck::StribeckParams;
 use crate::trace::{Channel, EffortKind, Trace};
+use crate::units::feed_mm_min_to_m_s;
 
 /// Truth of the round trips, deliberately unlike papers 000-002: lead 12 mm, 180 kg table,
 /// F_c = 180 N, F_s = 250 N, v_s = 90 mm/min, σ = 3500 N·s/m.
@@ -154,7 +159,7 @@ fn synthetic_trace(z: impl Fn(f64) -> (f64, f64, f64), duration_s: f64) -> Trace
     let model = StribeckParams {
         fc_n: FC_N,
         fs_n: FS_N,
-        vs_m_s: VS_MM_MIN / 60_000.0,
+        vs_m_s: feed_mm_min_to_m_s(VS_MM_MIN),
         sigma_n_s_per_m: SIGMA_N_S_PER_M,
         delta: 2.0,
     };
@@ -355,10 +360,10 @@ proptest::proptest! {
         sigma in 1.0f64..50.0,
         t0 in -0.1f64..0.1,
     ) {
-        let vs = vs_mm_min / 60_000.0;
+        let vs = feed_mm_min_to_m_s(vs_mm_min);
         let mut r = Regressors::default();
         for k in 0..600 {
-            let speed = 10f64.powf(4.0 * (k / 2) as f64 / 300.0) / 60_000.0;
+            let speed = feed_mm_min_to_m_s(10f64.powf(4.0 * (k / 2) as f64 / 300.0));
             let v = if k % 2 == 0 { speed } else { -speed };
             let a = 300.0 * ((k as f64) * 0.731).sin();
             let y = j * a

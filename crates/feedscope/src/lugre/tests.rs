@@ -2,6 +2,7 @@
 //! with large steps against a fine-step reference, and σ0 identification from a simulated
 //! reversal.
 use super::*;
+use crate::units::feed_mm_min_to_m_s;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
@@ -11,7 +12,7 @@ fn params(sigma0: f64) -> LuGreParams {
         stribeck: StribeckParams {
             fc_n: 150.0,
             fs_n: 210.0,
-            vs_m_s: 20.0 / 60_000.0,
+            vs_m_s: feed_mm_min_to_m_s(20.0),
             sigma_n_s_per_m: 3000.0,
             delta: 2.0,
         },
@@ -123,7 +124,7 @@ fn presliding_slope_is_sigma0() {
 fn identification_recovers_sigma0_from_a_reversal() {
     let sigma0 = 2.7e7;
     let m = LuGre::new(params(sigma0)).unwrap();
-    let v0 = 1.0 / 60_000.0;
+    let v0 = feed_mm_min_to_m_s(1.0);
     let t = uniform_time(8001, 1e-3);
     let vel: Vec<f64> = t
         .iter()

@@ -54,7 +54,7 @@
 //! let stroke = |feed: f64| {
 //!     let step = 0.01 / 1024.0;
 //!     let z: Vec<f64> = (0..4097).map(|k| 0.01 + k as f64 * step).collect();
-//!     let v = feed / 60_000.0;
+//!     let v = feedscope::units::feed_mm_min_to_m_s(feed);
 //!     let f: Vec<f64> = z.iter().map(|&z| 200.0 + 500.0 * z + 3000.0 * v).collect();
 //!     let n = z.len();
 //!     StrokeFriction {
@@ -117,9 +117,9 @@ pub use stribeck_map::{
 
 use serde::{Deserialize, Serialize};
 
-use crate::estimate::Direction;
 use crate::profile::ProfileError;
 use crate::stribeck::{NonConventionalParams, StribeckError, StribeckFitParams};
+use crate::stroke::Direction;
 
 /// Why building or using a friction map failed.
 #[derive(Debug, thiserror::Error)]

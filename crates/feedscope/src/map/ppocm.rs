@@ -6,8 +6,8 @@ use serde::{Deserialize, Serialize};
 
 use super::feed::FeedPolynomial;
 use super::{MapError, MapParams, RunFriction};
-use crate::estimate::Direction;
 use crate::profile::{fit_piecewise, PiecewisePoly};
+use crate::stroke::Direction;
 
 /// One repeat's IAFV: a stroke fitted with the common breakpoints and orders.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -5,10 +5,10 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::{DirectionMap, MapError, MapParams};
-use crate::estimate::Direction;
 use crate::stribeck::{
     detect_nonconventional, NonConventional, StribeckFit, StribeckFitter, M_S_PER_MM_MIN,
 };
+use crate::stroke::Direction;
 
 /// The Stribeck fit at one position.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -2,6 +2,7 @@ use std::path::Path;
 
 use super::*;
 use crate::estimate::{Direction, StrokeFriction, StrokeSummary};
+use crate::units::feed_mm_min_to_m_s;
 
 const LEAD_M: f64 = 0.01;
 
@@ -42,7 +43,7 @@ fn stroke(dir: Direction, feed: f64, f: impl Fn(f64, f64) -> f64) -> StrokeFrict
             warnings: vec![],
         },
         time_s: vec![0.0; n],
-        velocity_m_s: vec![dir.sign() * feed / 60_000.0; n],
+        velocity_m_s: vec![feed_mm_min_to_m_s(dir.sign() * feed); n],
         accel_m_s2: vec![0.0; n],
         effort: vec![0.0; n],
         position_m: z,
@@ -65,7 +66,7 @@ fn run(feed: f64, repeat: u32, strokes: Vec<StrokeFriction>) -> RunFriction {
 
 /// A smooth truth: level with a trend and a bump, Stribeck fall and viscous rise.
 fn smooth(z: f64, feed: f64) -> f64 {
-    let v = feed / 60_000.0;
+    let v = feed_mm_min_to_m_s(feed);
     200.0
         + 0.5 * z
         + 20.0 * (-0.5 * ((z - 30.0) / 6.0f64).powi(2)).exp()

@@ -108,7 +108,17 @@ mod lex;
 
 use serde::{Deserialize, Serialize};
 
-pub use crate::plan::gcode::Dialect;
+/// Control family: the G-code dialect a program is read in (detected by the reader) or
+/// written in ([`crate::plan::gcode`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Dialect {
+    /// FANUC 0i / 30i: `%` framing, `O` number, `( )` comments.
+    #[default]
+    Fanuc,
+    /// Siemens SINUMERIK 840D: `;` comments.
+    Siemens,
+}
 
 /// How to read a program.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

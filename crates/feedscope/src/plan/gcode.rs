@@ -24,16 +24,8 @@ use serde::{Deserialize, Serialize};
 
 use super::{PlanError, TestKind, TestProgram};
 
-/// Control family.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Dialect {
-    /// FANUC 0i / 30i: `%` framing, `O` number, `( )` comments.
-    #[default]
-    Fanuc,
-    /// Siemens SINUMERIK 840D: `;` comments.
-    Siemens,
-}
+pub use crate::nc::Dialect;
+use crate::units::s_to_min;
 
 /// FANUC machine type, which decides the feed-per-minute code (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -113,7 +105,7 @@ pub fn header_lines(prog: &TestProgram, opts: &GcodeOptions) -> Vec<String> {
         "MOVES {}, EXPECTED RUN TIME {} S = {} MIN AT ACCEL {} MM/S2",
         prog.moves.len(),
         fixed(t, 1),
-        fixed(t / 60.0, 2),
+        fixed(s_to_min(t), 2),
         fixed(prog.accel_mm_s2, 0)
     ));
     h.push(format!(

@@ -40,6 +40,7 @@ pub mod gcode;
 use serde::{Deserialize, Serialize};
 
 use crate::sim::{Kinematics, MotionProfile, NcPath, StrokeConfig};
+use crate::units::feed_mm_min_to_mm_s;
 
 /// Why a test cannot be planned.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -161,7 +162,7 @@ impl Move {
     /// `accel_mm_s2`: L/v + v/a when L ≥ v²/a (trapezoid), else 2·√(L/a) (triangle).
     pub fn motion_time_s(&self, accel_mm_s2: f64) -> f64 {
         let l = (self.to_mm - self.from_mm).abs();
-        let v = self.feed_mm_min / 60.0;
+        let v = feed_mm_min_to_mm_s(self.feed_mm_min);
         if l <= 0.0 {
             0.0
         } else if l >= v * v / accel_mm_s2 {
@@ -174,7 +175,7 @@ impl Move {
     /// Time at constant feed (s).
     pub fn cruise_time_s(&self, accel_mm_s2: f64) -> f64 {
         let l = (self.to_mm - self.from_mm).abs();
-        let v = self.feed_mm_min / 60.0;
+        let v = feed_mm_min_to_mm_s(self.feed_mm_min);
         ((l - v * v / accel_mm_s2) / v).max(0.0)
     }
 }
@@ -506,7 +507,7 @@ pub fn triangle_program(p: &TriangleParams, limits: &Limits) -> Result<TestProgr
     for i in 0..n {
         let f = f_min * (p.feed_max_mm_min / f_min).powf(i as f64 / (n - 1) as f64);
         let f = ((f * 10.0).round() / 10.0).clamp(0.1, p.feed_max_mm_min);
-        let v = f / 60.0;
+        let v = feed_mm_min_to_mm_s(f);
         let need = v * p.min_cruise_s + v * v / a;
         let gamma = (need / (2.0 * half)).min(1.0);
         let amp = ((gamma * half * 1e3).ceil() / 1e3).clamp(0.001, half);

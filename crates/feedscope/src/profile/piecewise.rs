@@ -461,8 +461,8 @@ pub fn fit_piecewise(
     if n < 2 {
         return Err(ProfileError::TooFewPoints { needed: 2, got: n });
     }
-    super::check_finite("position_m", position_m)?;
-    super::check_finite("friction_n", friction_n)?;
+    super::prepare::check_finite("position_m", position_m)?;
+    super::prepare::check_finite("friction_n", friction_n)?;
     let increasing = position_m[n - 1] > position_m[0];
     let mut x: Vec<f64> = position_m.iter().map(|v| v * 1e3).collect();
     let mut y = friction_n.to_vec();

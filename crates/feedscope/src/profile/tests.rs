@@ -7,8 +7,10 @@ use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
 use super::lsq::{legendre, lstsq, Mat};
+use super::piecewise::Layout;
 use super::*;
 use crate::axis::{AxisParams, DeclaredOrder};
+use crate::order::SpectrumAnalyzer;
 
 /// A true fluctuation component.
 #[derive(Clone, Copy)]
@@ -154,8 +156,8 @@ pub(crate) fn stroke<'a>(
     dir: Direction,
     lead_mm: f64,
     trusted: f64,
-) -> StrokeFriction<'a> {
-    StrokeFriction {
+) -> StrokeView<'a> {
+    StrokeView {
         direction: dir,
         position_m: &s.position_m,
         friction_n: &s.friction_n,
@@ -262,7 +264,7 @@ fn backward_stroke_equals_forward_sorted() {
     let mut y = s.friction_n.clone();
     x.reverse();
     y.reverse();
-    let st2 = StrokeFriction {
+    let st2 = StrokeView {
         position_m: &x,
         friction_n: &y,
         ..st
@@ -294,7 +296,7 @@ fn piecewise_polynomial_of_fitted_orders_is_reproduced_exactly() {
     // Plain fit on the points.
     let fit = fit_piecewise(&x, &y, &[85.0, 150.0], &[4, 5, 4]).unwrap();
     // Through the IAFV path: block means, joint sinusoids (if any are found) must get ~0.
-    let st = StrokeFriction {
+    let st = StrokeView {
         direction: Direction::Forward,
         position_m: &x,
         friction_n: &y,
@@ -381,7 +383,7 @@ fn linear_trend_recovers_slope() {
     let n = 4001;
     let x: Vec<f64> = (0..n).map(|i| 0.1 + i as f64 * 1e-4).collect();
     let y: Vec<f64> = x.iter().map(|&p| 50.0 + 30.0 * p).collect(); // 0.03 N/mm
-    let st = StrokeFriction {
+    let st = StrokeView {
         direction: Direction::Forward,
         position_m: &x,
         friction_n: &y,
@@ -400,7 +402,7 @@ fn bad_input_is_an_error_not_a_panic() {
     let x: Vec<f64> = (0..100).map(|i| i as f64 * 1e-3).collect();
     let y = vec![1.0; 100];
     let mut a = SpectrumAnalyzer::new();
-    let base = StrokeFriction {
+    let base = StrokeView {
         direction: Direction::Forward,
         position_m: &x,
         friction_n: &y,
@@ -409,12 +411,12 @@ fn bad_input_is_an_error_not_a_panic() {
         feed_mm_min: None,
     };
     let p = ProfileParams::default();
-    let err = |st: StrokeFriction<'_>, p: &ProfileParams, a: &mut SpectrumAnalyzer| {
+    let err = |st: StrokeView<'_>, p: &ProfileParams, a: &mut SpectrumAnalyzer| {
         fit_iafv(&st, p, a).unwrap_err()
     };
     assert!(matches!(
         err(
-            StrokeFriction {
+            StrokeView {
                 position_m: &x[..10],
                 friction_n: &y[..10],
                 ..base
@@ -426,7 +428,7 @@ fn bad_input_is_an_error_not_a_panic() {
     ));
     assert!(matches!(
         err(
-            StrokeFriction {
+            StrokeView {
                 friction_n: &y[..99],
                 ..base
             },
@@ -439,7 +441,7 @@ fn bad_input_is_an_error_not_a_panic() {
     yn[42] = f64::NAN;
     assert!(matches!(
         err(
-            StrokeFriction {
+            StrokeView {
                 friction_n: &yn,
                 ..base
             },
@@ -455,7 +457,7 @@ fn bad_input_is_an_error_not_a_panic() {
     xb[50] += 3e-4;
     assert!(matches!(
         err(
-            StrokeFriction {
+            StrokeView {
                 position_m: &xb,
                 ..base
             },
@@ -468,7 +470,7 @@ fn bad_input_is_an_error_not_a_panic() {
     xs.swap(10, 11);
     assert!(matches!(
         err(
-            StrokeFriction {
+            StrokeView {
                 position_m: &xs,
                 ..base
             },
@@ -505,7 +507,7 @@ fn bad_input_is_an_error_not_a_panic() {
     ));
     assert!(matches!(
         err(
-            StrokeFriction {
+            StrokeView {
                 lead_m: -1.0,
                 ..base
             },
@@ -603,7 +605,7 @@ proptest! {
         brk in proptest::option::of(proptest::collection::vec(-10.0f64..400.0, 0..4)),
     ) {
         let x: Vec<f64> = (0..vals.len()).map(|i| i as f64 * 1e-4).collect();
-        let st = StrokeFriction {
+        let st = StrokeView {
             direction: Direction::Forward,
             position_m: &x,
             friction_n: &vals,

@@ -32,7 +32,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::axis::AxisParams;
 
-pub use crate::estimate::Direction;
+pub use crate::stroke::Direction;
+use crate::units::feed_mm_min_to_m_s;
 
 /// In which direction(s) of travel a fluctuation component acts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -118,7 +119,7 @@ impl VelocityTerm {
     /// V(v) in N (even in v).
     pub fn term_n(&self, velocity_m_s: f64) -> f64 {
         let s = velocity_m_s.abs();
-        let vs = self.stribeck_velocity_mm_min / 60_000.0;
+        let vs = feed_mm_min_to_m_s(self.stribeck_velocity_mm_min);
         self.static_excess_n * (-(s / vs).powf(self.shape_exponent)).exp()
             + self.viscous_n_s_per_m * s
     }
@@ -425,7 +426,7 @@ mod tests {
         let s = crate::stribeck::StribeckParams {
             fc_n: 0.0,
             fs_n: v.static_excess_n,
-            vs_m_s: v.stribeck_velocity_mm_min / 60_000.0,
+            vs_m_s: feed_mm_min_to_m_s(v.stribeck_velocity_mm_min),
             sigma_n_s_per_m: v.viscous_n_s_per_m,
             delta: v.shape_exponent,
         };

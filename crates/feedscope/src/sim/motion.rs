@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use super::friction::Direction;
 use crate::nc::{NcError, NcProgram, StepKind};
+use crate::units::feed_mm_min_to_m_s;
 
 /// Position, velocity and acceleration of the table at one instant (SI).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -452,7 +453,7 @@ impl NcPath {
             let acc = s.accel_mm_s2 * 1e-3;
             let z1 = s.to_mm * 1e-3;
             let dist = (z1 - z).abs();
-            let feed = s.speed_mm_min / 60_000.0;
+            let feed = feed_mm_min_to_m_s(s.speed_mm_min);
             // (jerk phase, peak acceleration, acceleration phase, peak speed, cruise)
             let (tj, acc, vp, ta, tc) = match jerk {
                 _ if dist <= 0.0 => (0.0, acc, 0.0, 0.0, 0.0),
@@ -662,7 +663,7 @@ mod tests {
             p.strokes()
                 .iter()
                 .find(|s| t >= s.start_time_s && t <= s.end_time_s)
-                .map_or(0.0, |s| s.feed_mm_min / 60_000.0)
+                .map_or(0.0, |s| feed_mm_min_to_m_s(s.feed_mm_min))
         };
         let (mut peak_a, mut peak_j): (f64, f64) = (0.0, 0.0);
         for k in 1..n {

@@ -4,6 +4,7 @@
 use std::f64::consts::PI;
 
 use super::*;
+use crate::units::feed_mm_min_to_m_s;
 
 /// A short program: 0 → 20 mm → 0 at 600 mm/min (4 s of travel).
 fn short_cfg() -> SimConfig {
@@ -646,7 +647,7 @@ fn program_truth_lists_every_move_with_kind_and_line() {
     // every move reaches its feed (300 mm is long enough), and lasts L/v + t_a (S-curve
     // with v·j < a² below 6750 mm/min: t_a = 2·√(v/j); above it t_a = v/a + a/j)
     for s in m.iter().skip(1) {
-        let v = s.feed_mm_min / 60_000.0;
+        let v = feed_mm_min_to_m_s(s.feed_mm_min);
         let ta = if v * 20.0 < 1.5 * 1.5 {
             2.0 * (v / 20.0).sqrt()
         } else {
@@ -683,7 +684,7 @@ fn program_profile_respects_the_limits() {
         while k_move + 1 < moves.len() && t > moves[k_move].end_time_s {
             k_move += 1;
         }
-        let v_lim = moves[k_move].feed_mm_min / 60_000.0;
+        let v_lim = feed_mm_min_to_m_s(moves[k_move].feed_mm_min);
         assert!(
             k.velocity_m_s.abs() <= v_lim * (1.0 + 1e-12),
             "t = {t}: {k:?}"

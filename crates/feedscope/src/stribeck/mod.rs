@@ -21,12 +21,13 @@
 //! # Example
 //! ```
 //! use feedscope::stribeck::{fit_stribeck, StribeckFitParams, StribeckParams};
+//! use feedscope::units::feed_mm_min_to_m_s;
 //!
-//! let truth = StribeckParams { fc_n: 180.0, fs_n: 250.0, vs_m_s: 30.0 / 60_000.0,
+//! let truth = StribeckParams { fc_n: 180.0, fs_n: 250.0, vs_m_s: feed_mm_min_to_m_s(30.0),
 //!                              sigma_n_s_per_m: 4000.0, delta: 2.0 };
 //! // 18 log-spaced feeds from 5 to 600 mm/min
 //! let speed: Vec<f64> = (0..18)
-//!     .map(|k| 5.0 * 120f64.powf(k as f64 / 17.0) / 60_000.0)
+//!     .map(|k| feed_mm_min_to_m_s(5.0 * 120f64.powf(k as f64 / 17.0)))
 //!     .collect();
 //! let friction: Vec<f64> = speed.iter().map(|&v| truth.magnitude_n(v)).collect();
 //! let fit = fit_stribeck(&speed, &friction, &StribeckFitParams::default()).unwrap();
@@ -50,8 +51,7 @@ pub use fit::{
 
 use serde::{Deserialize, Serialize};
 
-/// Metres per second in one mm/min.
-pub const M_S_PER_MM_MIN: f64 = 1.0 / 60_000.0;
+pub use crate::units::M_S_PER_MM_MIN;
 
 /// Why a Stribeck operation failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -40,6 +40,7 @@
 //! description, so a spike of effort cannot be told from a real one without false alarms.
 
 use super::Channel;
+use crate::units::{feed_m_s_to_mm_min, feed_mm_min_to_m_s};
 
 /// The speed limit used when the axis description gives no rapid rate (mm/min): 200 m/min,
 /// above the rapid rate of any ball-screw axis (the fastest reach about 100-120 m/min).
@@ -74,7 +75,7 @@ pub struct GlitchParams {
 impl Default for GlitchParams {
     fn default() -> Self {
         Self {
-            max_axis_speed_m_s: DEFAULT_MAX_AXIS_SPEED_MM_MIN / 60_000.0,
+            max_axis_speed_m_s: feed_mm_min_to_m_s(DEFAULT_MAX_AXIS_SPEED_MM_MIN),
         }
     }
 }
@@ -92,7 +93,7 @@ impl GlitchParams {
     pub fn from_rapid_rate(rapid_rate_mm_min: Option<f64>) -> Self {
         match rapid_rate_mm_min {
             Some(r) if r.is_finite() && r > 0.0 => Self {
-                max_axis_speed_m_s: RAPID_RATE_MARGIN * r / 60_000.0,
+                max_axis_speed_m_s: feed_mm_min_to_m_s(RAPID_RATE_MARGIN * r),
             },
             _ => Self::default(),
         }
@@ -105,7 +106,7 @@ impl GlitchParams {
 
     /// The limit in mm/min, for messages.
     pub fn max_axis_speed_mm_min(&self) -> f64 {
-        self.max_axis_speed_m_s * 60_000.0
+        feed_m_s_to_mm_min(self.max_axis_speed_m_s)
     }
 }
 
@@ -139,9 +140,10 @@ pub struct Jump {
 ///
 /// ```
 /// use feedscope::trace::{screen_position, Channel, GlitchParams};
+/// use feedscope::units::feed_mm_min_to_m_s;
 /// // 100 mm/min at 100 Hz with one logger glitch at index 50
 /// let time_s: Vec<f64> = (0..200).map(|k| k as f64 * 0.01).collect();
-/// let mut value: Vec<f64> = time_s.iter().map(|t| 0.01 + t * 100.0 / 60_000.0).collect();
+/// let mut value: Vec<f64> = time_s.iter().map(|t| 0.01 + feed_mm_min_to_m_s(t * 100.0)).collect();
 /// value[50] = 1e308;
 /// let ch = Channel { time_s, value };
 /// let s = screen_position(&ch, &GlitchParams::default()).unwrap();
@@ -294,7 +296,7 @@ mod tests {
 
     /// [`stroke`] of `travel` (m).
     fn stroke_of(travel: f64, dt: f64, feed_mm_min: f64, quantum_m: f64) -> Channel {
-        let v = feed_mm_min / 60_000.0;
+        let v = feed_mm_min_to_m_s(feed_mm_min);
         let dur = travel / v;
         let n = ((dur + 2.0) / dt) as usize;
         let t: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
@@ -556,7 +558,7 @@ mod tests {
             seed in 0u64..1000,
         ) {
             let p = GlitchParams::from_rapid_rate(Some(rapid_mm_min));
-            let vmax = rapid_mm_min / 60_000.0;
+            let vmax = feed_mm_min_to_m_s(rapid_mm_min);
             // z(t) = A1 sin(2π f1 t) + A2 sin(2π f2 t) with peak speed ≤ vmax
             let (a1, a2) = (
                 w * vmax / (2.0 * std::f64::consts::PI * f1),

@@ -15,6 +15,7 @@ use feedscope::sim::{
     SimOutput, StrokeConfig, VelocityTerm,
 };
 use feedscope::trace::Trace;
+use feedscope::units::feed_mm_min_to_m_s;
 
 use crate::util::run;
 
@@ -157,8 +158,8 @@ fn map_recovers_stribeck_parameters_and_mean_friction() {
             let poly = d.poly_at(f, false).unwrap();
             for i in 0..=50 {
                 let z = d.start_mm + (d.end_mm - d.start_mm) * i as f64 / 50.0;
-                let truth =
-                    d.direction.sign() * model.mean_friction_n(d.direction, z * 1e-3, f / 60_000.0);
+                let truth = d.direction.sign()
+                    * model.mean_friction_n(d.direction, z * 1e-3, feed_mm_min_to_m_s(f));
                 let rel = (poly.value_n(z * 1e-3) - truth).abs() / truth.abs();
                 map_err = map_err.max(rel);
             }

@@ -7,7 +7,7 @@
 //! at most one spurious significant component.
 use feedscope::axis::DeclaredOrder;
 use feedscope::order::{kinematic_orders, SpectrumAnalyzer};
-use feedscope::profile::{analyze_stroke, AnalysisParams, StrokeFriction};
+use feedscope::profile::{analyze_stroke, AnalysisParams, StrokeView};
 use feedscope::sim::ComponentDirection;
 
 use crate::util::*;
@@ -35,7 +35,7 @@ fn check(label: &str, mut cfg: feedscope::sim::SimConfig) {
     assert_eq!(est.strokes.len(), 2);
     for s in &est.strokes {
         let dir = s.summary.direction;
-        let view = StrokeFriction::from_estimate(s, axis.lead_m());
+        let view = StrokeView::from_estimate(s, axis.lead_m());
         let a = analyze_stroke(&view, axis, &AnalysisParams::default(), &mut analyzer).unwrap();
         // IAFV against the true mean (mean level + velocity term at the stroke's velocity).
         let idx = inner(s, 10.0);
