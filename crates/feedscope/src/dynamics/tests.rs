@@ -339,7 +339,8 @@ fn position_outside_the_screw_is_an_error() {
 /// to allocate ~16 GB. Each is an error naming its key before anything is allocated.
 #[test]
 fn oversized_sweeps_and_meshes_are_errors_naming_the_key() {
-    let cases: [(&str, fn(&mut DriveConfig)); 4] = [
+    type Set = fn(&mut DriveConfig);
+    let cases: [(&str, Set); 4] = [
         ("sweep.feed_points", |c| {
             c.sweep.feed_points = usize::MAX / 2
         }),
