@@ -11,6 +11,7 @@
 pub mod axis;
 pub mod calendar;
 pub mod dynamics;
+pub mod error;
 pub mod estimate;
 pub mod history;
 pub mod ident;
@@ -23,4 +24,7 @@ pub mod profile;
 pub mod sim;
 pub mod spline;
 pub mod stribeck;
+pub mod study;
 pub mod trace;
+
+pub use error::ErrorKind;
