@@ -99,7 +99,11 @@ impl NewTest {
             identified: None,
             intervals: vec![],
             components: vec![],
-            indicators: analysis.indicators().iter().map(IndicatorRow::from).collect(),
+            indicators: analysis
+                .indicators()
+                .iter()
+                .map(IndicatorRow::from)
+                .collect(),
             curves_json: None,
         };
         match analysis {

@@ -5,8 +5,9 @@ use feedscope::history::{IndicatorTrend, Status};
 use feedscope_store::{Identified, Store, TestDetail};
 use serde::Serialize;
 
-use crate::cmd::history::{AxisTrends, Curves};
+use crate::cmd::history::AxisTrends;
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
+use feedscope::study::Curves;
 
 const TEMPLATE: &str = include_str!("report.html");
 

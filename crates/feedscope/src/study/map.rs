@@ -57,12 +57,7 @@ impl MapStudyParams {
             value,
             expected,
         };
-        if let Some(x) = self
-            .positions_mm
-            .iter()
-            .flatten()
-            .find(|x| !x.is_finite())
-        {
+        if let Some(x) = self.positions_mm.iter().flatten().find(|x| !x.is_finite()) {
             return Err(bad("positions_mm", *x, "finite positions"));
         }
         if !(self.position_step_mm.is_finite() && self.position_step_mm > 0.0) {

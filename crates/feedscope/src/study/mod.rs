@@ -6,14 +6,14 @@
 //!
 //! | workflow | function | parameters | result |
 //! |---|---|---|---|
-//! | stroke test (paper 000): estimate → IAFV and spectra → indicators | [`stroke_test`] | [`StrokeTestParams`] | [`StrokeTest`] |
-//! | triangle test (paper 002): identification → indicators | [`triangle_test`] | [`TriangleTestParams`] | [`TriangleTest`] |
-//! | either, by [`TestKind`] | [`analyze_test`] | [`TestParams`] | [`TestAnalysis`] |
+//! | stroke test (paper 000): estimate → IAFV and spectra → indicators | [`stroke_test`] | [`StrokeStudyParams`] | [`StrokeTest`] |
+//! | triangle test (paper 002): identification → indicators | [`triangle_test`] | [`TriangleStudyParams`] | [`TriangleTest`] |
+//! | either, by [`TestKind`] | [`analyze_test`] | [`TestStudyParams`] | [`TestAnalysis`] |
 //! | friction map and Stribeck fits of a test set (paper 000 Section 4.2) | [`map_study`] | [`MapStudyParams`] | [`MapStudy`] |
 //! | trends and diagnosis of an axis's indicator series | [`axis_trends`] | [`TrendStudyParams`] | [`AxisTrendStudy`] |
 //!
 //! ```
-//! use feedscope::study::{triangle_test, TriangleTestParams};
+//! use feedscope::study::{triangle_test, TriangleStudyParams};
 //! use feedscope::sim::{simulate_profile, SimConfig};
 //! use feedscope::plan::{triangle_program, Limits, TriangleParams};
 //!
@@ -35,7 +35,7 @@
 //!     &Limits::default(),
 //! )?;
 //! let sim = simulate_profile(&cfg, &program, &mut |_| {})?;
-//! let test = triangle_test(&sim.trace, &cfg.axis, &TriangleTestParams::default())?;
+//! let test = triangle_test(&sim.trace, &cfg.axis, &TriangleStudyParams::default())?;
 //! // Fs, Fc, σ, vs and J, each with its standard error.
 //! assert_eq!(test.indicators.len(), 5);
 //! assert!(test.identification.force.fs_n > test.identification.force.fc_n);
@@ -58,13 +58,13 @@ mod stroke;
 mod trend;
 mod triangle;
 
-pub use map::{map_study, map_grid, MapStudy, MapStudyParams};
+pub use map::{map_grid, map_study, MapStudy, MapStudyParams};
 pub use stroke::{
-    stroke_test, Curves, HeatmapData, IntervalMean, ProfileCurve, StrokeComponent, StrokeTest,
-    StrokeTestParams,
+    stroke_test, Curves, HeatmapData, IntervalMean, ProfileCurve, StrokeComponent,
+    StrokeStudyParams, StrokeTest,
 };
 pub use trend::{axis_trends, AxisTrendStudy, IndicatorSeries, TrendStudyParams};
-pub use triangle::{triangle_test, TriangleTest, TriangleTestParams};
+pub use triangle::{triangle_test, TriangleStudyParams, TriangleTest};
 
 /// Errors of the workflows: the failing step's error, with where it happened.
 #[derive(Debug, thiserror::Error)]
@@ -163,11 +163,11 @@ impl TestKind {
 
 /// Settings of [`analyze_test`]: those of each kind of test.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct TestParams {
+pub struct TestStudyParams {
     /// For [`TestKind::Strokes`].
-    pub strokes: StrokeTestParams,
+    pub strokes: StrokeStudyParams,
     /// For [`TestKind::Triangle`].
-    pub triangle: TriangleTestParams,
+    pub triangle: TriangleStudyParams,
 }
 
 /// One value of a condition indicator from one test.
@@ -227,13 +227,11 @@ pub fn analyze_test(
     trace: &Trace,
     axis: &AxisParams,
     kind: TestKind,
-    params: &TestParams,
+    params: &TestStudyParams,
 ) -> Result<TestAnalysis, StudyError> {
     Ok(match kind {
         TestKind::Strokes => TestAnalysis::Strokes(stroke_test(trace, axis, &params.strokes)?),
-        TestKind::Triangle => {
-            TestAnalysis::Triangle(triangle_test(trace, axis, &params.triangle)?)
-        }
+        TestKind::Triangle => TestAnalysis::Triangle(triangle_test(trace, axis, &params.triangle)?),
     })
 }
 

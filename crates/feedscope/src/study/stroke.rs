@@ -15,7 +15,7 @@ use super::{IndicatorValue, StudyError};
 
 /// Settings of [`stroke_test`].
 #[derive(Debug, Clone, PartialEq)]
-pub struct StrokeTestParams {
+pub struct StrokeStudyParams {
     /// The friction estimate (defaults: [`EstimateParams::default`]).
     pub estimate: EstimateParams,
     /// IAFV and spectra of each stroke (defaults: [`AnalysisParams::default`]).
@@ -25,7 +25,7 @@ pub struct StrokeTestParams {
     pub interval_mm: f64,
 }
 
-impl Default for StrokeTestParams {
+impl Default for StrokeStudyParams {
     fn default() -> Self {
         Self {
             estimate: EstimateParams::default(),
@@ -125,7 +125,7 @@ pub struct StrokeTest {
 pub fn stroke_test(
     trace: &Trace,
     axis: &AxisParams,
-    params: &StrokeTestParams,
+    params: &StrokeStudyParams,
 ) -> Result<StrokeTest, StudyError> {
     let interval_mm = params.interval_mm;
     if !(interval_mm.is_finite() && interval_mm > 0.0) {

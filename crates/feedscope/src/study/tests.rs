@@ -110,9 +110,14 @@ fn map_study_defaults_positions_grid_and_table_feeds() {
 #[test]
 fn map_study_refuses_one_feed_and_bad_requests() {
     let e = map_study(&runs(&[250.0]), 0.01, &linear()).unwrap_err();
-    assert!(matches!(e, StudyError::OneFeed { feed_mm_min, .. } if (feed_mm_min - 250.0).abs() < 1e-9));
+    assert!(
+        matches!(e, StudyError::OneFeed { feed_mm_min, .. } if (feed_mm_min - 250.0).abs() < 1e-9)
+    );
     assert_eq!(e.kind(), ErrorKind::BadInput);
-    assert!(e.to_string().contains("a map needs at least two feeds"), "{e}");
+    assert!(
+        e.to_string().contains("a map needs at least two feeds"),
+        "{e}"
+    );
     assert!(e.to_string().contains("only 250 mm/min"), "{e}");
 
     let two = runs(&[100.0, 1000.0]);
@@ -139,7 +144,10 @@ fn map_study_refuses_one_feed_and_bad_requests() {
     };
     assert!(matches!(
         map_study(&two, 0.01, &step),
-        Err(StudyError::BadParameter { name: "position_step_mm", .. })
+        Err(StudyError::BadParameter {
+            name: "position_step_mm",
+            ..
+        })
     ));
 }
 
@@ -164,7 +172,12 @@ fn series(values: &[f64], first_id: i64) -> IndicatorSeries {
 fn axis_trends_orders_skips_and_uses_the_reference() {
     let steady = [100.0, 101.0, 99.0, 100.5, 99.5, 100.0, 100.2];
     let mut s = BTreeMap::new();
-    s.insert("mean_friction/forward/0-50mm".to_string(), series(&steady, 1));
+    let mean = Indicator::MeanFriction {
+        direction: Direction::Forward,
+        start_mm: 0.0,
+        end_mm: 50.0,
+    };
+    s.insert(mean.name(), series(&steady, 1));
     s.insert("fs_n".to_string(), series(&steady, 1));
     s.insert("fc_n".to_string(), series(&steady[..2], 1));
     s.insert("no_such_indicator".to_string(), series(&steady, 1));
@@ -182,12 +195,27 @@ fn axis_trends_orders_skips_and_uses_the_reference() {
     // Identified parameters before the mean friction, whatever the key order.
     assert_eq!(names[0], "fs_n", "{names:?}");
     assert_eq!(t.trends.len(), 2, "{names:?}");
-    assert_eq!(t.skipped, vec!["fc_n".to_string(), "no_such_indicator".into()]);
-    assert_ne!(t.trends[0].status, crate::history::Status::Ok, "above its threshold");
+    assert_eq!(
+        t.skipped,
+        vec!["fc_n".to_string(), "no_such_indicator".into()]
+    );
+    assert_ne!(
+        t.trends[0].status,
+        crate::history::Status::Ok,
+        "above its threshold"
+    );
     // A reference test: its value is the baseline mean.
     let r = axis_trends(&s, Some(3), &TrendStudyParams::default()).unwrap();
-    let fs = r.trends.iter().find(|x| x.indicator.name() == "fs_n").unwrap();
-    assert!((fs.baseline.mean - 99.0).abs() < 1e-12, "{}", fs.baseline.mean);
+    let fs = r
+        .trends
+        .iter()
+        .find(|x| x.indicator.name() == "fs_n")
+        .unwrap();
+    assert!(
+        (fs.baseline.mean - 99.0).abs() < 1e-12,
+        "{}",
+        fs.baseline.mean
+    );
 }
 
 /// A short simulated stroke test: 25 → 45 mm and back at 400 mm/min, ideal servo.
@@ -217,9 +245,9 @@ fn stroke_trace() -> (crate::trace::Trace, crate::axis::AxisParams) {
 #[test]
 fn stroke_test_gives_interval_means_that_cover_the_strokes() {
     let (trace, axis) = stroke_trace();
-    let params = StrokeTestParams {
+    let params = StrokeStudyParams {
         interval_mm: 5.0,
-        ..StrokeTestParams::default()
+        ..StrokeStudyParams::default()
     };
     let t = stroke_test(&trace, &axis, &params).unwrap();
     for d in [Direction::Forward, Direction::Backward] {
@@ -230,7 +258,14 @@ fn stroke_test_gives_interval_means_that_cover_the_strokes() {
             assert!((i.end_mm - i.start_mm - 5.0).abs() < 1e-12);
             assert!(i.mean_n > 0.0 && i.std_n.is_finite());
         }
-        assert_eq!(t.curves.profiles.iter().filter(|p| p.direction == d.as_str()).count(), 1);
+        assert_eq!(
+            t.curves
+                .profiles
+                .iter()
+                .filter(|p| p.direction == d.as_str())
+                .count(),
+            1
+        );
     }
     // One mean-friction indicator per interval, in the same order, then the components.
     for (i, v) in t.intervals.iter().zip(&t.indicators) {
@@ -243,27 +278,38 @@ fn stroke_test_gives_interval_means_that_cover_the_strokes() {
     assert!(t.indicators[t.intervals.len()..]
         .iter()
         .all(|v| matches!(v.indicator, Indicator::Component { .. })));
-    let a = analyze_test(&trace, &axis, TestKind::Strokes, &TestParams {
-        strokes: params.clone(),
-        ..TestParams::default()
-    })
+    let a = analyze_test(
+        &trace,
+        &axis,
+        TestKind::Strokes,
+        &TestStudyParams {
+            strokes: params.clone(),
+            ..TestStudyParams::default()
+        },
+    )
     .unwrap();
     assert_eq!(a.kind(), TestKind::Strokes);
     assert_eq!(a.indicators(), &t.indicators[..]);
 
-    let bad = StrokeTestParams {
+    let bad = StrokeStudyParams {
         interval_mm: -1.0,
-        ..StrokeTestParams::default()
+        ..StrokeStudyParams::default()
     };
     let e = stroke_test(&trace, &axis, &bad).unwrap_err();
-    assert!(matches!(e, StudyError::BadParameter { name: "interval_mm", .. }));
+    assert!(matches!(
+        e,
+        StudyError::BadParameter {
+            name: "interval_mm",
+            ..
+        }
+    ));
     assert_eq!(e.kind(), ErrorKind::BadInput);
 }
 
 #[test]
 fn a_stroke_trace_is_not_a_triangle_test() {
     let (trace, axis) = stroke_trace();
-    let e = triangle_test(&trace, &axis, &TriangleTestParams::default()).unwrap_err();
+    let e = triangle_test(&trace, &axis, &TriangleStudyParams::default()).unwrap_err();
     assert!(matches!(e, StudyError::Identify(_)), "{e}");
     assert_eq!(e.kind(), ErrorKind::BadInput);
     assert!(e.to_string().starts_with("identification failed: "), "{e}");
@@ -273,7 +319,10 @@ fn a_stroke_trace_is_not_a_triangle_test() {
 fn test_kind_words() {
     assert_eq!(TestKind::Strokes.as_str(), "strokes");
     assert_eq!(TestKind::Triangle.as_str(), "triangle");
-    assert_eq!(serde_json::to_string(&TestKind::Triangle).unwrap(), "\"triangle\"");
+    assert_eq!(
+        serde_json::to_string(&TestKind::Triangle).unwrap(),
+        "\"triangle\""
+    );
 }
 
 #[test]

@@ -8,7 +8,7 @@ use super::{IndicatorValue, StudyError};
 
 /// Settings of [`triangle_test`].
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct TriangleTestParams {
+pub struct TriangleStudyParams {
     /// The identification (defaults: [`IdentParams::default`]).
     pub ident: IdentParams,
 }
@@ -32,7 +32,7 @@ pub struct TriangleTest {
 pub fn triangle_test(
     trace: &Trace,
     axis: &AxisParams,
-    params: &TriangleTestParams,
+    params: &TriangleStudyParams,
 ) -> Result<TriangleTest, StudyError> {
     let identification = identify(trace, axis, &params.ident)?;
     let indicators = triangle_indicators(&identification);
