@@ -197,8 +197,8 @@ impl IndicatorValue {
 pub enum TestAnalysis {
     /// A stroke test.
     Strokes(StrokeTest),
-    /// A triangle test.
-    Triangle(TriangleTest),
+    /// A triangle test (boxed: the identification's diagnostics make it the large one).
+    Triangle(Box<TriangleTest>),
 }
 
 impl TestAnalysis {
@@ -231,7 +231,9 @@ pub fn analyze_test(
 ) -> Result<TestAnalysis, StudyError> {
     Ok(match kind {
         TestKind::Strokes => TestAnalysis::Strokes(stroke_test(trace, axis, &params.strokes)?),
-        TestKind::Triangle => TestAnalysis::Triangle(triangle_test(trace, axis, &params.triangle)?),
+        TestKind::Triangle => {
+            TestAnalysis::Triangle(Box::new(triangle_test(trace, axis, &params.triangle)?))
+        }
     })
 }
 
