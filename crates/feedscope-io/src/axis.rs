@@ -25,8 +25,8 @@ pub enum AxisFileError {
 
 impl AxisFileError {
     /// What the error means to a caller: a file that cannot be read is
-    /// [`ErrorKind::of_io`] of the operating system's error (bad input when missing); what it
-    /// holds is [`ErrorKind::BadInput`].
+    /// [`ErrorKind::of_io`](feedscope::ErrorKind::of_io) of the operating system's error (bad input when missing); what it
+    /// holds is [`BadInput`](feedscope::ErrorKind::BadInput).
     pub fn kind(&self) -> feedscope::ErrorKind {
         use feedscope::ErrorKind;
         match self {

@@ -251,8 +251,8 @@ pub enum FrictionCsvError {
 
 impl FrictionCsvError {
     /// What the error means to a caller: a file that cannot be opened or
-    /// read is [`ErrorKind::of_io`] of the operating system's error (bad input when missing);
-    /// what it holds is [`ErrorKind::BadInput`].
+    /// read is [`ErrorKind::of_io`](feedscope::ErrorKind::of_io) of the operating system's error (bad input when missing);
+    /// what it holds is [`BadInput`](feedscope::ErrorKind::BadInput).
     pub fn kind(&self) -> feedscope::ErrorKind {
         use feedscope::ErrorKind;
         match self {

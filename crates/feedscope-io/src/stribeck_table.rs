@@ -227,8 +227,8 @@ pub enum TableError {
 
 impl TableError {
     /// What the error means to a caller: a file that cannot be read is
-    /// [`ErrorKind::of_io`] of the operating system's error (bad input when missing); what it
-    /// holds, or an option, is [`ErrorKind::BadInput`].
+    /// [`ErrorKind::of_io`](feedscope::ErrorKind::of_io) of the operating system's error (bad input when missing); what it
+    /// holds, or an option, is [`BadInput`](feedscope::ErrorKind::BadInput).
     pub fn kind(&self) -> feedscope::ErrorKind {
         use feedscope::ErrorKind;
         match self {

@@ -46,7 +46,7 @@ pub enum AxisError {
 }
 
 impl AxisError {
-    /// What the error means to a caller: Always [`ErrorKind::BadInput`]: the axis file or a value in it is wrong.
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the axis file or a value in it is wrong.
     pub fn kind(&self) -> crate::ErrorKind {
         use crate::ErrorKind;
         ErrorKind::BadInput

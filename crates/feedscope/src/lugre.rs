@@ -192,7 +192,7 @@ pub enum LuGreError {
 }
 
 impl LuGreError {
-    /// What the error means to a caller: Always [`ErrorKind::BadInput`]: the data or a parameter do not allow the fit.
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the data or a parameter do not allow the fit.
     pub fn kind(&self) -> crate::ErrorKind {
         use crate::ErrorKind;
         ErrorKind::BadInput

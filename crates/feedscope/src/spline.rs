@@ -72,7 +72,7 @@ pub enum SplineError {
 }
 
 impl SplineError {
-    /// What the error means to a caller: Always [`ErrorKind::BadInput`]: the knots do not define a spline.
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the knots do not define a spline.
     pub fn kind(&self) -> crate::ErrorKind {
         use crate::ErrorKind;
         ErrorKind::BadInput

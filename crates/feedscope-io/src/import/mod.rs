@@ -216,8 +216,8 @@ pub enum ImportError {
 
 impl ImportError {
     /// What the error means to a caller: a file that cannot be read is
-    /// [`ErrorKind::of_io`] of the operating system's error (bad input when missing); every other
-    /// variant is what the file holds or an option, [`ErrorKind::BadInput`].
+    /// [`ErrorKind::of_io`](feedscope::ErrorKind::of_io) of the operating system's error (bad input when missing); every other
+    /// variant is what the file holds or an option, [`BadInput`](feedscope::ErrorKind::BadInput).
     pub fn kind(&self) -> feedscope::ErrorKind {
         use feedscope::ErrorKind;
         match self {

@@ -245,8 +245,8 @@ pub enum TraceError {
 
 impl TraceError {
     /// What the error means to a caller: a file that cannot be read is
-    /// [`ErrorKind::of_io`] of the operating system's error (bad input when missing); every other
-    /// variant is what the file holds, [`ErrorKind::BadInput`].
+    /// [`ErrorKind::of_io`](feedscope::ErrorKind::of_io) of the operating system's error (bad input when missing); every other
+    /// variant is what the file holds, [`BadInput`](feedscope::ErrorKind::BadInput).
     pub fn kind(&self) -> feedscope::ErrorKind {
         use feedscope::ErrorKind;
         match self {

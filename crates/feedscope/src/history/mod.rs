@@ -72,7 +72,7 @@ pub enum HistoryError {
 }
 
 impl HistoryError {
-    /// What the error means to a caller: Always [`ErrorKind::BadInput`]: the series or the trend parameters do not allow the assessment.
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the series or the trend parameters do not allow the assessment.
     pub fn kind(&self) -> crate::ErrorKind {
         use crate::ErrorKind;
         ErrorKind::BadInput

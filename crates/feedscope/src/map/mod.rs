@@ -209,7 +209,7 @@ pub enum MapError {
 }
 
 impl MapError {
-    /// What the error means to a caller: [`ErrorKind::BadInput`], or the kind of the profile's error for [`MapError::Profile`].
+    /// What the error means to a caller: [`BadInput`](crate::ErrorKind::BadInput), or the kind of the profile's error for [`MapError::Profile`].
     pub fn kind(&self) -> crate::ErrorKind {
         use crate::ErrorKind;
         match self {

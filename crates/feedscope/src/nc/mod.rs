@@ -242,7 +242,7 @@ pub struct NcError {
 }
 
 impl NcError {
-    /// What the error means to a caller: Always [`ErrorKind::BadInput`]: the NC program cannot be read.
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the NC program cannot be read.
     pub fn kind(&self) -> crate::ErrorKind {
         use crate::ErrorKind;
         ErrorKind::BadInput

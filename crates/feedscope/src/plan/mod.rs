@@ -91,7 +91,7 @@ pub enum PlanError {
 }
 
 impl PlanError {
-    /// What the error means to a caller: Always [`ErrorKind::BadInput`]: the test asked for does not fit the axis.
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the test asked for does not fit the axis.
     pub fn kind(&self) -> crate::ErrorKind {
         use crate::ErrorKind;
         ErrorKind::BadInput

@@ -114,7 +114,7 @@ pub enum SimError {
 }
 
 impl SimError {
-    /// What the error means to a caller: Always [`ErrorKind::BadInput`]: the simulator config is wrong (a diverging servo
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the simulator config is wrong (a diverging servo
     /// simulation comes from its gains and step).
     pub fn kind(&self) -> crate::ErrorKind {
         use crate::ErrorKind;

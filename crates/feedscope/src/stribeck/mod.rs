@@ -99,7 +99,7 @@ pub enum StribeckError {
 }
 
 impl StribeckError {
-    /// What the error means to a caller: Always [`ErrorKind::BadInput`]: the points or a parameter do not allow the fit.
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the points or a parameter do not allow the fit.
     pub fn kind(&self) -> crate::ErrorKind {
         use crate::ErrorKind;
         ErrorKind::BadInput
