@@ -24,6 +24,19 @@ pub enum AxisFileError {
 }
 
 impl AxisFileError {
+    /// What the error means to a caller: a file that cannot be read is
+    /// [`ErrorKind::of_io`](feedscope::ErrorKind::of_io) of the operating system's error (bad input when missing); what it
+    /// holds is [`BadInput`](feedscope::ErrorKind::BadInput).
+    pub fn kind(&self) -> feedscope::ErrorKind {
+        use feedscope::ErrorKind;
+        match self {
+            AxisFileError::Read { error, .. } => ErrorKind::of_io(error),
+            AxisFileError::Axis(e) => e.kind(),
+        }
+    }
+}
+
+impl AxisFileError {
     /// True when the file could not be read (the operating system's error is the source),
     /// false when what it holds is wrong.
     pub fn is_io(&self) -> bool {

@@ -250,6 +250,21 @@ pub enum FrictionCsvError {
 }
 
 impl FrictionCsvError {
+    /// What the error means to a caller: a file that cannot be opened or
+    /// read is [`ErrorKind::of_io`](feedscope::ErrorKind::of_io) of the operating system's error (bad input when missing);
+    /// what it holds is [`BadInput`](feedscope::ErrorKind::BadInput).
+    pub fn kind(&self) -> feedscope::ErrorKind {
+        use feedscope::ErrorKind;
+        match self {
+            FrictionCsvError::Open { error, .. }
+            | FrictionCsvError::Head(error)
+            | FrictionCsvError::Read { error, .. } => ErrorKind::of_io(error),
+            _ => ErrorKind::BadInput,
+        }
+    }
+}
+
+impl FrictionCsvError {
     /// True when a file could not be opened or read (the operating system's error is the
     /// source or the message), false when what it holds is wrong.
     pub fn is_io(&self) -> bool {

@@ -226,6 +226,20 @@ pub enum TableError {
 }
 
 impl TableError {
+    /// What the error means to a caller: a file that cannot be read is
+    /// [`ErrorKind::of_io`](feedscope::ErrorKind::of_io) of the operating system's error (bad input when missing); what it
+    /// holds, or an option, is [`BadInput`](feedscope::ErrorKind::BadInput).
+    pub fn kind(&self) -> feedscope::ErrorKind {
+        use feedscope::ErrorKind;
+        match self {
+            TableError::Read { error, .. } => ErrorKind::of_io(error),
+            TableError::Conversion { error, .. } => error.kind(),
+            _ => ErrorKind::BadInput,
+        }
+    }
+}
+
+impl TableError {
     /// True when the file could not be read (the operating system's error is the source),
     /// false when what it holds, or an option, is wrong.
     pub fn is_io(&self) -> bool {

@@ -46,8 +46,11 @@ use std::collections::BTreeMap;
 use std::fmt;
 
 use feedscope::history::Point;
+use feedscope::ErrorKind;
 use serde::Serialize;
 
+mod from_study;
+pub use from_study::content_sha256;
 pub mod sqlite;
 pub mod time;
 
@@ -110,13 +113,24 @@ impl StoreError {
     /// the file or the test, and an engine error of kind [`BackendErrorKind::NotADatabase`] or
     /// [`BackendErrorKind::Corrupt`]; other engine errors and file-system errors are not.
     pub fn is_bad_input(&self) -> bool {
+        self.kind() == ErrorKind::BadInput
+    }
+
+    /// What the error means to a caller: [`ErrorKind::BadInput`] as
+    /// [`is_bad_input`](Self::is_bad_input) says; [`ErrorKind::Io`] for file-system errors and
+    /// engine errors of kind [`BackendErrorKind::Other`] (a lock held too long, a full disk).
+    pub fn kind(&self) -> ErrorKind {
         match self {
-            StoreError::Backend(e) => matches!(
-                e.kind(),
-                BackendErrorKind::NotADatabase | BackendErrorKind::Corrupt
-            ),
-            StoreError::Io(_) => false,
-            _ => true,
+            StoreError::Backend(e) => match e.kind() {
+                BackendErrorKind::NotADatabase | BackendErrorKind::Corrupt => ErrorKind::BadInput,
+                BackendErrorKind::Other => ErrorKind::Io,
+            },
+            StoreError::Io(_) => ErrorKind::Io,
+            StoreError::NotADatabase { .. }
+            | StoreError::Foreign { .. }
+            | StoreError::NewerSchema { .. }
+            | StoreError::Corrupt { .. }
+            | StoreError::NoSuchTest(_) => ErrorKind::BadInput,
         }
     }
 }
@@ -185,25 +199,8 @@ impl std::error::Error for BackendError {
     }
 }
 
-/// Kind of test.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum TestKind {
-    /// Constant-feed idle strokes: estimate + analyze (paper 000).
-    Strokes,
-    /// Variable-amplitude, variable-velocity triangular wave: one-test identification (paper 002).
-    Triangle,
-}
-
-impl TestKind {
-    /// The word stored in `tests.kind`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            TestKind::Strokes => "strokes",
-            TestKind::Triangle => "triangle",
-        }
-    }
-}
+/// Kind of test (the library's; stored as [`TestKind::as_str`]).
+pub use feedscope::study::TestKind;
 
 /// Identified parameters with standard errors (force side, table units).
 #[derive(Debug, Clone, Default, Serialize)]

@@ -45,6 +45,14 @@ pub enum AxisError {
     },
 }
 
+impl AxisError {
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the axis file or a value in it is wrong.
+    pub fn kind(&self) -> crate::ErrorKind {
+        use crate::ErrorKind;
+        ErrorKind::BadInput
+    }
+}
+
 /// A kinematic order declared by the user (e.g. a rolling-tool mark at 0.56 cycles per lead).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -11,6 +11,7 @@
 pub mod axis;
 pub mod calendar;
 pub mod dynamics;
+pub mod error;
 pub mod estimate;
 pub mod history;
 pub mod ident;
@@ -24,5 +25,8 @@ pub mod sim;
 pub mod spline;
 pub mod stribeck;
 pub mod stroke;
+pub mod study;
 pub mod trace;
 pub mod units;
+
+pub use error::ErrorKind;

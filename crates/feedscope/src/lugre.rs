@@ -191,6 +191,14 @@ pub enum LuGreError {
     NotIdentifiable(NotIdentifiable),
 }
 
+impl LuGreError {
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the data or a parameter do not allow the fit.
+    pub fn kind(&self) -> crate::ErrorKind {
+        use crate::ErrorKind;
+        ErrorKind::BadInput
+    }
+}
+
 /// Why pre-sliding data cannot determine σ0.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]

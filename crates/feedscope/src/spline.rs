@@ -71,6 +71,14 @@ pub enum SplineError {
     },
 }
 
+impl SplineError {
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the knots do not define a spline.
+    pub fn kind(&self) -> crate::ErrorKind {
+        use crate::ErrorKind;
+        ErrorKind::BadInput
+    }
+}
+
 /// A cubic spline through borrowed knots; see the module docs for the formulas.
 #[derive(Debug, Clone)]
 pub struct CubicSpline<'a> {

@@ -14,7 +14,7 @@ use feedscope_io::trace::{write_csv, Layout, ReadReport};
 use feedscope_store::{NewTest, SqliteStore, Store, TestKind};
 use rayon::prelude::*;
 
-use super::history::{analyze_test, TestInput};
+use feedscope::study::{analyze_test, StrokeStudyParams, TestStudyParams};
 
 use super::estimate::{estimate_to_csv, print_table};
 use crate::output::{bar, write_atomic};
@@ -175,14 +175,16 @@ fn weekly_test(
     let mut bytes = Vec::new();
     write_csv(&sim.trace, &mut bytes, Layout::Long)?;
     write_atomic(path, &bytes)?;
-    let mut t = analyze_test(&TestInput {
-        trace: &sim.trace,
-        bytes: &bytes,
-        axis: &cfg.axis,
-        kind,
-        interval_mm: 40.0,
-    })
-    .with_context(|| format!("analysing the {} test of week {week}", kind.as_str()))?;
+    let params = TestStudyParams {
+        strokes: StrokeStudyParams {
+            interval_mm: 40.0,
+            ..StrokeStudyParams::default()
+        },
+        ..TestStudyParams::default()
+    };
+    let analysis = analyze_test(&sim.trace, &cfg.axis, kind, &params)
+        .with_context(|| format!("analysing the {} test of week {week}", kind.as_str()))?;
+    let mut t = NewTest::from_analysis(&analysis, &cfg.axis, &bytes);
     t.machine = "demo lathe".into();
     t.axis = "Z".into();
     t.time_s = HISTORY_START_S

@@ -7,22 +7,13 @@ use anyhow::{Context, Result};
 use clap::builder::{EnumValueParser, TypedValueParser};
 use clap::{Subcommand, ValueEnum};
 use feedscope::axis::AxisParams;
-use feedscope::estimate::{estimate, Direction, EstimateParams};
-use feedscope::history::{
-    assess, diagnose, BaselineSpec, Indicator, IndicatorTrend, Threshold, TrendParams,
-};
-use feedscope::ident::{identify, IdentParams, Identification};
-use feedscope::order::SpectrumAnalyzer;
-use feedscope::profile::{analyze_stroke, AnalysisParams, StrokeView};
-use feedscope::trace::{GlitchParams, Trace};
+use feedscope::history::{Indicator, IndicatorTrend, Threshold};
+use feedscope::study::{analyze_test, StrokeStudyParams, TestStudyParams, TrendStudyParams};
+use feedscope::trace::GlitchParams;
 use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use feedscope_store::time::{format_rfc3339, parse_rfc3339};
-use feedscope_store::{
-    AddOutcome, ComponentRow, Filter, Identified, IndicatorRow, IntervalRow, NewTest, SqliteStore,
-    Store, StoreError, TestKind,
-};
+use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, TestKind};
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 use super::BadInput;
 
@@ -98,7 +89,7 @@ pub struct AddArgs {
     #[arg(long)]
     pub reference: bool,
     /// Width of the position intervals of the mean-friction indicators (mm), aligned at 0.
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, default_value_t = StrokeStudyParams::default().interval_mm)]
     pub interval_mm: f64,
     /// What to print on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
@@ -162,7 +153,7 @@ pub struct TrendArgs {
     pub axis_name: Option<String>,
     /// Baseline: mean and σ of the first N tests of each indicator; with a reference test
     /// marked, μ₀ is its value and σ the scatter of these N.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = TrendStudyParams::default().baseline_tests)]
     pub baseline_tests: usize,
     /// Thresholds file (TOML): a `[thresholds]` table of indicator = { upper = .., lower = .. }.
     #[arg(long)]
@@ -222,19 +213,22 @@ pub fn open_store(path: &Path) -> Result<SqliteStore> {
 }
 
 fn store_err(e: StoreError, path: &Path) -> anyhow::Error {
-    if e.is_bad_input() {
-        // the store's messages name the file already
-        let msg = match &e {
-            StoreError::Backend(_) | StoreError::NoSuchTest(_) => {
-                format!("{}: {e}", path.display())
-            }
-            _ => e.to_string(),
-        };
-        anyhow::Error::new(BadInput(msg))
-    } else {
-        anyhow::Error::new(e).context(format!("database {}", path.display()))
+    // The exit code follows the error's kind; the messages of the other variants name the
+    // file already.
+    match &e {
+        StoreError::Backend(_) | StoreError::NoSuchTest(_) if e.is_bad_input() => {
+            anyhow::Error::new(e).context(path.display().to_string())
+        }
+        _ if e.is_bad_input() => anyhow::Error::new(e),
+        _ => anyhow::Error::new(e).context(format!("database {}", path.display())),
     }
 }
+
+/// `history check` found the database damaged: a check that failed (exit 1), as
+/// docs/history.md promises, although the same damage found on opening is bad input (exit 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct CheckFailed(pub StoreError);
 
 /// The `[thresholds]` file of `history trend` and `report`.
 #[derive(Debug, Default, Deserialize)]
@@ -288,276 +282,6 @@ pub fn load_thresholds(path: Option<&Path>) -> Result<BTreeMap<String, Threshold
     Ok(f.thresholds)
 }
 
-/// What the report needs from a stroke test beyond the indicators (stored as JSON in `curves`).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Curves {
-    /// First stroke of each direction: friction and IAFV along the travel.
-    pub profiles: Vec<ProfileCurve>,
-    /// Segment spectra of the FFS, one heat map per direction.
-    pub heatmaps: Vec<HeatmapData>,
-}
-
-/// Friction and IAFV of one stroke.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct ProfileCurve {
-    /// `forward` or `backward`.
-    pub direction: String,
-    /// Feed (mm/min).
-    pub feed_mm_min: f64,
-    /// Positions (mm).
-    pub position_mm: Vec<f64>,
-    /// Estimated friction (N, signed as paper 000 Eq. 5).
-    pub friction_n: Vec<f64>,
-    /// IAFV (N).
-    pub iafv_n: Vec<f64>,
-    /// IAFV interval ends (mm).
-    pub breaks_mm: Vec<f64>,
-}
-
-/// Amplitude over order (x) and segment centre (y).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct HeatmapData {
-    /// `forward` or `backward`.
-    pub direction: String,
-    /// Orders (cycles per lead).
-    pub orders: Vec<f64>,
-    /// Segment centres (mm).
-    pub position_mm: Vec<f64>,
-    /// Amplitudes (N), one row per segment.
-    pub amplitude_n: Vec<Vec<f64>>,
-}
-
-/// What `history add` derives from a test, before it is stored.
-pub struct TestInput<'a> {
-    /// The trace.
-    pub trace: &'a Trace,
-    /// The trace file's bytes (hashed).
-    pub bytes: &'a [u8],
-    /// The axis.
-    pub axis: &'a AxisParams,
-    /// Kind of test.
-    pub kind: TestKind,
-    /// Position interval width of the mean-friction indicators (mm).
-    pub interval_mm: f64,
-}
-
-fn ind(i: &Indicator, value: f64, std_error: Option<f64>) -> IndicatorRow {
-    IndicatorRow {
-        name: i.name(),
-        value,
-        std_error: std_error.filter(|s| s.is_finite()),
-        unit: i.unit().to_string(),
-    }
-}
-
-/// Results of a triangle test from its identification.
-pub fn identified_results(id: &Identification) -> (Identified, Vec<IndicatorRow>) {
-    let (f, s, force) = (&id.fit, &id.fit.std_error, &id.force);
-    let p = Identified {
-        j_total_kgm2: f.j_total_kgm2,
-        j_std_kgm2: s.j_total_kgm2,
-        fc_n: force.fc_n,
-        fc_std_n: force.fc_std_n,
-        fs_n: force.fs_n,
-        fs_std_n: force.fs_std_n,
-        sigma_n_s_per_m: force.sigma_n_s_per_m,
-        sigma_std_n_s_per_m: force.sigma_std_n_s_per_m,
-        vs_mm_min: force.vs_mm_min,
-        vs_std_mm_min: s.vs_mm_min,
-        delta: f.delta,
-        offset_n: force.offset_n,
-        residual_rms_nm: f.residual_rms_nm,
-        samples_used: f.samples_used as i64,
-    };
-    let rows = vec![
-        ind(&Indicator::StaticFriction, p.fs_n, Some(p.fs_std_n)),
-        ind(&Indicator::CoulombFriction, p.fc_n, Some(p.fc_std_n)),
-        ind(
-            &Indicator::Viscous,
-            p.sigma_n_s_per_m,
-            Some(p.sigma_std_n_s_per_m),
-        ),
-        ind(
-            &Indicator::StribeckVelocity,
-            p.vs_mm_min,
-            Some(p.vs_std_mm_min),
-        ),
-        ind(&Indicator::Inertia, p.j_total_kgm2, Some(p.j_std_kgm2)),
-    ];
-    (p, rows)
-}
-
-/// Results of a stroke test: interval means, components, indicators, report curves.
-type StrokeResults = (
-    Vec<IntervalRow>,
-    Vec<ComponentRow>,
-    Vec<IndicatorRow>,
-    Curves,
-);
-
-fn stroke_results(trace: &Trace, axis: &AxisParams, interval_mm: f64) -> Result<StrokeResults> {
-    let est = estimate(trace, axis, &EstimateParams::default())?;
-    let lead = axis.lead_m();
-    let params = AnalysisParams::default();
-    let mut analyzer = SpectrumAnalyzer::new();
-    // (direction, bin) → (Σ iafv, Σ (f − iafv)², n, first z, last z)
-    let mut bins: BTreeMap<(u8, i64), (f64, f64, usize)> = BTreeMap::new();
-    let mut comps = Vec::new();
-    // (direction, cause) → amplitudes of each stroke (max over its components of that cause)
-    let mut amp: BTreeMap<(u8, String), Vec<f64>> = BTreeMap::new();
-    let mut curves = Curves {
-        profiles: vec![],
-        heatmaps: vec![],
-    };
-    for s in &est.strokes {
-        let v = StrokeView::from_estimate(s, lead);
-        let a = analyze_stroke(&v, axis, &params, &mut analyzer).with_context(|| {
-            format!(
-                "analysing stroke {} ({})",
-                s.summary.stroke,
-                s.summary.direction.as_str()
-            )
-        })?;
-        let d = s.summary.direction;
-        let dk = u8::from(d == Direction::Backward);
-        for ((&z, &f), &m) in s.position_m.iter().zip(&s.friction_n).zip(&a.iafv_n) {
-            let b = (z * 1e3 / interval_mm).floor() as i64;
-            let e = bins.entry((dk, b)).or_insert((0.0, 0.0, 0));
-            e.0 += m.abs();
-            e.1 += (f - m).powi(2);
-            e.2 += 1;
-        }
-        let mut best: BTreeMap<String, f64> = BTreeMap::new();
-        for c in &a.fluctuation.components {
-            comps.push(ComponentRow {
-                direction: d.as_str().to_string(),
-                segment: c.segment.clone(),
-                position_mm: c.position_mm,
-                order: c.order,
-                amplitude_n: c.amplitude_n,
-                floor_n: c.floor_n,
-                cause: c.cause.clone(),
-                trusted: c.trusted,
-            });
-            if c.segment == "all" && c.trusted && c.cause != "unexplained" {
-                let e = best.entry(c.cause.clone()).or_insert(0.0);
-                *e = e.max(c.amplitude_n);
-            }
-        }
-        for (cause, x) in best {
-            amp.entry((dk, cause)).or_default().push(x);
-        }
-        if !curves.profiles.iter().any(|p| p.direction == d.as_str()) {
-            let step = s.position_m.len().div_ceil(1500).max(1);
-            let pick = |v: &[f64], k: f64| v.iter().step_by(step).map(|x| x * k).collect();
-            curves.profiles.push(ProfileCurve {
-                direction: d.as_str().into(),
-                feed_mm_min: s.summary.feed_mm_min,
-                position_mm: pick(&s.position_m, 1e3),
-                friction_n: pick(&s.friction_n, 1.0),
-                iafv_n: pick(&a.iafv_n, 1.0),
-                breaks_mm: a.iafv.poly.breaks_mm.clone(),
-            });
-            curves.heatmaps.extend(heatmap(&a.fluctuation, d));
-        }
-    }
-    let dir = |k: u8| {
-        if k == 0 {
-            Direction::Forward
-        } else {
-            Direction::Backward
-        }
-    };
-    // A bin counts when samples cover at least 80 % of it (grid spacing lead/samples-per-lead).
-    let spacing_mm = lead * 1e3 / EstimateParams::default().samples_per_lead as f64;
-    let min_n = (0.8 * interval_mm / spacing_mm).floor().max(2.0) as usize;
-    let mut intervals = Vec::new();
-    let mut rows = Vec::new();
-    for ((dk, b), (sum, ss, n)) in bins {
-        if n < min_n {
-            continue;
-        }
-        let (start, end) = (b as f64 * interval_mm, (b + 1) as f64 * interval_mm);
-        let mean = sum / n as f64;
-        let std = (ss / n as f64).sqrt();
-        intervals.push(IntervalRow {
-            direction: dir(dk).as_str().into(),
-            start_mm: start,
-            end_mm: end,
-            mean_n: mean,
-            std_n: std,
-            samples: n as i64,
-        });
-        let i = Indicator::MeanFriction {
-            direction: dir(dk),
-            start_mm: start,
-            end_mm: end,
-        };
-        rows.push(ind(&i, mean, Some(std / (n as f64).sqrt())));
-    }
-    for ((dk, cause), v) in amp {
-        let i = Indicator::Component {
-            direction: dir(dk),
-            cause,
-        };
-        rows.push(ind(&i, v.iter().sum::<f64>() / v.len() as f64, None));
-    }
-    Ok((intervals, comps, rows, curves))
-}
-
-fn heatmap(fl: &feedscope::order::FluctuationAnalysis, d: Direction) -> Option<HeatmapData> {
-    let g = fl.segment_grid(fl.max_trusted_order.clamp(4.0, 40.0), 400)?;
-    Some(HeatmapData {
-        direction: d.as_str().into(),
-        orders: g.orders,
-        position_mm: g.position_mm,
-        amplitude_n: g.amplitude_n,
-    })
-}
-
-/// Analyse a test into what the store keeps (everything but machine, axis name, time).
-pub fn analyze_test(inp: &TestInput<'_>) -> Result<NewTest> {
-    let mut t = NewTest {
-        machine: String::new(),
-        axis: String::new(),
-        axis_params_json: serde_json::to_string(inp.axis)?,
-        time_utc: String::new(),
-        time_s: 0.0,
-        kind: inp.kind,
-        source: String::new(),
-        content_sha256: hex(&Sha256::digest(inp.bytes)),
-        program: None,
-        reference: false,
-        compensation_ref: None,
-        identified: None,
-        intervals: vec![],
-        components: vec![],
-        indicators: vec![],
-        curves_json: None,
-    };
-    match inp.kind {
-        TestKind::Triangle => {
-            let id = identify(inp.trace, inp.axis, &IdentParams::default())
-                .map_err(|e| BadInput(format!("identification failed: {e}")))?;
-            let (p, rows) = identified_results(&id);
-            t.identified = Some(p);
-            t.indicators = rows;
-        }
-        TestKind::Strokes => {
-            let (iv, comps, rows, curves) = stroke_results(inp.trace, inp.axis, inp.interval_mm)?;
-            t.intervals = iv;
-            t.components = comps;
-            t.indicators = rows;
-            t.curves_json = Some(serde_json::to_string(&curves)?);
-        }
-    }
-    Ok(t)
-}
-
-fn hex(b: &[u8]) -> String {
-    b.iter().map(|x| format!("{x:02x}")).collect()
-}
-
 fn axis_name(flag: Option<&str>, axis: &AxisParams, path: &Path) -> String {
     flag.map(str::to_string)
         .or_else(|| axis.name.clone())
@@ -597,14 +321,16 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
         &GlitchParams::for_axis(&axis),
     )?;
     crate::output::print_read_warnings(&a.trace.display().to_string(), &report);
-    let mut t = analyze_test(&TestInput {
-        trace: &trace,
-        bytes: &bytes,
-        axis: &axis,
-        kind: a.kind,
-        interval_mm: a.interval_mm,
-    })
-    .with_context(|| format!("analysing {}", a.trace.display()))?;
+    let params = TestStudyParams {
+        strokes: StrokeStudyParams {
+            interval_mm: a.interval_mm,
+            ..StrokeStudyParams::default()
+        },
+        ..TestStudyParams::default()
+    };
+    let analysis = analyze_test(&trace, &axis, a.kind, &params)
+        .with_context(|| format!("analysing {}", a.trace.display()))?;
+    let mut t = NewTest::from_analysis(&analysis, &axis, &bytes);
     t.machine = a.machine.clone();
     t.axis = axis_name(a.axis_name.as_deref(), &axis, &a.axis);
     t.time_s = time_s;
@@ -869,7 +595,7 @@ pub fn resolve_axis(store: &dyn Store, machine: &str, axis: Option<&str>) -> Res
     }
 }
 
-/// Trends of every indicator of an axis.
+/// Trends of every indicator of an axis, from the series in the store.
 pub fn axis_trends(
     store: &dyn Store,
     machine: &str,
@@ -886,70 +612,21 @@ pub fn axis_trends(
     }
     let reference = tests.iter().find(|t| t.reference).map(|t| t.id);
     let series = store.series(machine, axis)?;
-    let mut trends = Vec::new();
-    let mut skipped = Vec::new();
-    for (name, s) in &series {
-        let Some(ind) = Indicator::parse(name) else {
-            skipped.push(name.clone());
-            continue;
-        };
-        let pts: Vec<_> = s.iter().map(|(_, p)| *p).collect();
-        let spec = match reference.and_then(|r| s.iter().position(|(id, _)| *id == r)) {
-            Some(index) => BaselineSpec::Reference {
-                index,
-                spread_count: baseline_tests.min(pts.len()),
-            },
-            None => BaselineSpec::FirstN {
-                count: baseline_tests,
-            },
-        };
-        let params = TrendParams {
-            baseline: spec,
-            ..TrendParams::default()
-        };
-        let th = thresholds.get(name).copied().unwrap_or_default();
-        match assess(&ind, &pts, &params, &th) {
-            Ok(t) => trends.push(t),
-            Err(feedscope::history::HistoryError::TooFewPoints { .. }) => {
-                skipped.push(name.clone())
-            }
-            Err(e) => return Err(anyhow::Error::new(e).context(format!("trend of {name}"))),
-        }
-    }
-    // Identification first (Fs, Fc, σ, vs, J), then mean friction along the travel, then the
-    // components: the order of the report.
-    let rank = |i: &Indicator| match i {
-        Indicator::StaticFriction => 0,
-        Indicator::CoulombFriction => 1,
-        Indicator::Viscous => 2,
-        Indicator::StribeckVelocity => 3,
-        Indicator::Inertia => 4,
-        Indicator::MeanFriction { .. } => 5,
-        Indicator::Component { .. } => 6,
-    };
-    let start = |i: &Indicator| match i {
-        Indicator::MeanFriction { start_mm, .. } => *start_mm,
-        _ => 0.0,
-    };
-    // stable: within a rank, names (direction first) stay in order; intervals by position
-    trends.sort_by(|a, b| {
-        rank(&a.indicator)
-            .cmp(&rank(&b.indicator))
-            .then_with(|| {
-                let (da, db) = (a.indicator.name(), b.indicator.name());
-                let dir = |n: &str| n.split('/').nth(1).map(str::to_string);
-                dir(&da).cmp(&dir(&db))
-            })
-            .then(start(&a.indicator).total_cmp(&start(&b.indicator)))
-    });
-    let diagnosis = diagnose(&trends);
+    let study = feedscope::study::axis_trends(
+        &series,
+        reference,
+        &TrendStudyParams {
+            baseline_tests,
+            thresholds: thresholds.clone(),
+        },
+    )?;
     Ok(AxisTrends {
         machine: machine.to_string(),
         axis: axis.to_string(),
         tests,
-        trends,
-        skipped,
-        diagnosis,
+        trends: study.trends,
+        skipped: study.skipped,
+        diagnosis: study.diagnosis,
     })
 }
 
@@ -1025,7 +702,10 @@ pub fn run(args: Args) -> Result<()> {
         }
         HistoryCommand::Check => {
             let store = open_store(&db)?;
-            store.check()?;
+            store.check().map_err(|e| match e {
+                StoreError::Corrupt { .. } => anyhow::Error::new(CheckFailed(e)),
+                e => store_err(e, &db),
+            })?;
             println!(
                 "{}: integrity ok, schema version {}",
                 db.display(),

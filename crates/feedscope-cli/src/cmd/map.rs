@@ -7,10 +7,11 @@ use anyhow::{anyhow, Context, Result};
 use clap::ValueEnum;
 use feedscope::estimate::{Direction, EstimateParams};
 use feedscope::map::{
-    build_map, nonconventional_spans, stribeck_profile, DirectionMap, FeedScale, FrictionMap,
-    MapParams, NonConventionalSpan, StribeckAtPosition, StribeckProfile, TestSet,
+    FeedScale, FrictionMap, MapParams, NonConventionalSpan, StribeckAtPosition, StribeckProfile,
+    TestSet,
 };
 use feedscope::stribeck::{ParamEstimate, M_S_PER_MM_MIN};
+use feedscope::study::{map_grid, map_study, MapStudy, MapStudyParams, StudyError};
 use feedscope_io::compensation::CompensationTable;
 use feedscope_io::test_set::{estimate_set, read_index};
 use feedscope_io::trace::ReadOptions;
@@ -69,13 +70,13 @@ pub struct Args {
     #[arg(long, value_delimiter = ',')]
     pub orders: Option<Vec<usize>>,
     /// Highest order of the feed polynomial (Eq. 8); lowered to feeds − 2 when fewer feeds.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = MapParams::default().feed_order)]
     pub feed_order: usize,
     /// Scaled feed variable of the feed polynomial.
-    #[arg(long, value_enum, default_value_t = ScaleArg::Log)]
+    #[arg(long, value_enum, default_value_t = ScaleArg::from(MapParams::default().feed_scale))]
     pub feed_scale: ScaleArg,
     /// Position step of the map grid, the compensation table and the Stribeck profile (mm).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = MapStudyParams::default().position_step_mm)]
     pub position_step_mm: f64,
     /// Feeds of the compensation table (mm/min) [default: the measured feeds].
     #[arg(long, value_delimiter = ',')]
@@ -84,7 +85,7 @@ pub struct Args {
     #[arg(long)]
     pub extrapolate: bool,
     /// Trimmed from both ends of the strokes' common span (mm).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = MapParams::default().margin_mm)]
     pub margin_mm: f64,
     /// Feed whose repeats are plotted with their mean (mm/min) [default: the slowest].
     #[arg(long)]
@@ -93,7 +94,7 @@ pub struct Args {
     #[arg(long)]
     pub strict: bool,
     /// Resampling points per lead when estimating.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = EstimateParams::default().samples_per_lead)]
     pub samples_per_lead: u32,
     /// What to print on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
@@ -108,9 +109,18 @@ pub enum ScaleArg {
     Linear,
 }
 
+impl From<FeedScale> for ScaleArg {
+    fn from(s: FeedScale) -> Self {
+        match s {
+            FeedScale::Log => ScaleArg::Log,
+            FeedScale::Linear => ScaleArg::Linear,
+        }
+    }
+}
+
 /// Validated settings (before any I/O).
 struct Config {
-    params: MapParams,
+    params: MapStudyParams,
 }
 
 fn validate(args: &Args) -> Result<Config> {
@@ -155,7 +165,16 @@ fn validate(args: &Args) -> Result<Config> {
         }
     }
     params.validate().map_err(|e| bad(e.to_string()))?;
-    Ok(Config { params })
+    Ok(Config {
+        params: MapStudyParams {
+            map: params,
+            positions_mm: args.positions.clone(),
+            position_step_mm: args.position_step_mm,
+            table_feeds_mm_min: args.table_feeds.clone(),
+            extrapolate: args.extrapolate,
+            ..MapStudyParams::default()
+        },
+    })
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -182,7 +201,7 @@ pub fn run(args: Args) -> Result<()> {
         &axis,
         &est_params,
         &ReadOptions::default(),
-        cfg.params.stroke_feed_tolerance,
+        cfg.params.map.stroke_feed_tolerance,
         &|_| pb.inc(1),
     );
     pb.finish_and_clear();
@@ -199,89 +218,49 @@ pub fn run(args: Args) -> Result<()> {
             set.source_name
         ));
     }
-    let map = build_map(&est.ok, axis.lead_m(), &cfg.params)
-        .map_err(|e| BadInput(format!("{}: {e}", set.source_name)))?;
-
-    // Positions for the Stribeck fits: checked against every direction's span (exit 2).
-    let chosen: Vec<(Direction, Vec<f64>)> = map
-        .directions
-        .iter()
-        .map(|d| {
-            let p = args.positions.clone().unwrap_or_else(|| {
-                (0..5)
-                    .map(|i| {
-                        round_mm(d.start_mm + (d.end_mm - d.start_mm) * (i as f64 + 0.5) / 5.0)
-                    })
-                    .collect()
-            });
-            (d.direction, p)
-        })
-        .collect();
-    for (d, p) in &chosen {
-        let dm = map.direction(*d).expect("direction of the map");
-        for &x in p {
-            dm.check_position(x)
-                .map_err(|e| BadInput(format!("--positions: {e}")))?;
+    // Everything is computed before the first file is written: a refusal leaves nothing behind.
+    let study = map_study(&est.ok, axis.lead_m(), &cfg.params).map_err(|e| match e {
+        StudyError::Position(e) => anyhow::Error::new(e).context("--positions"),
+        StudyError::TableFeed(e) => {
+            anyhow::Error::new(e).context("--table-feeds, without --extrapolate")
         }
-    }
-    // Table feeds (exit 2 outside the measured feeds unless --extrapolate).
-    let table_feeds =
-        |d: &DirectionMap| args.table_feeds.clone().unwrap_or_else(|| d.feeds_mm_min());
-    for d in &map.directions {
-        for f in table_feeds(d) {
-            d.poly_at(f, args.extrapolate).map_err(|e| {
-                BadInput(format!(
-                    "--table-feeds: {e}; pass --extrapolate to allow it"
-                ))
-            })?;
-        }
-    }
-
-    let mut at_positions = Vec::new();
-    let mut profiles = Vec::new();
-    for d in &map.directions {
-        let p = &chosen
-            .iter()
-            .find(|c| c.0 == d.direction)
-            .expect("chosen")
-            .1;
-        at_positions.push(stribeck_profile(d, p, &cfg.params)?);
-        profiles.push(stribeck_profile(
-            d,
-            &grid(d, args.position_step_mm),
-            &cfg.params,
-        )?);
-    }
-    let spans: Vec<NonConventionalSpan> = profiles.iter().flat_map(nonconventional_spans).collect();
+        e => anyhow::Error::new(e).context(set.source_name.clone()),
+    })?;
+    let (map, at_positions, profiles, spans) = (
+        &study.map,
+        &study.at_positions,
+        &study.profiles,
+        &study.nonconventional,
+    );
 
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let out = &args.out;
     write_atomic(
         &out.join("stribeck.json"),
-        serde_json::to_string_pretty(&stribeck_report(&at_positions, &spans))?.as_bytes(),
+        serde_json::to_string_pretty(&stribeck_report(at_positions, spans))?.as_bytes(),
     )?;
-    write_profile_csv(&out.join("stribeck_profile.csv"), &profiles)?;
-    write_compensation(out, &map, &table_feeds, &args)?;
-    write_ppocm_csv(&out.join("ppocm.csv"), &map)?;
-    write_repeatability_csv(&out.join("repeatability.csv"), &map)?;
+    write_profile_csv(&out.join("stribeck_profile.csv"), profiles)?;
+    write_compensation(out, &study, args.extrapolate)?;
+    write_ppocm_csv(&out.join("ppocm.csv"), map)?;
+    write_repeatability_csv(&out.join("repeatability.csv"), map)?;
     write_runs_csv(&out.join("runs.csv"), &est)?;
-    let summary = map_summary(&set, &est, &map, &spans);
+    let summary = map_summary(&set, &est, map, spans);
     write_atomic(
         &out.join("map.json"),
         serde_json::to_string_pretty(&MapJson {
             summary: &summary,
-            map: &map,
+            map,
         })?
         .as_bytes(),
     )?;
-    write_plots(out, &map, &at_positions, &args)?;
+    write_plots(out, &study, &args)?;
 
     let stdout = std::io::stdout();
     let mut w = stdout.lock();
     match args.format {
         Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&summary)?)?,
-        Format::Text => w.write_all(text_report(&summary, &at_positions, &spans).as_bytes())?,
+        Format::Text => w.write_all(text_report(&summary, at_positions, spans).as_bytes())?,
     }
     w.flush()?;
     if args.strict && !est.failed.is_empty() {
@@ -292,32 +271,6 @@ pub fn run(args: Args) -> Result<()> {
         ));
     }
     Ok(())
-}
-
-/// Round to 1 µm so that printed default positions read back exactly.
-fn round_mm(x: f64) -> f64 {
-    (x * 1e3).round() / 1e3
-}
-
-/// Map grid positions: the span's start, the multiples of `step` inside the span (round
-/// numbers a control engineer can index), and the span's end.
-fn grid(d: &DirectionMap, step: f64) -> Vec<f64> {
-    // Multiples closer than 1 nm to an end are the end itself.
-    let tol = 1e-6;
-    let mut g = vec![d.start_mm];
-    let mut k = ((d.start_mm + tol) / step).ceil() as i64;
-    loop {
-        let z = k as f64 * step;
-        if z >= d.end_mm - tol {
-            break;
-        }
-        if z > d.start_mm + tol {
-            g.push(z);
-        }
-        k += 1;
-    }
-    g.push(d.end_mm);
-    g
 }
 
 fn dir_name(d: Direction) -> &'static str {
@@ -503,14 +456,13 @@ fn write_profile_csv(path: &Path, profiles: &[StribeckProfile]) -> Result<()> {
     f.commit()
 }
 
-fn write_compensation(
-    out: &Path,
-    map: &FrictionMap,
-    feeds: &dyn Fn(&DirectionMap) -> Vec<f64>,
-    args: &Args,
-) -> Result<()> {
-    let table = CompensationTable::new(map, args.extrapolate, |d| {
-        (feeds(d), grid(d, args.position_step_mm))
+fn write_compensation(out: &Path, study: &MapStudy, extrapolate: bool) -> Result<()> {
+    let map = &study.map;
+    let table = CompensationTable::new(map, extrapolate, |d| {
+        let (grid, feeds) = study
+            .table_axes(d.direction)
+            .expect("a direction of the study's map");
+        (feeds.to_vec(), grid.to_vec())
     })?;
     let mut long = csv_file(&out.join("compensation.csv"))?;
     table.write_long(long.writer())?;
@@ -783,7 +735,8 @@ fn log_feeds(lo: f64, hi: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
-fn write_plots(out: &Path, map: &FrictionMap, at: &[StribeckProfile], args: &Args) -> Result<()> {
+fn write_plots(out: &Path, study: &MapStudy, args: &Args) -> Result<()> {
+    let (map, at) = (&study.map, &study.at_positions);
     // Friction vs feed at the chosen positions: PPOCM points, Stribeck fit, map section (Fig. 14).
     let mut titles = Vec::new();
     for p in at {
@@ -852,8 +805,7 @@ fn write_plots(out: &Path, map: &FrictionMap, at: &[StribeckProfile], args: &Arg
         &plot::stacked_svg(&charts)?,
     )?;
 
-    for d in &map.directions {
-        let zs = grid(d, args.position_step_mm);
+    for (d, zs) in map.directions.iter().zip(&study.grids_mm) {
         let feeds = log_feeds(
             d.feed_model.feed_min_mm_min,
             d.feed_model
@@ -861,13 +813,15 @@ fn write_plots(out: &Path, map: &FrictionMap, at: &[StribeckProfile], args: &Arg
                 .max(d.feed_model.feed_min_mm_min * 1.0001),
             40,
         );
+        // Two feeds at least (the study refuses one), so the log-spaced feeds lie inside the
+        // measured ones; an error here is a bug, reported rather than a panic.
         let z: Vec<Vec<f64>> = feeds
             .iter()
             .map(|&f| {
-                let p = d.poly_at(f, false).expect("feed in range");
-                zs.iter().map(|&x| p.value_n(x * 1e-3)).collect()
+                let p = d.poly_at(f, false)?;
+                Ok(zs.iter().map(|&x| p.value_n(x * 1e-3)).collect())
             })
-            .collect();
+            .collect::<Result<_>>()?;
         let title = format!("friction map F(z, v), {} (signed)", dir_name(d.direction));
         plot::write_svg(
             &out.join(format!("map_{}.svg", dir_name(d.direction))),
@@ -876,7 +830,7 @@ fn write_plots(out: &Path, map: &FrictionMap, at: &[StribeckProfile], args: &Arg
                 x_label: "position (mm)",
                 y_label: "log10 of feed (feed in mm/min)",
                 z_label: "friction (N)",
-                x: zs,
+                x: zs.clone(),
                 y: feeds.iter().map(|f| f.log10()).collect(),
                 z,
             })?,
@@ -910,7 +864,7 @@ fn write_plots(out: &Path, map: &FrictionMap, at: &[StribeckProfile], args: &Arg
     let mut c11 = Vec::new();
     let mut c12 = Vec::new();
     for (k, d) in map.directions.iter().enumerate() {
-        let zs = grid(d, (d.end_mm - d.start_mm) / 200.0);
+        let zs = map_grid(d, (d.end_mm - d.start_mm) / 200.0);
         let curve = |p: &feedscope::profile::PiecewisePoly| -> Vec<(f64, f64)> {
             zs.iter().map(|&x| (x, p.value_n(x * 1e-3))).collect()
         };

@@ -3,6 +3,7 @@
 //! Exit codes: 0 success; 1 a check failed or a requested failure condition was met; 2 bad
 //! input or usage (unreadable or malformed files, invalid parameters).
 use clap::{Parser, Subcommand};
+use feedscope::ErrorKind;
 
 mod analyze;
 mod demo;
@@ -54,42 +55,98 @@ pub enum Command {
     Import(import::Args),
 }
 
-/// Marks an error as the user's input being wrong (exit code 2).
+/// Marks an error as the user's input being wrong (exit code 2): a usage error found by the
+/// CLI itself (an option out of range, options that do not go together).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct BadInput(pub String);
 
-/// Exit code for an error: 2 when any cause is bad input, else 1.
-pub fn exit_code(err: &anyhow::Error) -> u8 {
-    use feedscope::{axis::AxisError, estimate::EstimateError};
-    use feedscope_io::{
-        axis::AxisFileError, friction_csv::FrictionCsvError, stribeck_table::TableError,
-        trace::TraceError,
+/// The kind of one error of a chain, when it is one whose kind is known: every error enum of
+/// feedscope says its own ([`ErrorKind`]); of the foreign ones, a missing file and a file
+/// that does not parse (TOML, JSON) are bad input.
+fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
+    use feedscope::{
+        axis::AxisError, dynamics::DynamicsError, estimate::EstimateError, history::HistoryError,
+        ident::IdentError, lugre::LuGreError, map::MapError, nc::NcError, order::OrderError,
+        plan::PlanError, profile::ProfileError, sim::SimError, spline::SplineError,
+        stribeck::StribeckError, study::StudyError,
     };
-    let input = err.chain().any(|c| {
-        c.is::<BadInput>()
-            || c.is::<TraceError>()
-            || c.is::<AxisError>()
-            // An unreadable axis file, friction CSV or table is bad input only when missing
-            // (its `std::io::Error` is next in the chain, below); what it holds always is.
-            || c.downcast_ref::<AxisFileError>().is_some_and(|e| !e.is_io())
-            || c.downcast_ref::<FrictionCsvError>().is_some_and(|e| !e.is_io())
-            || c.downcast_ref::<TableError>().is_some_and(|e| !e.is_io())
-            || c.is::<EstimateError>()
-            || c.is::<feedscope_io::import::ImportError>()
-            || c.is::<feedscope::nc::NcError>()
-            || c.is::<feedscope::sim::SimError>()
-            || c.is::<feedscope::profile::ProfileError>()
-            || c.is::<toml::de::Error>()
-            || c.is::<serde_json::Error>()
-            || c.downcast_ref::<std::io::Error>()
-                .is_some_and(|e| e.kind() == std::io::ErrorKind::NotFound)
-    });
-    if input {
-        2
-    } else {
-        1
+    use feedscope_io::{
+        axis::AxisFileError, friction_csv::FrictionCsvError, import::ImportError,
+        stribeck_table::TableError, trace::TraceError,
+    };
+    use feedscope_store::{BackendErrorKind, StoreError};
+    macro_rules! kind_if {
+        ($($t:ty),* $(,)?) => {
+            $(if let Some(x) = e.downcast_ref::<$t>() {
+                return Some(x.kind());
+            })*
+        };
     }
+    kind_if!(
+        AxisError,
+        DynamicsError,
+        EstimateError,
+        HistoryError,
+        IdentError,
+        LuGreError,
+        MapError,
+        NcError,
+        OrderError,
+        PlanError,
+        ProfileError,
+        SimError,
+        SplineError,
+        StribeckError,
+        StudyError,
+        AxisFileError,
+        FrictionCsvError,
+        ImportError,
+        TableError,
+        TraceError,
+        StoreError,
+    );
+    if let Some(b) = e.downcast_ref::<feedscope_store::BackendError>() {
+        return Some(match b.kind() {
+            BackendErrorKind::NotADatabase | BackendErrorKind::Corrupt => ErrorKind::BadInput,
+            _ => ErrorKind::Io,
+        });
+    }
+    if e.is::<BadInput>() || e.is::<toml::de::Error>() || e.is::<serde_json::Error>() {
+        return Some(ErrorKind::BadInput);
+    }
+    if e.is::<history::CheckFailed>() {
+        return Some(ErrorKind::Internal);
+    }
+    e.downcast_ref::<std::io::Error>().map(ErrorKind::of_io)
+}
+
+/// The kind of an error: [`ErrorKind::BadInput`] when any error of its chain is bad input (a
+/// missing file under an `Io` wrapper is still the user's input), else the kind of the first
+/// error whose kind is known, else [`ErrorKind::Internal`].
+pub fn error_kind(err: &anyhow::Error) -> ErrorKind {
+    let kinds: Vec<ErrorKind> = err.chain().filter_map(kind_of).collect();
+    if kinds.contains(&ErrorKind::BadInput) {
+        ErrorKind::BadInput
+    } else {
+        kinds.first().copied().unwrap_or(ErrorKind::Internal)
+    }
+}
+
+/// The documented exit code of an error kind: 2 bad input or usage, 1 anything else (a
+/// failure that is not the input's fault, a check that failed).
+pub fn exit_code_of(kind: ErrorKind) -> u8 {
+    match kind {
+        ErrorKind::BadInput => 2,
+        ErrorKind::Io | ErrorKind::Internal => 1,
+        // A kind added later is not the input's fault until it says so.
+        _ => 1,
+    }
+}
+
+/// Exit code for an error: [`exit_code_of`] its [`error_kind`].
+pub fn exit_code(err: &anyhow::Error) -> u8 {
+    exit_code_of(error_kind(err))
 }
 
 /// True when the error is only a closed stdout (e.g. `feedscope ... | head`).
@@ -132,7 +189,163 @@ mod tests {
     use feedscope_io::axis::AxisFileError;
     use feedscope_io::friction_csv::FrictionCsvError;
     use feedscope_io::stribeck_table::TableError;
-    use std::io::{Error, ErrorKind};
+    use std::io::{Error, ErrorKind as IoKind};
+
+    fn code<E: std::error::Error + Send + Sync + 'static>(e: E) -> u8 {
+        exit_code(&anyhow::Error::new(e))
+    }
+
+    /// One value of every error type the commands can return, with its exit code; a context
+    /// over it does not change the code.
+    #[test]
+    fn exit_code_of_every_error_type() {
+        use feedscope::estimate::Direction;
+        let io = |k| Error::from(k);
+        // the kinds themselves
+        assert_eq!(exit_code_of(ErrorKind::BadInput), 2);
+        assert_eq!(exit_code_of(ErrorKind::Io), 1);
+        assert_eq!(exit_code_of(ErrorKind::Internal), 1);
+        // feedscope
+        let axis_err = feedscope::axis::AxisParams::parse(
+            "lead_mm = 1\n",
+            feedscope::axis::ConfigFormat::Toml,
+            "a.toml",
+        )
+        .unwrap_err();
+        assert_eq!(code(axis_err), 2);
+        assert_eq!(
+            code(feedscope::dynamics::DynamicsError::MassNotPositiveDefinite { position_m: 0.1 }),
+            2
+        );
+        assert_eq!(
+            code(feedscope::estimate::EstimateError::BadSamplesPerLead),
+            2
+        );
+        assert_eq!(
+            code(feedscope::history::HistoryError::TooFewPoints { needed: 5, got: 2 }),
+            2
+        );
+        assert_eq!(
+            code(feedscope::ident::IdentError::NotIdentifiable {
+                reason: "no reversal".into()
+            }),
+            2
+        );
+        assert_eq!(
+            code(feedscope::lugre::LuGreError::TooFewPoints {
+                points: 1,
+                needed: 8
+            }),
+            2
+        );
+        assert_eq!(code(feedscope::map::MapError::NoStrokes), 2);
+        assert_eq!(
+            code(feedscope::nc::NcError {
+                source_name: "p.nc".into(),
+                line: 3,
+                message: "G999".into()
+            }),
+            2
+        );
+        assert_eq!(
+            code(feedscope::order::OrderError::NonFinite { index: 4 }),
+            2
+        );
+        assert_eq!(code(feedscope::order::OrderError::Fft("plan".into())), 1);
+        assert_eq!(
+            code(feedscope::plan::PlanError::FeedTooHigh {
+                feed_mm_min: 9e4,
+                limit_mm_min: 3e4
+            }),
+            2
+        );
+        assert_eq!(
+            code(feedscope::profile::ProfileError::RankDeficient { column: 1 }),
+            2
+        );
+        assert_eq!(
+            code(feedscope::profile::ProfileError::Spectrum(
+                feedscope::order::OrderError::Fft("plan".into())
+            )),
+            1
+        );
+        assert_eq!(code(feedscope::sim::SimError::Diverged { time_s: 1.0 }), 2);
+        assert_eq!(code(feedscope::spline::SplineError::TooFewKnots(1)), 2);
+        assert_eq!(code(feedscope::stribeck::StribeckError::NoMotion), 2);
+        assert_eq!(
+            code(feedscope::study::StudyError::OneFeed {
+                direction: Direction::Forward,
+                feed_mm_min: 100.0
+            }),
+            2
+        );
+        // feedscope-io
+        let trace_io = |k| feedscope_io::trace::TraceError::Io {
+            source_name: "t.csv".into(),
+            error: io(k),
+        };
+        assert_eq!(code(trace_io(IoKind::NotFound)), 2);
+        assert_eq!(code(trace_io(IoKind::PermissionDenied)), 1);
+        assert_eq!(
+            code(feedscope_io::trace::TraceError::Empty {
+                source_name: "t.csv".into()
+            }),
+            2
+        );
+        let import_io = |k| feedscope_io::import::ImportError::Io {
+            source_name: "s.log".into(),
+            error: io(k),
+        };
+        assert_eq!(code(import_io(IoKind::NotFound)), 2);
+        assert_eq!(code(import_io(IoKind::PermissionDenied)), 1);
+        assert_eq!(
+            code(feedscope_io::import::ImportError::BadParam(
+                "--rate-hz".into()
+            )),
+            2
+        );
+        // feedscope-store
+        use feedscope_store::{BackendError, BackendErrorKind, StoreError};
+        assert_eq!(code(StoreError::NoSuchTest(7)), 2);
+        assert_eq!(
+            code(StoreError::Corrupt {
+                path: "h.db".into(),
+                detail: "page 3".into()
+            }),
+            2
+        );
+        assert_eq!(code(StoreError::Io(io(IoKind::PermissionDenied))), 1);
+        let backend = |k| StoreError::Backend(BackendError::new(k, "engine says no"));
+        assert_eq!(code(backend(BackendErrorKind::NotADatabase)), 2);
+        assert_eq!(code(backend(BackendErrorKind::Other)), 1);
+        assert_eq!(
+            code(BackendError::new(BackendErrorKind::Corrupt, "damaged")),
+            2
+        );
+        // `history check` finding damage is a failed check, not bad input.
+        assert_eq!(
+            code(history::CheckFailed(StoreError::Corrupt {
+                path: "h.db".into(),
+                detail: "page 3".into()
+            })),
+            1
+        );
+        // the CLI's own and foreign errors
+        assert_eq!(code(BadInput("--segments must be at least 1".into())), 2);
+        assert_eq!(code(toml::from_str::<toml::Table>("= 1").unwrap_err()), 2);
+        assert_eq!(code(serde_json::from_str::<u8>("x").unwrap_err()), 2);
+        assert_eq!(code(io(IoKind::NotFound)), 2);
+        assert_eq!(code(io(IoKind::PermissionDenied)), 1);
+        assert_eq!(exit_code(&anyhow::anyhow!("all 2 runs failed")), 1);
+        // a context changes nothing; bad input anywhere in the chain wins
+        let e = anyhow::Error::new(feedscope::stribeck::StribeckError::NoMotion)
+            .context("fitting")
+            .context("writing out/stribeck.json");
+        assert_eq!(exit_code(&e), 2);
+        let e = anyhow::Error::new(io(IoKind::NotFound))
+            .context(StoreError::Io(io(IoKind::PermissionDenied)));
+        assert_eq!(exit_code(&e), 2);
+    }
 
     /// The readers that moved to feedscope-io keep the exit codes of the CLI code they
     /// replace: content errors are bad input (2); an unreadable file is bad input only when it
@@ -144,8 +357,8 @@ mod tests {
             source_name: "a.toml".into(),
             error: Error::from(kind),
         };
-        assert_eq!(code(read(ErrorKind::NotFound).into()), 2);
-        assert_eq!(code(read(ErrorKind::PermissionDenied).into()), 1);
+        assert_eq!(code(read(IoKind::NotFound).into()), 2);
+        assert_eq!(code(read(IoKind::PermissionDenied).into()), 1);
         let bad_axis = feedscope::axis::AxisParams::parse(
             "lead_mm = 1\n",
             feedscope::axis::ConfigFormat::Toml,
@@ -158,11 +371,11 @@ mod tests {
             source_name: "f.csv".into(),
             error: Error::from(kind),
         };
-        assert_eq!(code(csv_read(ErrorKind::NotFound).into()), 2);
-        assert_eq!(code(csv_read(ErrorKind::PermissionDenied).into()), 1);
+        assert_eq!(code(csv_read(IoKind::NotFound).into()), 2);
+        assert_eq!(code(csv_read(IoKind::PermissionDenied).into()), 1);
         // A directory opens but does not read: the bare OS error, as before.
         assert_eq!(
-            code(FrictionCsvError::Head(Error::from(ErrorKind::IsADirectory)).into()),
+            code(FrictionCsvError::Head(Error::from(IoKind::IsADirectory)).into()),
             1
         );
         let bad_row = FrictionCsvError::BadDirection {
@@ -176,8 +389,8 @@ mod tests {
             source_name: "t.csv".into(),
             error: Error::from(kind),
         };
-        assert_eq!(code(table_read(ErrorKind::NotFound).into()), 2);
-        assert_eq!(code(table_read(ErrorKind::PermissionDenied).into()), 1);
+        assert_eq!(code(table_read(IoKind::NotFound).into()), 2);
+        assert_eq!(code(table_read(IoKind::PermissionDenied).into()), 1);
         let zero = TableError::ZeroFeed {
             source_name: "t.csv".into(),
             line: 3,

@@ -28,7 +28,7 @@ pub struct Args {
     pub axis_name: Option<String>,
     /// Baseline: mean and σ of the first N tests of each indicator; with a reference test
     /// marked, μ₀ is its value and σ the scatter of these N.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = feedscope::study::TrendStudyParams::default().baseline_tests)]
     pub baseline_tests: usize,
     /// Thresholds file (TOML, a `[thresholds]` table; see docs/history.md).
     #[arg(long)]

@@ -12,10 +12,15 @@ const FEEDS: [f64; 4] = [15.0, 45.0, 135.0, 400.0];
 /// Traces of 4 feeds × 2 repeats (25 → 45 mm and back) under `runs/`, the axis file and an
 /// index `index.csv` with relative paths, plus `extra` lines appended to the index.
 fn setup(dir: &Path, extra: &str) {
+    setup_feeds(dir, &FEEDS, extra);
+}
+
+/// As [`setup`], with the given feeds.
+fn setup_feeds(dir: &Path, feeds: &[f64], extra: &str) {
     std::fs::create_dir_all(dir.join("runs")).unwrap();
     let mut index = String::from("# test set\nfile,feed_mm_min,repeat,operator\n");
     let mut axis = None;
-    for (i, &f) in FEEDS.iter().enumerate() {
+    for (i, &f) in feeds.iter().enumerate() {
         for r in 1..=2u32 {
             let mut c = SimConfig {
                 seed: 100 + 10 * i as u64 + r as u64,
@@ -291,4 +296,21 @@ fn map_help() {
     let o = run(c);
     assert!(o.status.success());
     insta::assert_snapshot!("map_help", stdout(&o));
+}
+
+/// A test set measured at one feed: refused with a clear message and exit code 2 before any
+/// output is written (it used to panic while plotting, exit 101, outputs half-written).
+#[test]
+fn map_with_one_feed_is_refused_and_writes_nothing() {
+    let d = tempfile::tempdir().unwrap();
+    setup_feeds(d.path(), &[135.0], "");
+    expect_bad_input(
+        d.path(),
+        &["map", "index.csv", "--axis", "axis.toml", "--out", "m"],
+        &[
+            "index.csv",
+            "a map needs at least two feeds; this test set has only 135 mm/min",
+        ],
+    );
+    assert!(!d.path().join("m").exists(), "nothing written");
 }

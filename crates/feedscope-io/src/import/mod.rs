@@ -214,6 +214,19 @@ pub enum ImportError {
     BadParam(String),
 }
 
+impl ImportError {
+    /// What the error means to a caller: a file that cannot be read is
+    /// [`ErrorKind::of_io`](feedscope::ErrorKind::of_io) of the operating system's error (bad input when missing); every other
+    /// variant is what the file holds or an option, [`BadInput`](feedscope::ErrorKind::BadInput).
+    pub fn kind(&self) -> feedscope::ErrorKind {
+        use feedscope::ErrorKind;
+        match self {
+            ImportError::Io { error, .. } => ErrorKind::of_io(error),
+            _ => ErrorKind::BadInput,
+        }
+    }
+}
+
 /// An absolute UTC instant with nanosecond resolution (SHDR timestamps carry up to 7 decimals,
 /// more than an `f64` of Unix seconds keeps).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]

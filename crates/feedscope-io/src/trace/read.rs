@@ -244,6 +244,19 @@ pub enum TraceError {
     },
 }
 
+impl TraceError {
+    /// What the error means to a caller: a file that cannot be read is
+    /// [`ErrorKind::of_io`](feedscope::ErrorKind::of_io) of the operating system's error (bad input when missing); every other
+    /// variant is what the file holds, [`BadInput`](feedscope::ErrorKind::BadInput).
+    pub fn kind(&self) -> feedscope::ErrorKind {
+        use feedscope::ErrorKind;
+        match self {
+            TraceError::Io { error, .. } => ErrorKind::of_io(error),
+            _ => ErrorKind::BadInput,
+        }
+    }
+}
+
 /// Options for reading a trace.
 #[derive(Debug, Clone, Default)]
 pub struct ReadOptions {

@@ -101,5 +101,14 @@ pub enum DynamicsError {
     },
 }
 
+impl DynamicsError {
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the drive file, a value in it or a nut position is wrong
+    /// (a mass matrix that is not positive definite comes from its masses and inertias).
+    pub fn kind(&self) -> crate::ErrorKind {
+        use crate::ErrorKind;
+        ErrorKind::BadInput
+    }
+}
+
 #[cfg(test)]
 mod tests;

@@ -71,6 +71,14 @@ pub enum HistoryError {
     InvalidParams(String),
 }
 
+impl HistoryError {
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the series or the trend parameters do not allow the assessment.
+    pub fn kind(&self) -> crate::ErrorKind {
+        use crate::ErrorKind;
+        ErrorKind::BadInput
+    }
+}
+
 /// One test's value of an indicator.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Point {

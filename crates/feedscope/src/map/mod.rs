@@ -208,6 +208,17 @@ pub enum MapError {
     Stribeck(#[from] StribeckError),
 }
 
+impl MapError {
+    /// What the error means to a caller: [`BadInput`](crate::ErrorKind::BadInput), or the kind of the profile's error for [`MapError::Profile`].
+    pub fn kind(&self) -> crate::ErrorKind {
+        use crate::ErrorKind;
+        match self {
+            MapError::Profile { source, .. } => source.kind(),
+            _ => ErrorKind::BadInput,
+        }
+    }
+}
+
 /// Settings of [`build_map`] and [`stribeck_profile`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MapParams {

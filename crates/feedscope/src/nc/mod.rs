@@ -251,6 +251,14 @@ pub struct NcError {
     pub message: String,
 }
 
+impl NcError {
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the NC program cannot be read.
+    pub fn kind(&self) -> crate::ErrorKind {
+        use crate::ErrorKind;
+        ErrorKind::BadInput
+    }
+}
+
 impl NcProgram {
     /// Read a program from text (errors name the source `program`).
     ///

@@ -91,6 +91,14 @@ pub enum PlanError {
     },
 }
 
+impl PlanError {
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the test asked for does not fit the axis.
+    pub fn kind(&self) -> crate::ErrorKind {
+        use crate::ErrorKind;
+        ErrorKind::BadInput
+    }
+}
+
 /// Travel and feed limits that a program must respect; `None` = not checked.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Limits {

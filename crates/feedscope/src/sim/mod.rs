@@ -113,6 +113,15 @@ pub enum SimError {
     },
 }
 
+impl SimError {
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the simulator config is wrong (a diverging servo
+    /// simulation comes from its gains and step).
+    pub fn kind(&self) -> crate::ErrorKind {
+        use crate::ErrorKind;
+        ErrorKind::BadInput
+    }
+}
+
 impl From<AxisError> for SimError {
     fn from(e: AxisError) -> Self {
         SimError::Axis(e)

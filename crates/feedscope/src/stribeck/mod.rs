@@ -98,6 +98,14 @@ pub enum StribeckError {
     },
 }
 
+impl StribeckError {
+    /// What the error means to a caller: always [`BadInput`](crate::ErrorKind::BadInput): the points or a parameter do not allow the fit.
+    pub fn kind(&self) -> crate::ErrorKind {
+        use crate::ErrorKind;
+        ErrorKind::BadInput
+    }
+}
+
 /// Friction force from a steady-speed motor torque (paper 001 Eq. 15): F = 2π·η·T/p (N).
 ///
 /// At steady speed the motor torque T (N·m) only overcomes friction, and a screw of lead p (m)

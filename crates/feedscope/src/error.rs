@@ -1,0 +1,84 @@
+//! What an error means to its caller, whatever its domain: [`ErrorKind`].
+//!
+//! Every error enum of feedscope (this crate, `feedscope-io`, `feedscope-store`) has a
+//! `kind()` method returning one of these, so that a front end decides on the kind alone (the
+//! CLI maps it to its exit code; a server would map it to a status) instead of listing error
+//! types.
+//!
+//! ```
+//! use feedscope::ErrorKind;
+//! use feedscope::stribeck::StribeckError;
+//! assert_eq!(StribeckError::NoMotion.kind(), ErrorKind::BadInput);
+//! ```
+use crate::estimate::EstimateError;
+use crate::ident::IdentError;
+use crate::order::OrderError;
+use crate::profile::ProfileError;
+
+/// The class of an error, for a caller that must decide what to do with it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// What the user gave is wrong and the message says what: a file's content, a parameter,
+    /// measurement data that do not allow the analysis, a file or test that does not exist.
+    BadInput,
+    /// A file, database or device could not be read or written although it exists
+    /// (permissions, a full disk, a lock held too long).
+    Io,
+    /// A failure that the input does not explain (an engine's internal error).
+    Internal,
+}
+
+impl ErrorKind {
+    /// The kind of an operating-system error met while reading or writing something the user
+    /// named: a missing file is the user's input ([`ErrorKind::BadInput`]), anything else is
+    /// [`ErrorKind::Io`].
+    pub fn of_io(error: &std::io::Error) -> Self {
+        if error.kind() == std::io::ErrorKind::NotFound {
+            ErrorKind::BadInput
+        } else {
+            ErrorKind::Io
+        }
+    }
+}
+
+// The four impls below belong beside their enums; they sit here while those modules are being
+// split into files (issue 12), and move there afterwards.
+
+impl EstimateError {
+    /// Always [`ErrorKind::BadInput`]: every variant says why these data (or parameters) give
+    /// no estimate.
+    pub fn kind(&self) -> ErrorKind {
+        ErrorKind::BadInput
+    }
+}
+
+impl IdentError {
+    /// Always [`ErrorKind::BadInput`]: the trace does not identify the parameters, or a
+    /// parameter is invalid.
+    pub fn kind(&self) -> ErrorKind {
+        ErrorKind::BadInput
+    }
+}
+
+impl OrderError {
+    /// [`ErrorKind::Internal`] for a failure of the FFT library, else
+    /// [`ErrorKind::BadInput`] (too few or non-finite samples, an invalid parameter).
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            OrderError::Fft(_) => ErrorKind::Internal,
+            _ => ErrorKind::BadInput,
+        }
+    }
+}
+
+impl ProfileError {
+    /// As the spectrum's error for [`ProfileError::Spectrum`], else [`ErrorKind::BadInput`]
+    /// (the stroke or the parameters do not allow the fit).
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            ProfileError::Spectrum(e) => e.kind(),
+            _ => ErrorKind::BadInput,
+        }
+    }
+}

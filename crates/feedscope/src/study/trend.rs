@@ -1,0 +1,125 @@
+//! Trends of an axis: every indicator's series against its baseline, ordered as a report
+//! reads them, and the diagnosis in words.
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use crate::history::{
+    assess, diagnose, BaselineSpec, HistoryError, Indicator, IndicatorTrend, Point, Threshold,
+    TrendParams,
+};
+
+use super::StudyError;
+
+/// One indicator's series in time order, each point with the id its store gave the test.
+pub type IndicatorSeries = Vec<(i64, Point)>;
+
+/// Settings of [`axis_trends`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrendStudyParams {
+    /// Baseline: mean and σ of the first N tests of each indicator; with a reference test, μ₀
+    /// is its value and σ the scatter of these N. Default 5.
+    pub baseline_tests: usize,
+    /// Alarm levels by indicator key; an indicator without one has none.
+    pub thresholds: BTreeMap<String, Threshold>,
+}
+
+impl Default for TrendStudyParams {
+    fn default() -> Self {
+        Self {
+            baseline_tests: 5,
+            thresholds: BTreeMap::new(),
+        }
+    }
+}
+
+/// The trends of an axis and its diagnosis.
+#[derive(Debug, Clone, Serialize)]
+pub struct AxisTrendStudy {
+    /// One per indicator with enough tests: the identified parameters (F_s, F_c, σ, v_s, J),
+    /// then the mean friction along the travel (by direction, then position), then the
+    /// components.
+    pub trends: Vec<IndicatorTrend>,
+    /// Keys with too few tests for a baseline, or not known to this version.
+    pub skipped: Vec<String>,
+    /// Diagnosis sentences ([`diagnose`]).
+    pub diagnosis: Vec<String>,
+}
+
+/// Trend every indicator series of an axis ([`assess`]) and diagnose them ([`diagnose`]).
+///
+/// `series` maps indicator keys ([`Indicator::name`]) to their points; `reference` is the id
+/// of the axis's reference test, whose value then is the baseline mean.
+///
+/// # Errors
+/// [`StudyError::Trend`] when a series cannot be assessed for a reason other than too few
+/// tests (those are listed in [`AxisTrendStudy::skipped`]).
+pub fn axis_trends(
+    series: &BTreeMap<String, IndicatorSeries>,
+    reference: Option<i64>,
+    params: &TrendStudyParams,
+) -> Result<AxisTrendStudy, StudyError> {
+    let mut trends = Vec::new();
+    let mut skipped = Vec::new();
+    for (name, s) in series {
+        let Some(ind) = Indicator::parse(name) else {
+            skipped.push(name.clone());
+            continue;
+        };
+        let pts: Vec<Point> = s.iter().map(|(_, p)| *p).collect();
+        let baseline = match reference.and_then(|r| s.iter().position(|(id, _)| *id == r)) {
+            Some(index) => BaselineSpec::Reference {
+                index,
+                spread_count: params.baseline_tests.min(pts.len()),
+            },
+            None => BaselineSpec::FirstN {
+                count: params.baseline_tests,
+            },
+        };
+        let trend_params = TrendParams {
+            baseline,
+            ..TrendParams::default()
+        };
+        let th = params.thresholds.get(name).copied().unwrap_or_default();
+        match assess(&ind, &pts, &trend_params, &th) {
+            Ok(t) => trends.push(t),
+            Err(HistoryError::TooFewPoints { .. }) => skipped.push(name.clone()),
+            Err(source) => {
+                return Err(StudyError::Trend {
+                    indicator: name.clone(),
+                    source,
+                })
+            }
+        }
+    }
+    let rank = |i: &Indicator| match i {
+        Indicator::StaticFriction => 0,
+        Indicator::CoulombFriction => 1,
+        Indicator::Viscous => 2,
+        Indicator::StribeckVelocity => 3,
+        Indicator::Inertia => 4,
+        Indicator::MeanFriction { .. } => 5,
+        Indicator::Component { .. } => 6,
+    };
+    let start = |i: &Indicator| match i {
+        Indicator::MeanFriction { start_mm, .. } => *start_mm,
+        _ => 0.0,
+    };
+    // Stable: within a rank, names (direction first) stay in order; intervals by position.
+    trends.sort_by(|a, b| {
+        rank(&a.indicator)
+            .cmp(&rank(&b.indicator))
+            .then_with(|| {
+                let (da, db) = (a.indicator.name(), b.indicator.name());
+                let dir = |n: &str| n.split('/').nth(1).map(str::to_string);
+                dir(&da).cmp(&dir(&db))
+            })
+            .then(start(&a.indicator).total_cmp(&start(&b.indicator)))
+    });
+    let diagnosis = diagnose(&trends);
+    Ok(AxisTrendStudy {
+        trends,
+        skipped,
+        diagnosis,
+    })
+}
