@@ -10,11 +10,6 @@
 //! use feedscope::stribeck::StribeckError;
 //! assert_eq!(StribeckError::NoMotion.kind(), ErrorKind::BadInput);
 //! ```
-use crate::estimate::EstimateError;
-use crate::ident::IdentError;
-use crate::order::OrderError;
-use crate::profile::ProfileError;
-
 /// The class of an error, for a caller that must decide what to do with it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
@@ -38,47 +33,6 @@ impl ErrorKind {
             ErrorKind::BadInput
         } else {
             ErrorKind::Io
-        }
-    }
-}
-
-// The four impls below belong beside their enums; they sit here while those modules are being
-// split into files (issue 12), and move there afterwards.
-
-impl EstimateError {
-    /// Always [`ErrorKind::BadInput`]: every variant says why these data (or parameters) give
-    /// no estimate.
-    pub fn kind(&self) -> ErrorKind {
-        ErrorKind::BadInput
-    }
-}
-
-impl IdentError {
-    /// Always [`ErrorKind::BadInput`]: the trace does not identify the parameters, or a
-    /// parameter is invalid.
-    pub fn kind(&self) -> ErrorKind {
-        ErrorKind::BadInput
-    }
-}
-
-impl OrderError {
-    /// [`ErrorKind::Internal`] for a failure of the FFT library, else
-    /// [`ErrorKind::BadInput`] (too few or non-finite samples, an invalid parameter).
-    pub fn kind(&self) -> ErrorKind {
-        match self {
-            OrderError::Fft(_) => ErrorKind::Internal,
-            _ => ErrorKind::BadInput,
-        }
-    }
-}
-
-impl ProfileError {
-    /// As the spectrum's error for [`ProfileError::Spectrum`], else [`ErrorKind::BadInput`]
-    /// (the stroke or the parameters do not allow the fit).
-    pub fn kind(&self) -> ErrorKind {
-        match self {
-            ProfileError::Spectrum(e) => e.kind(),
-            _ => ErrorKind::BadInput,
         }
     }
 }

@@ -1019,3 +1019,11 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
 
 #[cfg(test)]
 mod tests;
+
+impl EstimateError {
+    /// Always [`crate::ErrorKind::BadInput`]: every variant says why these data (or parameters) give
+    /// no estimate.
+    pub fn kind(&self) -> crate::ErrorKind {
+        crate::ErrorKind::BadInput
+    }
+}

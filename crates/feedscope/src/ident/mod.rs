@@ -206,3 +206,11 @@ fn check_params(p: &IdentParams) -> Result<(), IdentError> {
 
 #[cfg(test)]
 mod tests;
+
+impl IdentError {
+    /// Always [`crate::ErrorKind::BadInput`]: the trace does not identify the parameters, or a
+    /// parameter is invalid.
+    pub fn kind(&self) -> crate::ErrorKind {
+        crate::ErrorKind::BadInput
+    }
+}

@@ -80,3 +80,14 @@ pub enum OrderError {
 
 #[cfg(test)]
 mod tests;
+
+impl OrderError {
+    /// [`crate::ErrorKind::Internal`] for a failure of the FFT library, else
+    /// [`crate::ErrorKind::BadInput`] (too few or non-finite samples, an invalid parameter).
+    pub fn kind(&self) -> crate::ErrorKind {
+        match self {
+            OrderError::Fft(_) => crate::ErrorKind::Internal,
+            _ => crate::ErrorKind::BadInput,
+        }
+    }
+}

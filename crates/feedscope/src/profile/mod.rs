@@ -190,3 +190,14 @@ pub enum ProfileError {
 
 #[cfg(test)]
 mod tests;
+
+impl ProfileError {
+    /// As the spectrum's error for [`ProfileError::Spectrum`], else [`crate::ErrorKind::BadInput`]
+    /// (the stroke or the parameters do not allow the fit).
+    pub fn kind(&self) -> crate::ErrorKind {
+        match self {
+            ProfileError::Spectrum(e) => e.kind(),
+            _ => crate::ErrorKind::BadInput,
+        }
+    }
+}
