@@ -416,3 +416,31 @@ fn help_is_stable() {
     assert!(o.status.success());
     insta::assert_snapshot!("estimate_help", stdout(&o));
 }
+
+/// Found by fuzzing: printing into a closed pipe (`feedscope estimate ... | head -1`) panicked
+/// with exit 101 after the outputs were written. The reader leaving is not an error: exit 0, no
+/// panic message, the outputs complete.
+#[test]
+fn closed_stdout_ends_quietly() {
+    let d = tempfile::tempdir().unwrap();
+    setup(d.path(), good_long_trace().as_bytes());
+    let mut c = feedscope(d.path());
+    c.args([
+        "estimate",
+        "trace.csv",
+        "--axis",
+        "axis.toml",
+        "-o",
+        "f.csv",
+    ])
+    .stdout(std::process::Stdio::piped())
+    .stderr(std::process::Stdio::piped());
+    let mut child = c.spawn().unwrap();
+    // Close the read end before the child prints its table.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(d.path().join("f.json").exists() && d.path().join("f.svg").exists());
+}
