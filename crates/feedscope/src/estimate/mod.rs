@@ -124,6 +124,13 @@ impl Default for EstimateParams {
     }
 }
 
+/// Grid points a stroke may always have: 2^22 (200 MB of results), 4096 leads at 1024 points
+/// per lead, e.g. 4 m of a 1 mm lead, however sparsely it was sampled.
+pub const MAX_GRID_POINTS_FLOOR: usize = 1 << 22;
+/// Beyond the floor, grid points allowed per position sample (a stroke of 10 M samples may
+/// have 41 G points' worth of travel only if that many samples justify it).
+pub const MAX_GRID_POINTS_PER_SAMPLE: usize = 4096;
+
 /// Why estimation failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -184,6 +191,30 @@ pub enum EstimateError {
         channel: &'static str,
         /// The spline's complaint.
         error: SplineError,
+    },
+    /// The resampling grid of a stroke would be far larger than the stroke's samples justify
+    /// (positions in the wrong unit, or a lead far too small): refused before allocating.
+    #[error(
+        "stroke {stroke}: {length_mm:.4e} mm of travel at {samples_per_lead} points per lead of \
+         {lead_mm} mm would be {points} grid points for {samples} position samples (at most \
+         {limit}); check lead_mm in the axis file and the unit of the trace's position column"
+    )]
+    GridTooLarge {
+        /// Stroke number (0-based).
+        stroke: usize,
+        /// Travel of the stroke (mm).
+        length_mm: f64,
+        /// The axis lead (mm).
+        lead_mm: f64,
+        /// Resampled points per lead.
+        samples_per_lead: u32,
+        /// Grid points the stroke would need.
+        points: f64,
+        /// Position samples of the stroke.
+        samples: usize,
+        /// The bound: the larger of [`MAX_GRID_POINTS_FLOOR`] and
+        /// [`MAX_GRID_POINTS_PER_SAMPLE`] per position sample.
+        limit: usize,
     },
     /// A result came out NaN or infinite.
     #[error("stroke {stroke}: {quantity} is not finite at position {position_mm} mm")]
@@ -615,6 +646,21 @@ pub fn estimate_stroke(
         Direction::Forward => ((z_a / step).ceil() as i64, (z_b / step).floor() as i64),
         Direction::Backward => ((z_a / step).floor() as i64, (z_b / step).ceil() as i64),
     };
+    // Bound the grid before allocating six arrays of it: positions in µm read as mm, or a
+    // lead of 1e-5 mm, would ask for gigabytes from a few kilobytes of trace.
+    let points = ((z_b - z_a).abs() / step).floor() + 1.0;
+    let limit = MAX_GRID_POINTS_FLOOR.max(MAX_GRID_POINTS_PER_SAMPLE * ts.len());
+    if !(points <= limit as f64) {
+        return Err(EstimateError::GridTooLarge {
+            stroke: index,
+            length_mm: (z_b - z_a).abs() * 1e3,
+            lead_mm: axis.lead_mm,
+            samples_per_lead: params.samples_per_lead,
+            points,
+            samples: ts.len(),
+            limit,
+        });
+    }
     let count = ((k_last - k_first) as f64 * s) as i64 + 1;
     let mut warnings = Vec::new();
     if count < 2 {

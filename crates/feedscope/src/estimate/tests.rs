@@ -217,3 +217,35 @@ fn strokes_without_effort_samples_are_named_as_such() {
         "{err}"
     );
 }
+
+/// Found by fuzzing: positions ×1e5 (or a lead of 1e-5 mm) made an 81 KB trace allocate
+/// ~16 GB. The grid is bounded before allocation and the error names the stroke and the cause.
+#[test]
+fn a_grid_far_beyond_the_samples_is_an_error() {
+    let m = Motion {
+        v0: 1e-3,
+        a: 0.0,
+        w: 1.0,
+    };
+    let (tr, ax) = trace(5.0, &m, 0.05, 30.0, 3);
+    // The same trace is fine at its true lead...
+    assert!(estimate(&tr, &ax, &EstimateParams::default()).is_ok());
+    // ...and at a lead of 1e-5 mm its 30 mm stroke would be 3e9 points.
+    let tiny = axis(1e-5);
+    match estimate(&tr, &tiny, &EstimateParams::default()) {
+        Err(EstimateError::GridTooLarge {
+            points,
+            limit,
+            samples,
+            ..
+        }) => {
+            assert!(points > 1e9, "{points}");
+            assert_eq!(limit, MAX_GRID_POINTS_FLOOR.max(4096 * samples));
+        }
+        other => panic!("{other:?}"),
+    }
+    let msg = estimate(&tr, &tiny, &EstimateParams::default())
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("lead_mm") && msg.contains("stroke 0"), "{msg}");
+}
