@@ -4,11 +4,11 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use feedscope::axis::AxisParams;
-use feedscope::estimate::{estimate, Direction, EstimateParams, StrokeFriction};
-use feedscope::order::{SegmentSpec, SpectrumAnalyzer};
-use feedscope::profile::{
-    analyze_stroke, fit_piecewise, order_scan_table, AnalysisParams, StrokeAnalysis, StrokeView,
-    DEFAULT_SCAN_MAX_ORDER,
+use feedscope::estimate::{Direction, StrokeFriction};
+use feedscope::order::SegmentSpec;
+use feedscope::profile::{AnalysisParams, StrokeAnalysis};
+use feedscope::study::{
+    analyze_strokes, analyze_trace, AnalyzeStudy, AnalyzeStudyParams, StudyError,
 };
 use feedscope::trace::GlitchParams;
 use feedscope_io::friction_csv;
@@ -59,7 +59,7 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub segment: usize,
     /// Resampling points per lead when estimating from a trace.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = AnalyzeStudyParams::default().estimate.samples_per_lead)]
     pub samples_per_lead: u32,
     /// What to print on stdout.
     #[arg(long, value_enum, default_value_t = super::estimate::Format::Text)]
@@ -99,28 +99,61 @@ struct Conventions {
     amplitude: &'static str,
 }
 
-fn load_strokes(args: &Args, axis: &AxisParams) -> Result<(Vec<StrokeFriction>, String)> {
+/// Read the input (the friction CSV of `estimate`, or a trace to estimate) and analyse it: one
+/// library call, [`analyze_strokes`] or [`analyze_trace`].
+fn load_and_analyze(
+    args: &Args,
+    axis: &AxisParams,
+    params: &AnalyzeStudyParams,
+) -> Result<(AnalyzeStudy, String)> {
     let source = args.input.display().to_string();
-    if friction_csv::is_friction_csv(&args.input)? {
-        return Ok((friction_csv::read(&args.input, axis.lead_m())?, source));
-    }
-    let (trace, report) = read_trace_file_with(
-        &args.input,
-        &ReadOptions::default(),
-        &GlitchParams::for_axis(axis),
-    )?;
-    crate::output::print_read_warnings(&source, &report);
-    let params = EstimateParams {
-        samples_per_lead: args.samples_per_lead,
-        ..EstimateParams::default()
+    let pb = std::cell::OnceCell::new();
+    let progress = |done: usize, total: usize| {
+        pb.get_or_init(|| crate::output::bar(total as u64, "analyze"))
+            .set_position(done as u64);
     };
-    let est = estimate(&trace, axis, &params)?;
-    Ok((est.strokes, source))
+    let study = if friction_csv::is_friction_csv(&args.input)? {
+        let strokes = friction_csv::read(&args.input, axis.lead_m())?;
+        analyze_strokes(strokes, axis, params, &progress)
+    } else {
+        let (trace, report) = read_trace_file_with(
+            &args.input,
+            &ReadOptions::default(),
+            &GlitchParams::for_axis(axis),
+        )?;
+        crate::output::print_read_warnings(&source, &report);
+        analyze_trace(&trace, axis, params, &progress)
+    };
+    if let Some(pb) = pb.get() {
+        pb.finish_and_clear();
+    }
+    // The failing step's own error with the context `analyze` has always given it: the same
+    // messages and error chain (hence exit codes) as when the loop lived here.
+    let study = study.map_err(|e| match e {
+        StudyError::Stroke {
+            stroke,
+            direction,
+            start_mm,
+            end_mm,
+            source,
+        } => anyhow::Error::new(source).context(format!(
+            "stroke {stroke} ({direction}, {start_mm:.1} to {end_mm:.1} mm)"
+        )),
+        StudyError::SinglePolynomial { source, .. } => {
+            anyhow::Error::new(source).context("single-polynomial fit")
+        }
+        StudyError::OrderScanTable(e) => anyhow::Error::new(e),
+        StudyError::Estimate(e) => anyhow::Error::new(e),
+        e => anyhow::Error::new(e),
+    })?;
+    Ok((study, source))
 }
 
 pub fn run(args: Args) -> Result<()> {
     let axis = feedscope_io::axis::load(&args.axis)?;
-    let mut params = AnalysisParams::default();
+    let mut study_params = AnalyzeStudyParams::default();
+    study_params.estimate.samples_per_lead = args.samples_per_lead;
+    let params = &mut study_params.analysis;
     if let (Some(b), Some(o)) = (&args.breaks, &args.orders) {
         if o.len() != b.len() + 1 {
             return Err(BadInput(format!(
@@ -153,35 +186,14 @@ pub fn run(args: Args) -> Result<()> {
         }
         params.spectrum.segments = SegmentSpec::LengthMm { length_mm: l };
     }
-    let (strokes, source) = load_strokes(&args, &axis)?;
-    let lead = axis.lead_m();
-    let views: Vec<StrokeView> = strokes
-        .iter()
-        .map(|s| StrokeView::from_estimate(s, lead))
-        .collect();
-    let pb = crate::output::bar(views.len() as u64, "analyze");
-    let mut analyzer = SpectrumAnalyzer::new();
-    let mut analyses: Vec<StrokeAnalysis> = Vec::with_capacity(views.len());
-    let mut singles = Vec::with_capacity(views.len());
-    for (s, v) in strokes.iter().zip(&views) {
-        let a = analyze_stroke(v, &axis, &params, &mut analyzer).with_context(|| {
-            format!(
-                "stroke {} ({}, {:.1} to {:.1} mm)",
-                s.summary.stroke,
-                s.summary.direction.as_str(),
-                s.summary.start_mm,
-                s.summary.end_mm
-            )
-        })?;
-        // The single polynomial of the best order in the Table 2 scan (paper's dotted line).
-        let single = fit_piecewise(v.position_m, v.friction_n, &[], &[a.order_scan.best_order])
-            .context("single-polynomial fit")?;
-        singles.push(single);
-        analyses.push(a);
-        pb.inc(1);
-    }
-    pb.finish_and_clear();
-    let table = order_scan_table(&views, params.scan_max_order.max(DEFAULT_SCAN_MAX_ORDER))?;
+    let (study, source) = load_and_analyze(&args, &axis, &study_params)?;
+    let params = &study_params.analysis;
+    let AnalyzeStudy {
+        strokes,
+        analyses,
+        single_polynomials: singles,
+        order_scan_table: table,
+    } = &study;
 
     // Render everything before anything is written.
     std::fs::create_dir_all(&args.out)
@@ -189,12 +201,12 @@ pub fn run(args: Args) -> Result<()> {
     let report = Report {
         source,
         axis: &axis,
-        params: &params,
+        params,
         order_scan_table: table.clone(),
         strokes: strokes
             .iter()
-            .zip(&analyses)
-            .zip(&singles)
+            .zip(analyses)
+            .zip(singles)
             .map(|((s, a), single)| StrokeReport {
                 stroke: s.summary.stroke,
                 direction: s.summary.direction,
@@ -218,14 +230,14 @@ pub fn run(args: Args) -> Result<()> {
         },
     };
     let json = serde_json::to_string_pretty(&report)?;
-    let svgs = plots(&strokes, &analyses, &singles, args.segment)?;
+    let svgs = plots(strokes, analyses, singles, args.segment)?;
 
     let mut fcsv = AtomicFile::create(&args.out.join("friction.csv"))?;
-    friction_csv::write_analyzed(fcsv.writer(), &strokes, &analyses)?;
+    friction_csv::write_analyzed(fcsv.writer(), strokes, analyses)?;
     let mut comp = String::from(
         "stroke,direction,segment,start_mm,end_mm,order,amplitude_n,floor_n,cause,trusted\n",
     );
-    for (s, a) in strokes.iter().zip(&analyses) {
+    for (s, a) in strokes.iter().zip(analyses) {
         for c in &a.fluctuation.components {
             let sp = a
                 .fluctuation
@@ -269,7 +281,7 @@ pub fn run(args: Args) -> Result<()> {
     match args.format {
         super::estimate::Format::Json => println!("{json}"),
         super::estimate::Format::Text => {
-            print_summary(&strokes, &analyses, &table);
+            print_summary(strokes, analyses, table);
             eprintln!("wrote analysis.json, friction.csv, components.csv, order_scan.csv and");
             eprintln!("  {} plots to {}", svgs.len(), args.out.display());
         }

@@ -9,6 +9,7 @@
 //! | stroke test (paper 000): estimate → IAFV and spectra → indicators | [`stroke_test`] | [`StrokeStudyParams`] | [`StrokeTest`] |
 //! | triangle test (paper 002): identification → indicators | [`triangle_test`] | [`TriangleStudyParams`] | [`TriangleTest`] |
 //! | either, by [`TestKind`] | [`analyze_test`] | [`TestStudyParams`] | [`TestAnalysis`] |
+//! | friction along the travel (paper 000 Section 4.1): IAFV, spectra, Table 2 of estimated strokes | [`analyze_strokes`] ([`analyze_trace`] from a trace) | [`AnalyzeStudyParams`] | [`AnalyzeStudy`] |
 //! | friction map and Stribeck fits of a test set (paper 000 Section 4.2) | [`map_study`] | [`MapStudyParams`] | [`MapStudy`] |
 //! | trends and diagnosis of an axis's indicator series | [`axis_trends`] | [`TrendStudyParams`] | [`AxisTrendStudy`] |
 //!
@@ -53,11 +54,13 @@ use crate::profile::ProfileError;
 use crate::trace::Trace;
 use crate::ErrorKind;
 
+mod analyze;
 mod map;
 mod stroke;
 mod trend;
 mod triangle;
 
+pub use analyze::{analyze_strokes, analyze_trace, AnalyzeStudy, AnalyzeStudyParams};
 pub use map::{map_grid, map_study, MapStudy, MapStudyParams};
 pub use stroke::{
     stroke_test, Curves, HeatmapData, IntervalMean, ProfileCurve, StrokeComponent,
@@ -80,9 +83,26 @@ pub enum StudyError {
         stroke: usize,
         /// `forward` or `backward`.
         direction: &'static str,
+        /// Where the stroke starts (mm).
+        start_mm: f64,
+        /// Where it ends (mm).
+        end_mm: f64,
         /// Why.
         source: ProfileError,
     },
+    /// The single polynomial of a stroke's best scanned order could not be fitted.
+    #[error("single-polynomial fit of order {order} to stroke {stroke}: {source}")]
+    SinglePolynomial {
+        /// Stroke number (as the estimate numbers them).
+        stroke: usize,
+        /// Polynomial order.
+        order: usize,
+        /// Why.
+        source: ProfileError,
+    },
+    /// Table 2 (the order scan averaged per direction) could not be computed.
+    #[error("order scan table: {0}")]
+    OrderScanTable(ProfileError),
     /// The one-test identification of a triangle test failed.
     #[error("identification failed: {0}")]
     Identify(#[from] IdentError),
@@ -132,7 +152,10 @@ impl StudyError {
     pub fn kind(&self) -> ErrorKind {
         match self {
             StudyError::Estimate(e) => e.kind(),
-            StudyError::Stroke { source, .. } => source.kind(),
+            StudyError::Stroke { source, .. } | StudyError::SinglePolynomial { source, .. } => {
+                source.kind()
+            }
+            StudyError::OrderScanTable(e) => e.kind(),
             StudyError::Identify(e) => e.kind(),
             StudyError::Map(e) | StudyError::Position(e) | StudyError::TableFeed(e) => e.kind(),
             StudyError::Trend { source, .. } => source.kind(),

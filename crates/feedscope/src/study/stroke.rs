@@ -156,6 +156,8 @@ pub fn stroke_test(
             StudyError::Stroke {
                 stroke: s.summary.stroke,
                 direction: d.as_str(),
+                start_mm: s.summary.start_mm,
+                end_mm: s.summary.end_mm,
                 source,
             }
         })?;

@@ -332,6 +332,8 @@ fn error_kinds_of_the_study_steps() {
     let stroke = |source| StudyError::Stroke {
         stroke: 1,
         direction: "forward",
+        start_mm: 10.0,
+        end_mm: 50.0,
         source,
     };
     assert_eq!(
@@ -346,5 +348,244 @@ fn error_kinds_of_the_study_steps() {
         indicator: "fs_n".into(),
         source: crate::history::HistoryError::InvalidParams("lambda".into()),
     };
+    assert_eq!(e.kind(), ErrorKind::BadInput);
+}
+
+/// The axis of the profile module's example: 10 mm lead.
+fn lead_10mm_axis() -> crate::axis::AxisParams {
+    crate::axis::AxisParams::parse(
+        "lead_mm = 10\ntable_mass_kg = 425\ninertia_kgm2 = 0.004\n\
+         damping_nms_per_rad = 0.002\ntorque_constant_nm_per_a = 1.82\n",
+        crate::axis::ConfigFormat::Toml,
+        "axis.toml",
+    )
+    .unwrap()
+}
+
+/// A synthetic stroke over 20-220 mm (20 leads of 10 mm) at 256 samples per lead:
+/// F = sign · (70 + 0.05·(z − 120) + `amp`·cos(2π·`order`·z / lead)) N with z in mm, the sign
+/// of paper 000 Eq. 5 (negative backward).
+fn ripple_stroke(number: usize, direction: Direction, order: f64, amp: f64) -> StrokeFriction {
+    let mut s = stroke(400.0);
+    let n = 20 * 256 + 1;
+    let step = 0.01 / 256.0;
+    let forward = direction == Direction::Forward;
+    let z: Vec<f64> = (0..n)
+        .map(|k| {
+            let i = if forward { k } else { n - 1 - k };
+            0.02 + i as f64 * step
+        })
+        .collect();
+    let sign = if forward { 1.0 } else { -1.0 };
+    let two_pi = 2.0 * std::f64::consts::PI;
+    s.friction_n = z
+        .iter()
+        .map(|&z| {
+            sign * (70.0 + 0.05 * (z * 1e3 - 120.0) + amp * (two_pi * order * z / 0.01).cos())
+        })
+        .collect();
+    s.position_m = z;
+    s.time_s = (0..n).map(|k| k as f64 * 1e-3).collect();
+    s.velocity_m_s = vec![sign * 400.0 / 60e3; n];
+    s.accel_m_s2 = vec![0.0; n];
+    s.effort = vec![0.0; n];
+    let (start_mm, end_mm) = if forward {
+        (20.0, 220.0)
+    } else {
+        (220.0, 20.0)
+    };
+    s.summary.stroke = number;
+    s.summary.direction = direction;
+    s.summary.start_mm = start_mm;
+    s.summary.end_mm = end_mm;
+    s.summary.length_mm = 200.0;
+    s.summary.position_samples = n;
+    s.summary.effort_samples = n;
+    s.summary.points = n;
+    s
+}
+
+#[test]
+fn analyze_strokes_finds_the_ripple_order_and_amplitude() {
+    // Forward: 5 N at order 1 (shaft 1x); backward: 3 N at order 2 (shaft 2x). Both sit on a
+    // bin of the whole-stroke spectrum (20 leads: bins 0.05 orders apart), so the window's
+    // coherent-gain correction reads the amplitude back up to the leakage of what the IAFV
+    // leaves of the slow trend, far below 0.1 % of it: 0.5 % is the tolerance.
+    let strokes = vec![
+        ripple_stroke(1, Direction::Forward, 1.0, 5.0),
+        ripple_stroke(2, Direction::Backward, 2.0, 3.0),
+    ];
+    let axis = lead_10mm_axis();
+    let calls = std::cell::RefCell::new(Vec::new());
+    let s = analyze_strokes(
+        strokes,
+        &axis,
+        &AnalyzeStudyParams::default(),
+        &|done, total| calls.borrow_mut().push((done, total)),
+    )
+    .unwrap();
+    assert_eq!(calls.into_inner(), vec![(0, 2), (1, 2), (2, 2)]);
+    assert_eq!(s.strokes.len(), 2);
+    assert_eq!(s.analyses.len(), 2);
+    assert_eq!(s.single_polynomials.len(), 2);
+    for (k, (order, amp, cause)) in [(1.0, 5.0, "shaft 1x"), (2.0, 3.0, "shaft 2x")]
+        .into_iter()
+        .enumerate()
+    {
+        let a = &s.analyses[k];
+        assert_eq!(a.direction, s.strokes[k].summary.direction);
+        let whole: Vec<_> = a
+            .fluctuation
+            .components
+            .iter()
+            .filter(|c| c.segment == "all")
+            .collect();
+        let c = whole
+            .iter()
+            .max_by(|a, b| a.amplitude_n.total_cmp(&b.amplitude_n))
+            .unwrap_or_else(|| panic!("stroke {k}: no component"));
+        // The peak's order is interpolated between bins: a fifth of the bin spacing.
+        assert!((c.order - order).abs() < 0.01, "stroke {k}: {c:?}");
+        assert!(
+            (c.amplitude_n - amp).abs() < 0.005 * amp,
+            "stroke {k}: {c:?}"
+        );
+        assert_eq!(c.cause, cause);
+        assert!(c.trusted);
+        // The FFS is the ripple: its RMS is amp/√2 (the IAFV takes the trend, not the ripple,
+        // except within about a lead of the ends where the fit bends towards it).
+        let rms = (a.ffs_n.iter().map(|x| x * x).sum::<f64>() / a.ffs_n.len() as f64).sqrt();
+        assert!(
+            (rms - amp / 2f64.sqrt()).abs() < 0.05 * amp,
+            "stroke {k}: FFS RMS {rms}"
+        );
+        // A single polynomial of order ≤ 8 cannot follow 20 or 40 ripple cycles: its residual
+        // standard deviation is the ripple's RMS, amp/√2, within 5 %.
+        let single = &s.single_polynomials[k];
+        assert_eq!(single.poly.orders, vec![a.order_scan.best_order]);
+        assert!(
+            (single.residual_std_n - amp / 2f64.sqrt()).abs() < 0.05 * amp / 2f64.sqrt(),
+            "stroke {k}: {}",
+            single.residual_std_n
+        );
+        // and it is the row of the scan for that order.
+        let row = a
+            .order_scan
+            .rows
+            .iter()
+            .find(|r| r.order == a.order_scan.best_order)
+            .unwrap();
+        assert!((row.residual_std_n - single.residual_std_n).abs() < 1e-6 * amp);
+    }
+    // Table 2: orders 1-8, forward from stroke 1 only, backward from stroke 2 only.
+    let t = &s.order_scan_table;
+    assert_eq!((t.forward_strokes, t.backward_strokes), (1, 1));
+    assert_eq!(
+        t.rows.iter().map(|r| r.order).collect::<Vec<_>>(),
+        (1..=8).collect::<Vec<_>>()
+    );
+    for (r, (f, b)) in t.rows.iter().zip(
+        s.analyses[0]
+            .order_scan
+            .rows
+            .iter()
+            .zip(&s.analyses[1].order_scan.rows),
+    ) {
+        assert_eq!(r.forward_std_n, Some(f.residual_std_n));
+        assert_eq!(r.backward_std_n, Some(b.residual_std_n));
+    }
+}
+
+#[test]
+fn analyze_strokes_table_runs_to_at_least_eight_orders() {
+    let mut p = AnalyzeStudyParams::default();
+    assert_eq!(p.estimate.samples_per_lead, 1024);
+    assert_eq!(p.table_max_order(), 8);
+    p.analysis.scan_max_order = 3;
+    assert_eq!(p.table_max_order(), 8);
+    let s = analyze_strokes(
+        vec![ripple_stroke(1, Direction::Forward, 1.0, 5.0)],
+        &lead_10mm_axis(),
+        &p,
+        &|_, _| {},
+    )
+    .unwrap();
+    assert_eq!(s.analyses[0].order_scan.rows.len(), 3);
+    assert_eq!(s.order_scan_table.rows.len(), 8);
+    assert!(s
+        .order_scan_table
+        .rows
+        .iter()
+        .all(|r| r.backward_std_n.is_none()));
+    p.analysis.scan_max_order = 10;
+    assert_eq!(p.table_max_order(), 10);
+}
+
+#[test]
+fn analyze_strokes_names_the_stroke_that_fails() {
+    // A breakpoint outside the stroke's travel (20-220 mm).
+    let mut p = AnalyzeStudyParams::default();
+    p.analysis.profile.breaks_mm = Some(vec![500.0]);
+    p.analysis.profile.orders = Some(vec![2, 2]);
+    let e = analyze_strokes(
+        vec![ripple_stroke(4, Direction::Backward, 1.0, 5.0)],
+        &lead_10mm_axis(),
+        &p,
+        &|_, _| {},
+    )
+    .unwrap_err();
+    match &e {
+        StudyError::Stroke {
+            stroke,
+            direction,
+            start_mm,
+            end_mm,
+            source,
+        } => {
+            assert_eq!((*stroke, *direction), (4, "backward"));
+            assert!((start_mm - 220.0).abs() < 1e-12 && (end_mm - 20.0).abs() < 1e-12);
+            assert!(
+                matches!(
+                    source,
+                    crate::profile::ProfileError::BreakpointOutsideStroke { .. }
+                ),
+                "{source}"
+            );
+        }
+        e => panic!("{e}"),
+    }
+    assert_eq!(e.kind(), ErrorKind::BadInput);
+}
+
+#[test]
+fn analyze_trace_estimates_then_analyses_both_directions() {
+    let (trace, axis) = stroke_trace();
+    let s = analyze_trace(&trace, &axis, &AnalyzeStudyParams::default(), &|_, _| {}).unwrap();
+    assert_eq!(s.strokes.len(), 2);
+    assert_eq!(s.analyses.len(), 2);
+    assert_eq!(s.single_polynomials.len(), 2);
+    let dirs: Vec<Direction> = s.strokes.iter().map(|x| x.summary.direction).collect();
+    assert_eq!(dirs, vec![Direction::Forward, Direction::Backward]);
+    for (x, a) in s.strokes.iter().zip(&s.analyses) {
+        assert_eq!(a.iafv_n.len(), x.position_m.len());
+        assert_eq!(a.direction, x.summary.direction);
+    }
+    assert_eq!(
+        (
+            s.order_scan_table.forward_strokes,
+            s.order_scan_table.backward_strokes
+        ),
+        (1, 1)
+    );
+    // Estimation errors keep their kind.
+    let bad = AnalyzeStudyParams {
+        estimate: crate::estimate::EstimateParams {
+            samples_per_lead: 0,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let e = analyze_trace(&trace, &axis, &bad, &|_, _| {}).unwrap_err();
+    assert!(matches!(e, StudyError::Estimate(_)), "{e}");
     assert_eq!(e.kind(), ErrorKind::BadInput);
 }
