@@ -650,7 +650,7 @@ pub fn estimate_stroke(
     // lead of 1e-5 mm, would ask for gigabytes from a few kilobytes of trace.
     let points = ((z_b - z_a).abs() / step).floor() + 1.0;
     let limit = MAX_GRID_POINTS_FLOOR.max(MAX_GRID_POINTS_PER_SAMPLE * ts.len());
-    if !(points <= limit as f64) {
+    if points.is_nan() || points > limit as f64 {
         return Err(EstimateError::GridTooLarge {
             stroke: index,
             length_mm: (z_b - z_a).abs() * 1e3,
