@@ -2,6 +2,26 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// `println!` that returns the write error instead of panicking: a closed stdout
+/// (`feedscope ... | head -1`) then reaches `cmd::run` as a broken pipe, which ends the
+/// command quietly with exit 0. Use inside functions returning `anyhow::Result`.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)?
+    }};
+}
+pub(crate) use outln;
+
+/// `print!` with the same error handling as [`outln!`].
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout().lock(), $($arg)*)?
+    }};
+}
+pub(crate) use out;
+
 use anyhow::{Context, Result};
 
 /// A file written under a temporary name and renamed into place on [`AtomicFile::commit`];

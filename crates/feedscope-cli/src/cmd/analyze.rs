@@ -1,4 +1,5 @@
 //! `feedscope analyze`: where along the travel friction changes, and which part does it.
+use crate::output::outln;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -279,9 +280,9 @@ pub fn run(args: Args) -> Result<()> {
     }
 
     match args.format {
-        super::estimate::Format::Json => println!("{json}"),
+        super::estimate::Format::Json => outln!("{json}"),
         super::estimate::Format::Text => {
-            print_summary(strokes, analyses, table);
+            print_summary(strokes, analyses, table)?;
             eprintln!("wrote analysis.json, friction.csv, components.csv, order_scan.csv and");
             eprintln!("  {} plots to {}", svgs.len(), args.out.display());
         }
@@ -293,12 +294,12 @@ fn print_summary(
     strokes: &[StrokeFriction],
     analyses: &[StrokeAnalysis],
     table: &feedscope::profile::OrderScanTable,
-) {
-    println!("Residual standard deviation of single polynomials (N), paper 000 Table 2:");
-    println!("{:>6}  {:>10}  {:>10}", "order", "forward", "backward");
+) -> Result<()> {
+    outln!("Residual standard deviation of single polynomials (N), paper 000 Table 2:");
+    outln!("{:>6}  {:>10}  {:>10}", "order", "forward", "backward");
     for r in &table.rows {
         let f = |v: Option<f64>| v.map(|x| format!("{x:.2}")).unwrap_or("-".into());
-        println!(
+        outln!(
             "{:>6}  {:>10}  {:>10}",
             r.order,
             f(r.forward_std_n),
@@ -307,7 +308,7 @@ fn print_summary(
     }
     for (s, a) in strokes.iter().zip(analyses) {
         let p = &a.iafv.poly;
-        println!(
+        outln!(
             "\nstroke {} ({}, {:.0} mm/min): IAFV intervals {} with orders {:?}; linear trend \
              {:+.3} N/mm",
             s.summary.stroke,
@@ -321,15 +322,15 @@ fn print_summary(
             p.orders,
             a.iafv.linear.slope_n_per_mm
         );
-        println!("  significant components over the whole stroke:");
-        println!("  {:>8}  {:>12}  cause", "order", "amplitude (N)");
+        outln!("  significant components over the whole stroke:");
+        outln!("  {:>8}  {:>12}  cause", "order", "amplitude (N)");
         for c in a
             .fluctuation
             .components
             .iter()
             .filter(|c| c.segment == "all")
         {
-            println!(
+            outln!(
                 "  {:>8.3}  {:>12.2}  {}{}",
                 c.order,
                 c.amplitude_n,
@@ -345,6 +346,7 @@ fn print_summary(
             eprintln!("warning: stroke {}: {w}", s.summary.stroke);
         }
     }
+    Ok(())
 }
 
 /// All SVG plots: (file name, content).

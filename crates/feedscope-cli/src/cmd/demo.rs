@@ -1,4 +1,5 @@
 //! `feedscope demo`: the whole job on a built-in simulated lathe Z axis.
+use crate::output::outln;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
@@ -102,7 +103,7 @@ pub fn run(args: Args) -> Result<()> {
     write_atomic(&args.out.join("friction.json"), json.as_bytes())?;
     write_atomic(&args.out.join("friction.svg"), svg.as_bytes())?;
 
-    print_table(&outcome.summary);
+    print_table(&outcome.summary)?;
     // How close the estimate is to the truth (the twin knows it).
     let text = std::fs::read_to_string(&csv)?;
     let mut acc = [(0.0f64, 0usize); 2];
@@ -116,14 +117,14 @@ pub fn run(args: Args) -> Result<()> {
     }
     for (k, name) in ["forward", "backward"].iter().enumerate() {
         if acc[k].1 > 0 {
-            println!(
+            outln!(
                 "{name}: RMS difference from the true friction {:.2} N over {} points",
                 (acc[k].0 / acc[k].1 as f64).sqrt(),
                 acc[k].1
             );
         }
     }
-    println!("\nwrote to {}/:", args.out.display());
+    outln!("\nwrote to {}/:", args.out.display());
     for (f, what) in [
         ("trace.csv", "the simulated controller trace (long layout)"),
         ("axis.toml", "the axis parameters"),
@@ -136,7 +137,7 @@ pub fn run(args: Args) -> Result<()> {
         ("friction.json", "per-stroke summary"),
         ("friction.svg", "plot: estimated vs true friction"),
     ] {
-        println!("  {f:<14} {what}");
+        outln!("  {f:<14} {what}");
     }
     if args.weeks > 0 {
         weekly_history(&args.out, args.seed, args.weeks)?;
@@ -310,7 +311,7 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
     let store = super::history::open_store(&db)?;
     let thresholds = super::history::load_thresholds(Some(&th_path))?;
     let t = super::history::axis_trends(&store, "demo lathe", "Z", 5, &thresholds)?;
-    println!(
+    outln!(
         "\ncondition history of the demo axis ({} tests):",
         t.tests.len()
     );
@@ -323,7 +324,7 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
                 | Indicator::StribeckVelocity
         )
     }) {
-        println!(
+        outln!(
             "  {:<24} {:>+6.1} % since the baseline  {}{}",
             x.indicator.label(),
             x.change_percent,
@@ -334,11 +335,11 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
             ))
         );
     }
-    println!("diagnosis:");
+    outln!("diagnosis:");
     for s in &t.diagnosis {
-        println!("  - {s}");
+        outln!("  - {s}");
     }
-    println!("\nwrote to {}/:", out.display());
+    outln!("\nwrote to {}/:", out.display());
     for (f, what) in [
         ("weekly/", "the simulated weekly test traces"),
         (
@@ -348,7 +349,7 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
         ("thresholds.toml", "alarm levels used by the report"),
         ("report.html", "the condition report: open it in a browser"),
     ] {
-        println!("  {f:<16} {what}");
+        outln!("  {f:<16} {what}");
     }
     Ok(())
 }

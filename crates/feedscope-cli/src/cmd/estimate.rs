@@ -1,4 +1,5 @@
 //! `feedscope estimate`: friction along the travel from a trace file.
+use crate::output::outln;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -332,14 +333,32 @@ pub fn estimate_to_csv(
 }
 
 /// The stroke table for people.
-pub fn print_table(summary: &Summary) {
-    println!(
+pub fn print_table(summary: &Summary) -> Result<()> {
+    outln!(
         "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>9}  {:>8}  {:>8}  {:>7}",
-        "stroke", "dir", "feed", "from", "to", "mean F_f", "floor", "cut-off", "samples", "max"
+        "stroke",
+        "dir",
+        "feed",
+        "from",
+        "to",
+        "mean F_f",
+        "floor",
+        "cut-off",
+        "samples",
+        "max"
     );
-    println!(
+    outln!(
         "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>9}  {:>8}  {:>8}  {:>7}",
-        "", "", "(mm/min)", "(mm)", "(mm)", "(N)", "(N RMS)", "(Hz)", "per lead", "order"
+        "",
+        "",
+        "(mm/min)",
+        "(mm)",
+        "(mm)",
+        "(N)",
+        "(N RMS)",
+        "(Hz)",
+        "per lead",
+        "order"
     );
     for s in &summary.strokes {
         let kind = if s.kind == MoveKind::Measuring {
@@ -347,7 +366,7 @@ pub fn print_table(summary: &Summary) {
         } else {
             format!("  ({})", s.kind.as_str())
         };
-        println!(
+        outln!(
             "{:>6}  {:<8}  {:>10.1}  {:>9.2}  {:>9.2}  {:>12.2}  {:>9.2}  {:>8}  {:>8.1}  {:>7.1}{kind}",
             s.stroke,
             s.direction.as_str(),
@@ -368,10 +387,10 @@ pub fn print_table(summary: &Summary) {
         .filter(|m| m.strokes.is_empty())
         .collect();
     if !left_out.is_empty() {
-        println!();
-        println!("moves left out (no friction estimated):");
+        outln!();
+        outln!("moves left out (no friction estimated):");
         for m in left_out {
-            println!(
+            outln!(
                 "  {:<11}  {:<8}  {:>10.1} mm/min  {:>9.2} → {:>9.2} mm  t = {:.3}-{:.3} s{}",
                 m.kind.as_str(),
                 m.direction.as_str(),
@@ -404,6 +423,7 @@ pub fn print_table(summary: &Summary) {
             summary.ignored_channels.join(", ")
         );
     }
+    Ok(())
 }
 
 /// `auto`, `off` or a cut-off in Hz.
@@ -519,7 +539,7 @@ pub fn run(args: Args) -> Result<()> {
             writeln!(out, "{json}")?;
         }
         Format::Text => {
-            print_table(&outcome.summary);
+            print_table(&outcome.summary)?;
             eprintln!(
                 "wrote {} ({} strokes), {}{}",
                 args.output.display(),

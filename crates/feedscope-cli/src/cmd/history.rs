@@ -1,4 +1,5 @@
 //! `feedscope history`: store every test of an axis and follow its indicators over time.
+use crate::output::outln;
 use std::collections::BTreeMap;
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
@@ -345,15 +346,15 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
         AddOutcome::Duplicate(id) => (id, true),
     };
     match a.format {
-        Format::Json => println!(
+        Format::Json => outln!(
             "{}",
             serde_json::json!({"id": id, "duplicate": dup, "indicators": t.indicators})
         ),
         Format::Text => {
             if dup {
-                println!("already stored as test {id} (same trace content); nothing added");
+                outln!("already stored as test {id} (same trace content); nothing added");
             } else {
-                println!(
+                outln!(
                     "stored test {id}: {} {} {} at {}, {} indicators",
                     t.machine,
                     t.axis,
@@ -550,7 +551,7 @@ fn remove(db: &Path, a: &RemoveArgs) -> Result<()> {
         }
     }
     store.remove(a.id).map_err(|e| store_err(e, db))?;
-    println!("removed test {}", a.id);
+    outln!("removed test {}", a.id);
     Ok(())
 }
 
@@ -697,7 +698,7 @@ pub fn run(args: Args) -> Result<()> {
         HistoryCommand::Reference(a) => {
             let mut store = open_store(&db)?;
             store.set_reference(a.id).map_err(|e| store_err(e, &db))?;
-            println!("test {} is now the reference of its axis", a.id);
+            outln!("test {} is now the reference of its axis", a.id);
             Ok(())
         }
         HistoryCommand::Check => {
@@ -706,7 +707,7 @@ pub fn run(args: Args) -> Result<()> {
                 StoreError::Corrupt { .. } => anyhow::Error::new(CheckFailed(e)),
                 e => store_err(e, &db),
             })?;
-            println!(
+            outln!(
                 "{}: integrity ok, schema version {}",
                 db.display(),
                 store.schema_version()?

@@ -1,5 +1,6 @@
 //! `feedscope import`: real controller exports (MTConnect SHDR logs, UMich mill CSV) into
 //! feedscope trace CSV.
+use crate::output::out;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -140,7 +141,7 @@ fn run_shdr(a: ShdrArgs) -> Result<()> {
     let model = DeviceModel::read(&a.devices)?;
     let log = read_shdr(&a.log, &model, a.device.as_deref())?;
     if a.list {
-        print!("{}", list_shdr(&log, &model));
+        out!("{}", list_shdr(&log, &model));
         return Ok(());
     }
     let axis = a
@@ -162,7 +163,7 @@ fn run_shdr(a: ShdrArgs) -> Result<()> {
     };
     let imported = log.to_trace(&model, axis, &params)?;
     write_output(&imported, out)?;
-    print!("{}", summary(&imported, out));
+    out!("{}", summary(&imported, out));
     warn(&imported);
     Ok(())
 }
@@ -173,7 +174,7 @@ fn run_umich(a: UmichArgs) -> Result<()> {
     }
     let table = read_umich(&a.file)?;
     if a.list {
-        print!("{}", list_umich(&table, a.rate_hz));
+        out!("{}", list_umich(&table, a.rate_hz));
         return Ok(());
     }
     let axis = a
@@ -193,7 +194,7 @@ fn run_umich(a: UmichArgs) -> Result<()> {
     };
     let imported = table.to_trace(axis, &params)?;
     write_output(&imported, out)?;
-    print!("{}", summary(&imported, out));
+    out!("{}", summary(&imported, out));
     warn(&imported);
     Ok(())
 }
