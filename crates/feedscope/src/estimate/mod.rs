@@ -876,7 +876,8 @@ fn newton_in_piece(p: &crate::spline::Piece, z1: f64, target: f64) -> Option<(f6
         return None;
     }
     let inv_d1 = 1.0 / d1_0;
-    let mut du_prev = f64::INFINITY;
+    // No contraction estimate before the second step (NaN fails every comparison).
+    let mut du_prev = f64::NAN;
     for _ in 0..16 {
         let du = (z - target) * inv_d1;
         u -= du;

@@ -249,3 +249,27 @@ fn a_grid_far_beyond_the_samples_is_an_error() {
         .to_string();
     assert!(msg.contains("lead_mm") && msg.contains("stroke 0"), "{msg}");
 }
+
+/// t(z) inside one piece is solved to the stated tolerance, not just stepped once: a curved
+/// piece (slope 1 to 1.225, as a ramp's), where the linear start is 1e-2 off and one chord
+/// step still 1e-3. (A piece whose slope varies several-fold is left to `invert_in`.)
+#[test]
+fn newton_in_piece_converges_to_tolerance() {
+    let p = crate::spline::Piece {
+        x0: 2.0,
+        h: 0.5,
+        c0: 1.0,
+        c1: 1.0,
+        c2: 0.3,
+        c3: -0.1,
+    };
+    let z1 = p.eval(p.h).0;
+    for k in 1..20 {
+        let target = p.c0 + (z1 - p.c0) * k as f64 / 20.0;
+        let (u, d1, d2) = newton_in_piece(&p, z1, target).expect("monotone piece");
+        let (z, d1_at, d2_at) = p.eval(u);
+        // Steps stop below 1e-13 of the interval (slope ≈ 1), plus rounding.
+        assert!((z - target).abs() < 1e-12, "k {k}: z {z} target {target}");
+        assert_eq!((d1, d2), (d1_at, d2_at));
+    }
+}
