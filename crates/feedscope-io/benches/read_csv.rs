@@ -97,6 +97,7 @@ fn make_trace(n: usize) -> Trace {
         position_m: pos,
         effort: cur,
         effort_kind: EffortKind::CurrentA,
+        facts: Default::default(),
     }
 }
 

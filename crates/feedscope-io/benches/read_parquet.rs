@@ -49,6 +49,7 @@ fn make_trace(n: usize, sync: bool) -> Trace {
         position_m: pos,
         effort: cur,
         effort_kind: EffortKind::CurrentA,
+        facts: Default::default(),
     }
 }
 

@@ -485,6 +485,9 @@ fn unknown_summary(stroke: usize, direction: Direction, summary_name: &str) -> S
         position_cutoff_hz: None,
         settle_margin_s: 0.0,
         noise_floor: Default::default(),
+        mean_friction_se_n: None,
+        effort_quantum_n: 0.0,
+        verdict: None,
         program_line: None,
         programmed_feed_mm_min: None,
         warnings: vec![format!(

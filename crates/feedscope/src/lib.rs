@@ -10,6 +10,7 @@
 
 pub mod axis;
 pub mod calendar;
+pub mod diag;
 pub mod dynamics;
 pub mod error;
 pub mod estimate;
@@ -28,5 +29,6 @@ pub mod stroke;
 pub mod study;
 pub mod trace;
 pub mod units;
+pub mod verdict;
 
 pub use error::ErrorKind;

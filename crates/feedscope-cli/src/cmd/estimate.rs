@@ -7,12 +7,13 @@ use anyhow::{Context, Result};
 use clap::ValueEnum;
 use feedscope::axis::AxisParams;
 use feedscope::estimate::{
-    estimate_map_streaming, EstimateParams, Move, MoveKind, PositionSmoothing, StrokeFriction,
-    StrokeSummary, TimeOfPosition, Zone,
+    estimate_map_streaming, EffortSign, EstimateParams, Move, MoveKind, PositionSmoothing,
+    StrokeFriction, StrokeSummary, TimeOfPosition, Zone,
 };
 use feedscope::spline::EndCondition;
 use feedscope::trace::{EffortKind, GlitchParams, Trace};
 use feedscope::units::feed_m_s_to_mm_min;
+use feedscope::verdict::{DataVerdict, FrictionSign};
 use feedscope_io::friction_csv;
 use feedscope_io::trace::{read_trace_file_with, DroppedSample, ReadOptions, ReadReport};
 use serde::Serialize;
@@ -34,6 +35,27 @@ pub enum TimeArg {
     Invert,
     /// Interpolate the knots (z, t) with a spline, as paper 000 does.
     KnotSpline,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum SignArg {
+    /// As the trace's `# fact effort_signed` says (written by `feedscope import`); signed
+    /// otherwise, with a warning when a never-negative effort suggests a magnitude.
+    Auto,
+    /// A signed current or torque: friction as Eq. 5.
+    Signed,
+    /// A magnitude (drive load): friction takes the sign of the direction of motion.
+    Magnitude,
+}
+
+impl From<SignArg> for EffortSign {
+    fn from(a: SignArg) -> Self {
+        match a {
+            SignArg::Auto => EffortSign::Auto,
+            SignArg::Signed => EffortSign::Signed,
+            SignArg::Magnitude => EffortSign::Magnitude,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -108,6 +130,9 @@ pub struct Args {
     /// Which effort channel to use when the file has both current and torque.
     #[arg(long, value_enum)]
     pub effort: Option<EffortArg>,
+    /// Whether the effort carries its sign.
+    #[arg(long, value_enum, default_value_t = SignArg::Auto)]
+    pub effort_sign: SignArg,
     /// What to print on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     pub format: Format,
@@ -118,6 +143,8 @@ pub struct Args {
 pub struct Summary {
     pub source: String,
     pub effort: EffortKind,
+    /// What the recording supports (see `feedscope::verdict`).
+    pub verdict: DataVerdict,
     pub axis: AxisParams,
     pub params: EstimateParams,
     pub strokes: Vec<StrokeSummary>,
@@ -316,6 +343,7 @@ pub fn estimate_to_csv(
         summary: Summary {
             source: source.to_string(),
             effort: trace.effort_kind,
+            verdict: outline.verdict.clone(),
             axis: axis.clone(),
             params: params.clone(),
             strokes: summaries,
@@ -335,26 +363,29 @@ pub fn estimate_to_csv(
 /// The stroke table for people.
 pub fn print_table(summary: &Summary) -> Result<()> {
     outln!(
-        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>9}  {:>8}  {:>8}  {:>7}",
+        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>8}  {:>9}  {:>8}  {:>8}  {:>7}  {}",
         "stroke",
         "dir",
         "feed",
         "from",
         "to",
         "mean F_f",
+        "±",
         "floor",
         "cut-off",
         "samples",
-        "max"
+        "max",
+        "supports"
     );
     outln!(
-        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>9}  {:>8}  {:>8}  {:>7}",
+        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>8}  {:>9}  {:>8}  {:>8}  {:>7}",
         "",
         "",
         "(mm/min)",
         "(mm)",
         "(mm)",
         "(N)",
+        "(N, SE)",
         "(N RMS)",
         "(Hz)",
         "per lead",
@@ -367,20 +398,25 @@ pub fn print_table(summary: &Summary) -> Result<()> {
             format!("  ({})", s.kind.as_str())
         };
         outln!(
-            "{:>6}  {:<8}  {:>10.1}  {:>9.2}  {:>9.2}  {:>12.2}  {:>9.2}  {:>8}  {:>8.1}  {:>7.1}{kind}",
+            "{:>6}  {:<8}  {:>10.1}  {:>9.2}  {:>9.2}  {:>12.2}  {:>8}  {:>9.2}  {:>8}  {:>8.1}  {:>7.1}  {}{kind}",
             s.stroke,
             s.direction.as_str(),
             s.feed_mm_min,
             s.start_mm,
             s.end_mm,
             s.mean_friction_n,
+            s.mean_friction_se_n
+                .map_or_else(|| "-".to_string(), |e| format!("{e:.2}")),
             s.noise_floor.total_n,
             s.position_cutoff_hz
                 .map_or_else(|| "-".to_string(), |f| format!("{f:.1}")),
             s.raw_samples_per_lead,
-            s.max_order
+            s.max_order,
+            s.verdict.as_ref().map_or("-", |v| v.support.as_str())
         );
     }
+    outln!();
+    outln!("{}", summary.verdict.headline());
     let left_out: Vec<&Move> = summary
         .moves
         .iter()
@@ -408,6 +444,12 @@ pub fn print_table(summary: &Summary) -> Result<()> {
     for n in &summary.notes {
         eprintln!("note: {n}");
     }
+    for r in &summary.verdict.reasons {
+        eprintln!("verdict: {r}");
+    }
+    for (code, (count, first)) in verdict_reasons(&summary.strokes) {
+        eprintln!("verdict: {count} stroke(s) limited by {code}; e.g. {first}");
+    }
     for s in &summary.strokes {
         for w in &s.warnings {
             eprintln!("warning: stroke {}: {w}", s.stroke);
@@ -424,6 +466,23 @@ pub fn print_table(summary: &Summary) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The binding reasons of the strokes' verdicts, by code: how many strokes and the first
+/// stroke's message.
+fn verdict_reasons(
+    strokes: &[StrokeSummary],
+) -> std::collections::BTreeMap<String, (usize, String)> {
+    let mut by_code = std::collections::BTreeMap::new();
+    for s in strokes {
+        for r in s.verdict.iter().flat_map(|v| &v.reasons) {
+            by_code
+                .entry(r.code.clone())
+                .or_insert((0, format!("stroke {}: {}", s.stroke, r.message)))
+                .0 += 1;
+        }
+    }
+    by_code
 }
 
 /// `auto`, `off` or a cut-off in Hz.
@@ -444,6 +503,7 @@ fn params_from(args: &Args) -> EstimateParams {
     EstimateParams {
         position_smoothing: args.position_cutoff_hz,
         include_rapids: args.include_rapids,
+        effort_sign: args.effort_sign.into(),
         samples_per_lead: args.samples_per_lead,
         end_condition: match args.end_condition {
             EndArg::NotAKnot => EndCondition::NotAKnot,
@@ -520,8 +580,17 @@ pub fn run(args: Args) -> Result<()> {
     let svg = match &plot_path {
         Some(_) => {
             let name = axis.name.as_deref().unwrap_or("axis");
+            let v = &outcome.summary.verdict;
             Some(outcome.plot.svg(
-                &format!("Friction along the travel ({name})"),
+                &format!(
+                    "Friction along the travel ({name}); data support: {}{}",
+                    v.support.as_str(),
+                    if v.friction_sign == FrictionSign::FromDirection {
+                        "; sign from direction"
+                    } else {
+                        ""
+                    }
+                ),
                 vec![],
                 vec![],
             )?)

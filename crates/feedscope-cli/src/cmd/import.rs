@@ -9,7 +9,7 @@ use clap::ValueEnum;
 use feedscope_io::import::devices::{Category, DeviceModel};
 use feedscope_io::import::shdr::{read_shdr, ShdrConvertParams, ShdrLog, TimeOrigin};
 use feedscope_io::import::umich::{read_umich, CurrentColumn, UmichParams, UmichTable};
-use feedscope_io::import::{write_trace_csv, ChannelReport, Imported};
+use feedscope_io::import::{check_informative, write_trace_csv, ChannelReport, Imported};
 
 use super::BadInput;
 use crate::output::AtomicFile;
@@ -81,6 +81,10 @@ pub struct ShdrArgs {
     /// List the axes and data items of the log instead of converting.
     #[arg(long, conflicts_with = "output")]
     pub list: bool,
+    /// Write the trace even when its effort is constant (e.g. zero in every row) or its
+    /// position never moves; without it that is an error (exit 2).
+    #[arg(long)]
+    pub keep_empty_channels: bool,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
@@ -111,6 +115,10 @@ pub struct UmichArgs {
     /// List the axes and columns instead of converting.
     #[arg(long, conflicts_with = "output")]
     pub list: bool,
+    /// Write the trace even when its current is constant (e.g. zero in every row) or its
+    /// position never moves; without it that is an error (exit 2).
+    #[arg(long)]
+    pub keep_empty_channels: bool,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
@@ -162,6 +170,9 @@ fn run_shdr(a: ShdrArgs) -> Result<()> {
         },
     };
     let imported = log.to_trace(&model, axis, &params)?;
+    if !a.keep_empty_channels {
+        check_informative(&imported)?;
+    }
     write_output(&imported, out)?;
     out!("{}", summary(&imported, out));
     warn(&imported);
@@ -193,6 +204,9 @@ fn run_umich(a: UmichArgs) -> Result<()> {
         },
     };
     let imported = table.to_trace(axis, &params)?;
+    if !a.keep_empty_channels {
+        check_informative(&imported)?;
+    }
     write_output(&imported, out)?;
     out!("{}", summary(&imported, out));
     warn(&imported);

@@ -54,6 +54,19 @@ pub mod umich;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ImportError {
+    /// A converted channel holds no information (zero or one constant value; no motion).
+    #[error(
+        "{source_name}: {channel} {what}: nothing to estimate friction from (check the axis \
+         and the data item; --keep-empty-channels writes the trace anyway)"
+    )]
+    NoInformation {
+        /// The file.
+        source_name: String,
+        /// The channel and where it came from.
+        channel: String,
+        /// What is wrong with it.
+        what: String,
+    },
     /// The file could not be opened or read.
     #[error("{source_name}: cannot read: {error}")]
     Io {
@@ -526,6 +539,44 @@ pub fn write_trace_csv<W: Write>(imported: &Imported, mut w: W) -> std::io::Resu
         writeln!(w, "{line}")?;
     }
     write_csv(&imported.trace, w, Layout::Long)
+}
+
+/// Refuse a trace whose position never moves or whose effort is one constant value (zero in
+/// every row is the common case: an axis whose current the controller does not report).
+///
+/// # Errors
+/// [`ImportError::NoInformation`] naming the channel and its source.
+pub fn check_informative(imported: &Imported) -> Result<(), ImportError> {
+    let no_info =
+        |channel: &ChannelReport, column: &str, what: String| ImportError::NoInformation {
+            source_name: imported.report.source_name.clone(),
+            channel: format!("{column} (from {})", channel.source_key),
+            what,
+        };
+    let t = &imported.trace;
+    if let Some(&p0) = t.position_m.value.first() {
+        if t.position_m.value.iter().all(|&p| p == p0) {
+            return Err(no_info(
+                &imported.report.position,
+                "position_mm",
+                format!(
+                    "never moves (all {} samples are {} mm)",
+                    t.position_m.len(),
+                    p0 * 1e3
+                ),
+            ));
+        }
+    }
+    if let Some(&e0) = t.effort.value.first() {
+        if t.effort.value.iter().all(|&e| e == e0) {
+            return Err(no_info(
+                &imported.report.effort,
+                t.effort_kind.column(),
+                format!("is {e0} in all {} samples", t.effort.len()),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Rough warnings common to every source: quantisation, sampling resolution, no motion.

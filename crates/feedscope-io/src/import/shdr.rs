@@ -29,7 +29,7 @@ use std::path::Path;
 use super::devices::{Category, DeviceModel, Shape};
 use super::{read_text, shorten, split_lines, ChannelReport, ImportError, ImportReport, Imported};
 use super::{LineEndings, Timestamp};
-use feedscope::trace::{Channel, EffortKind, Trace, MIN_SAMPLES};
+use feedscope::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 
 /// Observations of one key.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -696,10 +696,47 @@ impl ShdrLog {
                 t0_lag / 3600.0
             ));
         }
+        let unsigned = effort.value.iter().all(|&v| v >= 0.0);
+        // A spindle that turns anywhere in the log means the program may cut: the load then
+        // holds process forces besides friction.
+        let spindle = self
+            .series
+            .iter()
+            .filter(|(_, s)| {
+                s.item.is_some_and(|k| {
+                    let t = dev.items[k].type_name.as_str();
+                    dev.items[k].category == Category::Sample
+                        && (t == "ROTARY_VELOCITY" || t == "SPINDLE_SPEED")
+                })
+            })
+            .filter_map(|(key, s)| {
+                let top = s
+                    .values
+                    .iter()
+                    .filter_map(|(_, v)| *v)
+                    .fold(0.0_f64, |m, v| m.max(v.abs()));
+                (top > 0.0).then(|| (key.clone(), top))
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((key, top)) = &spindle {
+            warnings.push(format!(
+                "a spindle turns in this log ({key} up to {top:.0}/min): the program may cut, so \
+                 the load may hold process forces besides friction; only mean levels are \
+                 reported as upper bounds"
+            ));
+        }
         let trace = Trace {
             position_m,
             effort,
             effort_kind: EffortKind::TorqueNm,
+            // What the log knows and the samples alone would not say: whole-percent load
+            // (a magnitude when never negative), pieced from several recordings.
+            facts: RecordingFacts {
+                effort_quantum: Some(scale / 100.0),
+                effort_signed: unsigned.then_some(false),
+                process_load: spindle.is_some().then_some(true),
+                recordings: Some(self.segments.len().max(1)),
+            },
         };
         let mut report = ImportReport {
             source_name: self.source_name.clone(),

@@ -13,7 +13,7 @@ use std::path::Path;
 
 use super::LineEndings;
 use super::{read_text, shorten, split_lines, ChannelReport, ImportError, ImportReport, Imported};
-use feedscope::trace::{Channel, EffortKind, Trace, MIN_SAMPLES};
+use feedscope::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 
 /// Which current column becomes `current_a`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -256,6 +256,12 @@ impl UmichTable {
             position_m,
             effort,
             effort_kind: EffortKind::CurrentA,
+            // Every run of this data set mills a wax block: the current holds cutting load.
+            facts: RecordingFacts {
+                process_load: Some(true),
+                recordings: Some(1),
+                ..RecordingFacts::default()
+            },
         };
         let mut report = ImportReport {
             source_name: self.source_name.clone(),

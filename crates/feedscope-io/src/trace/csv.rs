@@ -10,7 +10,7 @@ use std::fs::File;
 use std::io::{Read, Write};
 use std::path::Path;
 
-use feedscope::trace::{Channel, EffortKind, GlitchParams, Trace};
+use feedscope::trace::{Channel, EffortKind, GlitchParams, RecordingFacts, Trace};
 
 use super::format::Layout;
 use super::read::{
@@ -106,6 +106,9 @@ pub(super) fn parse_bytes(
 pub fn write_csv<W: Write>(trace: &Trace, w: W, layout: Layout) -> std::io::Result<()> {
     let mut w = std::io::BufWriter::new(w);
     let effort = trace.effort_kind.column();
+    for (key, value) in trace.facts.to_pairs() {
+        writeln!(w, "# fact {key} = {value}")?;
+    }
     match layout {
         Layout::Long => {
             writeln!(w, "time_s,channel,value")?;
@@ -320,6 +323,7 @@ struct BlockParser {
     tor: Channel,
     ignored_rows: u64,
     ignored_names: Vec<String>,
+    facts: RecordingFacts,
     bom_checked: bool,
     /// Bytes fed so far (for [`BlockParser::reserve_for_file`]).
     bytes_seen: u64,
@@ -347,6 +351,7 @@ impl BlockParser {
             tor: Channel::default(),
             ignored_rows: 0,
             ignored_names: Vec::new(),
+            facts: RecordingFacts::default(),
             bom_checked: false,
             bytes_seen: 0,
             reserved: false,
@@ -379,6 +384,15 @@ impl BlockParser {
             self.lines += 1;
             off = (line_end + 1).min(end);
             if line.is_empty() || line[0] == b'#' {
+                if let Some((key, value)) = fact_line(line) {
+                    self.facts
+                        .set(&key, &value)
+                        .map_err(|reason| TraceError::BadFact {
+                            source_name: self.name.clone(),
+                            line: self.lines,
+                            reason,
+                        })?;
+                }
                 continue;
             }
             self.header = Some(self.parse_header(line)?);
@@ -652,11 +666,21 @@ impl BlockParser {
                 position_m: self.pos,
                 effort,
                 effort_kind,
+                facts: self.facts,
             },
             report,
             csv_layout,
         ))
     }
+}
+
+/// The key and value of a `# fact KEY = VALUE` comment line (see
+/// [`feedscope::trace::RecordingFacts`]); `None` for any other comment.
+fn fact_line(line: &[u8]) -> Option<(String, String)> {
+    let text = std::str::from_utf8(line).ok()?;
+    let rest = text.strip_prefix('#')?.trim_start().strip_prefix("fact ")?;
+    let (key, value) = rest.split_once('=')?;
+    Some((key.trim().to_string(), value.trim().to_string()))
 }
 
 /// Put the file-global line number into an error raised with a piece-local one.

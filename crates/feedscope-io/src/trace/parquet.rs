@@ -16,10 +16,11 @@ use arrow_array::types::{Float32Type, Float64Type, Int32Type, Int64Type, Int8Typ
 use arrow_array::{Array, ArrayRef, DictionaryArray, Float64Array, Int8Array, RecordBatch};
 use arrow_array::{StringArray, StringViewArray};
 use arrow_schema::{DataType, Field, Schema};
-use feedscope::trace::{Channel, EffortKind, GlitchParams, Trace};
+use feedscope::trace::{Channel, EffortKind, GlitchParams, RecordingFacts, Trace};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::arrow::{ArrowWriter, ProjectionMask};
 use parquet::basic::Compression;
+use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
 use parquet::file::reader::ChunkReader;
 use parquet::schema::types::ColumnPath;
@@ -258,6 +259,24 @@ fn decode<R: ChunkReader + 'static>(
     };
     let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(corrupt)?;
     let total_rows = usize::try_from(builder.metadata().file_metadata().num_rows()).unwrap_or(0);
+    let mut facts = RecordingFacts::default();
+    for kv in builder
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .into_iter()
+        .flatten()
+    {
+        if let Some(key) = kv.key.strip_prefix(FACT_PREFIX) {
+            let value = kv.value.as_deref().unwrap_or("");
+            facts
+                .set(key, value)
+                .map_err(|reason| TraceError::Parquet {
+                    source_name: name.to_string(),
+                    reason: format!("key-value metadata `{}`: {reason}", kv.key),
+                })?;
+        }
+    }
     let (plan, roots) = plan(builder.schema(), name, opts)?;
     let mask = ProjectionMask::roots(builder.parquet_schema(), roots);
     let reader = builder
@@ -273,8 +292,13 @@ fn decode<R: ChunkReader + 'static>(
         })?;
         state.batch(&batch, &plan)?;
     }
-    state.finish(&plan, opts)
+    let (mut trace, report) = state.finish(&plan, opts)?;
+    trace.facts = facts;
+    Ok((trace, report))
 }
+
+/// Prefix of the key-value metadata that carry [`RecordingFacts`] (`feedscope.fact.KEY`).
+pub const FACT_PREFIX: &str = "feedscope.fact.";
 
 /// Find the columns, check their types, and choose the layout and the effort channel (the same
 /// rules as the CSV header). Returns the plan and the root columns to project.
@@ -823,6 +847,7 @@ impl<'n> State<'n> {
                 position_m: self.pos,
                 effort,
                 effort_kind,
+                facts: Default::default(),
             },
             ReadReport {
                 ignored_rows: self.ignored_rows,
@@ -921,6 +946,14 @@ pub fn write_parquet<W: Write + Send>(trace: &Trace, w: W, layout: Layout) -> st
         .set_compression(Compression::SNAPPY)
         .set_dictionary_enabled(false)
         .set_column_dictionary_enabled(ColumnPath::from("channel"), true)
+        .set_key_value_metadata(Some(
+            trace
+                .facts
+                .to_pairs()
+                .into_iter()
+                .map(|(k, v)| KeyValue::new(format!("{FACT_PREFIX}{k}"), v))
+                .collect(),
+        ))
         .build();
     let f64_col = |s: &[f64]| -> ArrayRef { Arc::new(Float64Array::from(s.to_vec())) };
     match layout {
@@ -1048,6 +1081,7 @@ mod tests {
             position_m: pos,
             effort: cur,
             effort_kind: EffortKind::CurrentA,
+            facts: Default::default(),
         }
     }
 

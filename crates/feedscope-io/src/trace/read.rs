@@ -21,6 +21,16 @@ pub enum TraceError {
         /// The operating system's error.
         error: std::io::Error,
     },
+    /// A `# fact KEY = VALUE` line names an unknown fact or a bad value.
+    #[error("{source_name}:{line}: {reason}")]
+    BadFact {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// What is wrong.
+        reason: String,
+    },
     /// The input has no header line (empty, or only comments).
     #[error("{source_name}: no header line found (the file is empty or holds only comments)")]
     Empty {

@@ -237,9 +237,14 @@ pub(crate) fn quantum(values: &[f64]) -> f64 {
 /// quantisation error of a channel that moves many quanta per sample), at least q²/12 (a
 /// slow quantised ramp's error is a sawtooth that the differences barely see).
 pub(crate) fn channel_variance(times: &[f64], values: &[f64]) -> f64 {
-    let s = robust_noise_std(times, values);
-    let q = quantum(values);
+    let (s, q) = channel_noise(times, values);
     (s * s).max(q * q / 12.0)
+}
+
+/// A channel's robust white-noise standard deviation ([`robust_noise_std`]) and its quantum
+/// ([`quantum`], 0 when unquantised), in the channel's unit.
+pub(crate) fn channel_noise(times: &[f64], values: &[f64]) -> (f64, f64) {
+    (robust_noise_std(times, values), quantum(values))
 }
 
 /// ∫₀^u x⁴/(1 + x⁴)² dx: c₅ for u → ∞ (Simpson's rule below u = 8, the tail in closed form

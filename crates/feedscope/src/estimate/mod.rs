@@ -39,6 +39,7 @@
 //!     position_m: Channel { time_s: t.clone(), value: z },
 //!     effort: Channel { time_s: t, value: vec![amps; 1200] },
 //!     effort_kind: EffortKind::CurrentA,
+//!     facts: Default::default(),
 //! };
 //! let est = estimate(&trace, &axis, &EstimateParams::default()).unwrap();
 //! assert_eq!(est.strokes.len(), 1);
@@ -55,8 +56,10 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::axis::AxisParams;
+use crate::diag::Diagnostic;
 use crate::spline::{CubicSpline, EndCondition, SplineError};
 use crate::trace::{EffortKind, Trace};
+use crate::verdict::{judge_stroke, DataVerdict, FrictionSign, StrokeEvidence, StrokeVerdict};
 pub use floor::NoiseFloor;
 pub use moves::{Move, MoveKind, ProgrammedMove};
 pub use segment::{MoveSpan, SegmentParams, StrokeSpan, Zone, ZoneKind};
@@ -89,6 +92,20 @@ pub enum PositionSmoothing {
     Off,
 }
 
+/// Whether the effort carries its sign (see [`crate::verdict::FrictionSign`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EffortSign {
+    /// As the trace's facts say ([`crate::trace::RecordingFacts::effort_signed`]); signed when
+    /// they say nothing (with a warning when a never-negative effort suggests a magnitude).
+    #[default]
+    Auto,
+    /// Signed current or torque: friction as Eq. 5.
+    Signed,
+    /// A magnitude (a drive load reading): friction takes the sign of the direction of motion.
+    Magnitude,
+}
+
 /// Estimation settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EstimateParams {
@@ -100,6 +117,8 @@ pub struct EstimateParams {
     pub time_of_position: TimeOfPosition,
     /// Position smoothing before differentiation. Default: chosen per stroke.
     pub position_smoothing: PositionSmoothing,
+    /// Whether the effort carries its sign. Default: [`EffortSign::Auto`].
+    pub effort_sign: EffortSign,
     /// Also estimate the steady parts of rapids and jogs (marked with their kind). Default
     /// false: only measuring strokes are estimated.
     pub include_rapids: bool,
@@ -117,6 +136,7 @@ impl Default for EstimateParams {
             end_condition: EndCondition::NotAKnot,
             time_of_position: TimeOfPosition::Invert,
             position_smoothing: PositionSmoothing::Auto,
+            effort_sign: EffortSign::Auto,
             include_rapids: false,
             program: Vec::new(),
             segment: SegmentParams::default(),
@@ -135,6 +155,20 @@ pub const MAX_GRID_POINTS_PER_SAMPLE: usize = 4096;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum EstimateError {
+    /// The effort is zero everywhere, or one value across strokes of both directions.
+    #[error(
+        "the effort channel `{channel}` holds no information: all {samples} samples are \
+         {value}; friction cannot be estimated from it (check the channel mapping or the \
+         axis chosen at import)"
+    )]
+    EffortWithoutInformation {
+        /// Channel name.
+        channel: &'static str,
+        /// Its one value.
+        value: f64,
+        /// Its samples.
+        samples: usize,
+    },
     /// No steady stroke was found.
     #[error(
         "no steady stroke found: the position never moves at a steady feed over at least \
@@ -249,8 +283,18 @@ pub struct StrokeSummary {
     pub start_time_s: f64,
     /// Time at the last resampled point (s).
     pub end_time_s: f64,
-    /// Mean friction over the stroke (N, signed as Eq. 5).
+    /// Mean friction over the stroke (N, signed as Eq. 5, or from the direction of motion when
+    /// the effort is a magnitude; see [`Estimate::verdict`]).
     pub mean_friction_n: f64,
+    /// Standard error of [`mean_friction_n`](Self::mean_friction_n) (N): the effort noise over
+    /// the raw effort samples, and the effort quantum's rounding, which need not average out:
+    /// sqrt(σ_F²/N_e + q_F²/12). `None` when not known (a friction CSV without its summary).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mean_friction_se_n: Option<f64>,
+    /// Resolution of the effort as force (N): the larger of the quantum found in the samples
+    /// and the one the recording's facts declare; 0 for an unquantised effort.
+    #[serde(default)]
+    pub effort_quantum_n: f64,
     /// RMS of friction minus its mean (N).
     pub friction_std_n: f64,
     /// Raw position samples in the stroke.
@@ -282,6 +326,10 @@ pub struct StrokeSummary {
     /// Programmed axis feed of that block (mm/min).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub programmed_feed_mm_min: Option<f64>,
+    /// What this stroke's data support ([`crate::verdict`]); `None` when not judged (a
+    /// friction CSV read without its summary).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub verdict: Option<StrokeVerdict>,
     /// Things a user should know about this stroke.
     pub warnings: Vec<String>,
 }
@@ -320,10 +368,12 @@ pub struct Estimate {
     pub skipped: Vec<String>,
     /// What the move classification wants a user to know (inferred rapids, program match).
     pub notes: Vec<String>,
+    /// What the recording supports, over all its strokes.
+    pub verdict: DataVerdict,
 }
 
 /// What [`estimate_streaming`] returns besides the strokes.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Outline {
     /// What lies between the strokes.
     pub zones: Vec<Zone>,
@@ -333,6 +383,8 @@ pub struct Outline {
     pub skipped: Vec<String>,
     /// Notes of the move classification.
     pub notes: Vec<String>,
+    /// What the recording supports, over all its strokes.
+    pub verdict: DataVerdict,
 }
 
 /// Estimate friction along the travel for every measuring stroke of a trace.
@@ -364,6 +416,7 @@ pub fn estimate(
         moves: outline.moves,
         skipped: outline.skipped,
         notes: outline.notes,
+        verdict: outline.verdict,
     })
 }
 
@@ -472,6 +525,98 @@ pub enum StrokeOutcome {
     Skipped(Skip),
 }
 
+/// An effort that is zero everywhere, or one constant value across strokes of both directions,
+/// holds no friction (a channel not wired, a drive that does not report it).
+fn check_effort_informative(trace: &Trace, planned: &Plan) -> Result<(), EstimateError> {
+    let v = &trace.effort.value;
+    let Some(&first) = v.first() else {
+        return Ok(());
+    };
+    let constant = v.iter().all(|&e| e == first);
+    let both = planned
+        .spans
+        .iter()
+        .any(|s| s.direction == Direction::Forward)
+        && planned
+            .spans
+            .iter()
+            .any(|s| s.direction == Direction::Backward);
+    if constant && (first == 0.0 || both) {
+        return Err(EstimateError::EffortWithoutInformation {
+            channel: trace.effort_kind.column(),
+            value: first,
+            samples: v.len(),
+        });
+    }
+    Ok(())
+}
+
+/// How the friction of `trace` gets its sign under `params`.
+pub fn friction_sign(trace: &Trace, params: &EstimateParams) -> FrictionSign {
+    let magnitude = match params.effort_sign {
+        EffortSign::Signed => false,
+        EffortSign::Magnitude => true,
+        EffortSign::Auto => trace.facts.effort_signed == Some(false),
+    };
+    if magnitude {
+        FrictionSign::FromDirection
+    } else {
+        FrictionSign::Signed
+    }
+}
+
+/// What limits a whole recording, from its facts and its samples (the per-stroke reasons are
+/// in each stroke's verdict).
+fn recording_reasons(
+    trace: &Trace,
+    params: &EstimateParams,
+    backward_positive: bool,
+) -> Vec<Diagnostic> {
+    let mut out = Vec::new();
+    let f = &trace.facts;
+    if friction_sign(trace, params) == FrictionSign::FromDirection {
+        out.push(Diagnostic::new(
+            "effort-unsigned",
+            "the effort is a magnitude: friction takes the sign of the direction of motion; \
+             a force that assists the motion (gravity on a vertical axis) cannot be told apart",
+        ));
+    } else if backward_positive && trace.effort.value.iter().all(|&e| e >= 0.0) {
+        out.push(Diagnostic::new(
+            "effort-maybe-unsigned",
+            "the effort is never negative and backward strokes have positive friction: if the \
+             effort is a magnitude (a drive load), say so with `--effort-sign magnitude` (or \
+             import it with `feedscope import`, which records it)",
+        ));
+    }
+    if let Some(q) = f.effort_quantum {
+        out.push(Diagnostic::new(
+            "effort-quantised",
+            format!(
+                "the effort is recorded in steps of {q:.4} {}: its rounding enters every \
+                 standard error",
+                match trace.effort_kind {
+                    EffortKind::CurrentA => "A",
+                    EffortKind::TorqueNm => "N·m",
+                }
+            ),
+        ));
+    }
+    if f.process_load == Some(true) {
+        out.push(Diagnostic::new(
+            "process-load",
+            "the recording is of production work: the effort may hold cutting load, so only \
+             each stroke's mean motor force is reported, as an upper bound of friction",
+        ));
+    }
+    if let Some(n) = f.recordings.filter(|&n| n > 1) {
+        out.push(Diagnostic::new(
+            "pieced-recording",
+            format!("the trace is pieced together from {n} recordings"),
+        ));
+    }
+    out
+}
+
 /// Force per unit of effort (N per A or N per N·m), Eq. 5's first term.
 fn effort_gain(axis: &AxisParams, kind: EffortKind) -> f64 {
     match kind {
@@ -517,14 +662,24 @@ pub fn estimate_stroke(
     let gain = effort_gain(axis, trace.effort_kind);
     let dir = span.direction;
     let s = dir.sign();
+    // A magnitude takes the sign of the motion; the noise terms use |gain|.
+    let force_gain = match friction_sign(trace, params) {
+        FrictionSign::Signed => gain,
+        FrictionSign::FromDirection => gain * s,
+    };
 
     // What the stroke's own samples say about their noise (floor module, step 1).
     let h = (t_hi - t_lo) / (ts.len() - 1) as f64;
     let ee_span = &trace.effort.value[e0..e1];
+    // The effort's resolution: what its samples show, or what the recording declares (a whole
+    // percent of load rounds however the signal moves), whichever is coarser.
+    let (effort_std, effort_q_seen) = floor::channel_noise(&te_all[e0..e1], ee_span);
+    let effort_q = effort_q_seen.max(trace.facts.effort_quantum.unwrap_or(0.0));
+    let effort_var = (effort_std * effort_std).max(effort_q * effort_q / 12.0);
     let noise = floor::SampleNoise {
         interval_s: h,
         position_var_m2: floor::channel_variance(ts, zs_raw),
-        effort_n: gain * floor::channel_variance(&te_all[e0..e1], ee_span).sqrt(),
+        effort_n: gain * effort_var.sqrt(),
     };
     let interp_quant = floor::interpolated_quantisation_n(m_eq, noise.position_var_m2, h);
     let choice = match params.position_smoothing {
@@ -690,6 +845,13 @@ pub fn estimate_stroke(
             position_cutoff_order: cutoff_hz.map(|f| f * lead / feed_m_s),
             settle_margin_s: margin_s,
             noise_floor: NoiseFloor::new(quantisation_n, noise.effort_n, inertia_n),
+            mean_friction_se_n: Some(
+                gain * (effort_std * effort_std / ee_span.len() as f64
+                    + effort_q * effort_q / 12.0)
+                    .sqrt(),
+            ),
+            effort_quantum_n: gain * effort_q,
+            verdict: None,
             program_line: None,
             programmed_feed_mm_min: None,
             warnings: Vec::new(),
@@ -758,7 +920,7 @@ pub fn estimate_stroke(
         };
         t_prev = t;
         let e = ecur.eval(t);
-        let f = gain * e - m_eq * a - b_eq * v;
+        let f = force_gain * e - m_eq * a - b_eq * v;
         if !f.is_finite() {
             return Err(EstimateError::NonFinite {
                 stroke: index,
@@ -834,19 +996,32 @@ pub fn estimate_stroke(
         .max(0.0)
         .sqrt();
     if fl.total_n > 0.1 * variation {
+        // With no variation left above the floor a percentage means nothing.
+        let share = if variation > 1e-3 * fl.total_n {
+            format!(
+                "is {:.0} % of the friction variation along this stroke ({variation:.2} N RMS)",
+                100.0 * fl.total_n / variation
+            )
+        } else {
+            "holds all of the friction variation along this stroke".to_string()
+        };
         warnings.push(format!(
             "predicted noise floor {:.2} N RMS (position quantisation {:.2}, effort noise \
-             {:.2}, inertia {:.2}) is {:.0} % of the friction variation along this stroke \
-             ({:.2} N RMS): the profile is only good to about ±{:.1} N",
+             {:.2}, inertia {:.2}) {share}: the profile is only good to about ±{:.1} N",
             fl.total_n,
             fl.quantisation_n,
             fl.effort_n,
             fl.inertia_n,
-            100.0 * fl.total_n / variation.max(1e-12),
-            variation,
             2.0 * fl.total_n
         ));
     }
+    sm.verdict = Some(judge_stroke(&StrokeEvidence {
+        length_leads: travel / lead,
+        max_order: sm.max_order,
+        floor_n: fl.total_n,
+        mean_n: mean,
+        process_load: trace.facts.process_load == Some(true),
+    }));
     sm.warnings = warnings;
     Ok(StrokeOutcome::Estimated(Box::new(out)))
 }
@@ -997,9 +1172,12 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
     mut sink: impl FnMut(T) -> Result<(), E>,
 ) -> Result<Outline, E> {
     let planned = plan(trace, axis, params)?;
+    check_effort_informative(trace, &planned)?;
     let mut skipped = Vec::new();
     let mut first_skip = None;
     let mut any = false;
+    let mut verdicts = Vec::new();
+    let mut any_backward_positive = false;
     let batch = batch.max(1);
     let label = |mut s: StrokeFriction, span: &StrokeSpan| {
         let m = &planned.moves[span.move_index];
@@ -1015,15 +1193,25 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
             .enumerate()
             .map(|(k, span)| {
                 estimate_stroke(trace, axis, params, base + k, span).map(|o| match o {
-                    StrokeOutcome::Estimated(s) => Ok(map(label(*s, span))),
+                    StrokeOutcome::Estimated(s) => {
+                        let s = label(*s, span);
+                        let seen = (
+                            s.summary.verdict.clone(),
+                            s.summary.direction == Direction::Backward
+                                && s.summary.mean_friction_n > 0.0,
+                        );
+                        Ok((seen, map(s)))
+                    }
                     StrokeOutcome::Skipped(why) => Err(why),
                 })
             })
             .collect();
         for (k, r) in results.into_iter().enumerate() {
             match r? {
-                Ok(t) => {
+                Ok(((verdict, backward_positive), t)) => {
                     any = true;
+                    verdicts.extend(verdict);
+                    any_backward_positive |= backward_positive;
                     sink(t)?;
                 }
                 Err(why) => {
@@ -1061,6 +1249,11 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
         moves: planned.moves,
         skipped,
         notes: planned.notes,
+        verdict: DataVerdict::from_strokes(
+            &verdicts,
+            friction_sign(trace, params),
+            recording_reasons(trace, params, any_backward_positive),
+        ),
     })
 }
 

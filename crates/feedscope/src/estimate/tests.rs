@@ -90,6 +90,7 @@ fn trace(lead_mm: f64, m: &Motion, dt: f64, duration: f64, seed: u64) -> (Trace,
             position_m: pos,
             effort: cur,
             effort_kind: EffortKind::CurrentA,
+            facts: Default::default(),
         },
         ax,
     )
@@ -200,6 +201,7 @@ fn strokes_without_effort_samples_are_named_as_such() {
             time_s: te,
         },
         effort_kind: EffortKind::CurrentA,
+        facts: Default::default(),
     };
     let err = estimate(&trace, &axis(10.0), &EstimateParams::default()).unwrap_err();
     assert!(

@@ -182,6 +182,7 @@ fn synthetic_trace(z: impl Fn(f64) -> (f64, f64, f64), duration_s: f64) -> Trace
             value: tq,
         },
         effort_kind: EffortKind::TorqueNm,
+        facts: Default::default(),
     }
 }
 

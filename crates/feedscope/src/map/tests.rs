@@ -38,6 +38,9 @@ fn stroke(dir: Direction, feed: f64, f: impl Fn(f64, f64) -> f64) -> StrokeFrict
             position_cutoff_hz: None,
             settle_margin_s: 0.0,
             noise_floor: Default::default(),
+            mean_friction_se_n: None,
+            effort_quantum_n: 0.0,
+            verdict: None,
             program_line: None,
             programmed_feed_mm_min: None,
             warnings: vec![],
@@ -351,6 +354,7 @@ fn failed_runs_are_reported_by_name_and_the_rest_estimated() {
             value: vec![amps; 1200],
         },
         effort_kind: EffortKind::CurrentA,
+        facts: Default::default(),
     };
     let runs: Vec<TestRun> = ["good1.csv", "broken.csv", "good2.csv", "wrongfeed.csv"]
         .iter()

@@ -363,6 +363,7 @@ fn run(
                 value: eff_values,
             },
             effort_kind: kind,
+            facts: Default::default(),
         },
         truth: Truth {
             friction,

@@ -74,4 +74,90 @@ pub struct Trace {
     pub effort: Channel,
     /// What [`Trace::effort`] measures.
     pub effort_kind: EffortKind,
+    /// What the recording's source said about it (an importer, a file's header).
+    pub facts: RecordingFacts,
+}
+
+/// What the source of a recording knows about it and the samples alone cannot show: written
+/// by `feedscope import` into the trace file (a `# fact KEY = VALUE` line per key in CSV,
+/// `feedscope.fact.KEY` metadata in Parquet) so that every later step knows it. Every field is
+/// optional; absent means unknown.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct RecordingFacts {
+    /// Resolution of the effort as recorded, in its SI unit (A or N·m): e.g. a drive load
+    /// reported in whole percent times the torque per percent. Key `effort_quantum`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub effort_quantum: Option<f64>,
+    /// `Some(false)` when the effort is a magnitude (drive load readings usually are): the sign
+    /// of friction then comes from the direction of motion. Key `effort_signed`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub effort_signed: Option<bool>,
+    /// `Some(true)` when the recording is of production work, so the effort may hold process
+    /// (cutting) load besides friction. Key `process_load`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub process_load: Option<bool>,
+    /// Number of separate recordings the trace was pieced together from. Key `recordings`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recordings: Option<usize>,
+}
+
+impl RecordingFacts {
+    /// The facts as `(key, value)` text pairs, in a fixed order, for file headers.
+    pub fn to_pairs(&self) -> Vec<(&'static str, String)> {
+        let mut v = Vec::new();
+        if let Some(q) = self.effort_quantum {
+            v.push(("effort_quantum", format!("{q:e}")));
+        }
+        if let Some(b) = self.effort_signed {
+            v.push(("effort_signed", b.to_string()));
+        }
+        if let Some(b) = self.process_load {
+            v.push(("process_load", b.to_string()));
+        }
+        if let Some(n) = self.recordings {
+            v.push(("recordings", n.to_string()));
+        }
+        v
+    }
+
+    /// Set one fact from its header text.
+    ///
+    /// # Errors
+    /// A message naming the key and what it expects when the key is unknown or its value does
+    /// not parse (a positive finite number, `true`/`false`, a positive count).
+    pub fn set(&mut self, key: &str, value: &str) -> Result<(), String> {
+        let value = value.trim();
+        let bool_of = |v: &str| match v {
+            "true" => Ok(true),
+            "false" => Ok(false),
+            _ => Err(format!("fact `{key}` must be true or false, not `{v}`")),
+        };
+        match key.trim() {
+            "effort_quantum" => match value.parse::<f64>() {
+                Ok(q) if q.is_finite() && q > 0.0 => self.effort_quantum = Some(q),
+                _ => {
+                    return Err(format!(
+                        "fact `effort_quantum` must be a positive number, not `{value}`"
+                    ))
+                }
+            },
+            "effort_signed" => self.effort_signed = Some(bool_of(value)?),
+            "process_load" => self.process_load = Some(bool_of(value)?),
+            "recordings" => match value.parse::<usize>() {
+                Ok(n) if n > 0 => self.recordings = Some(n),
+                _ => {
+                    return Err(format!(
+                        "fact `recordings` must be a positive whole number, not `{value}`"
+                    ))
+                }
+            },
+            other => {
+                return Err(format!(
+                    "unknown fact `{other}` (known: effort_quantum, effort_signed, \
+                     process_load, recordings)"
+                ))
+            }
+        }
+        Ok(())
+    }
 }
