@@ -12,6 +12,7 @@ use feedscope::study::{
     analyze_strokes, analyze_trace, AnalyzeStudy, AnalyzeStudyParams, StudyError,
 };
 use feedscope::trace::GlitchParams;
+use feedscope::verdict::FrictionSign;
 use feedscope_io::friction_csv;
 use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use serde::Serialize;
@@ -90,6 +91,11 @@ struct Report<'a> {
     params: &'a AnalysisParams,
     order_scan_table: feedscope::profile::OrderScanTable,
     strokes: Vec<StrokeReport<'a>>,
+    /// Strokes left out: their data support no profile.
+    withheld: &'a [feedscope::study::WithheldStroke],
+    /// The recording's data verdict (absent when a friction CSV was read).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    verdict: Option<&'a feedscope::verdict::DataVerdict>,
     conventions: Conventions,
 }
 
@@ -194,6 +200,8 @@ pub fn run(args: Args) -> Result<()> {
         analyses,
         single_polynomials: singles,
         order_scan_table: table,
+        withheld,
+        verdict,
     } = &study;
 
     // Render everything before anything is written.
@@ -222,9 +230,17 @@ pub fn run(args: Args) -> Result<()> {
                 fluctuation: &a.fluctuation,
             })
             .collect(),
+        withheld,
+        verdict: verdict.as_ref(),
         conventions: Conventions {
             order: "cycles per screw revolution = cycles per lead of table travel",
-            friction_sign: "as paper 000 Eq. 5: positive moving forward, negative backward",
+            friction_sign: match verdict.as_ref().map(|v| v.friction_sign) {
+                Some(FrictionSign::FromDirection) => {
+                    "from the direction of motion (the effort is a magnitude): positive \
+                     moving forward, negative backward"
+                }
+                _ => "as paper 000 Eq. 5: positive moving forward, negative backward",
+            },
             amplitude: "single-sided amplitude spectrum in newtons; the window's coherent gain \
                         is corrected (factor amplitude_correction = 2/sum(w)), so a sinusoid \
                         of amplitude A reads A on its bin",
@@ -283,6 +299,23 @@ pub fn run(args: Args) -> Result<()> {
         super::estimate::Format::Json => outln!("{json}"),
         super::estimate::Format::Text => {
             print_summary(strokes, analyses, table)?;
+            if let Some(v) = verdict {
+                outln!();
+                outln!("{}", v.headline());
+            }
+            for w in withheld.iter() {
+                eprintln!(
+                    "verdict: stroke {} ({}) withheld, its data support {} only: {}",
+                    w.stroke,
+                    w.direction.as_str(),
+                    w.support.as_str(),
+                    w.reasons
+                        .iter()
+                        .map(|r| r.message.as_str())
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                );
+            }
             eprintln!("wrote analysis.json, friction.csv, components.csv, order_scan.csv and");
             eprintln!("  {} plots to {}", svgs.len(), args.out.display());
         }

@@ -44,6 +44,15 @@ impl Default for SegmentSpec {
     }
 }
 
+/// Fewest leads a segment must span for its components to be given a cause: its spectrum's
+/// resolution 1/L must be 0.5 orders or finer to tell 1x from 2x (the stroke-level rule of
+/// [`crate::verdict`] asks for more).
+pub const SEGMENT_CAUSE_MIN_LEADS: f64 = 2.0;
+
+/// The cause of a component whose order is not resolved (segment too short, order above the
+/// trusted one).
+pub const UNRESOLVED: &str = "unresolved";
+
 /// Most segments [`segment_bounds`] returns per interval (and for `count`).
 pub const MAX_SEGMENTS: usize = 1000;
 
@@ -196,7 +205,8 @@ pub struct SignificantComponent {
     pub amplitude_n: f64,
     /// Local median noise floor (N).
     pub floor_n: f64,
-    /// Cause: a kinematic cause (`shaft 1x`, `nut ball refeed 1x`, ...) or `unexplained`.
+    /// Cause: a kinematic cause (`shaft 1x`, `nut ball refeed 1x`, ...), `unexplained`, or
+    /// [`UNRESOLVED`] when the order is not resolved well enough to name one.
     pub cause: String,
     /// The kinematic order matched, if any.
     pub kinematic_order: Option<f64>,
@@ -364,6 +374,7 @@ pub fn analyze_fluctuation(
     }
     let mut spectra = Vec::new();
     let mut components = Vec::new();
+    let mut unresolved = 0usize;
     let mut amp = Vec::new();
     let mut buf = Vec::new();
     for (label, lo, hi) in segs {
@@ -375,17 +386,31 @@ pub fn analyze_fluctuation(
         let corr = analyzer.amplitude_spectrum(&buf, params.window, &mut amp)?;
         let res = 1.0 / (m as f64 * du);
         let centre = x0_mm + 0.5 * (lo + hi - 1) as f64 * dx_mm;
+        // A cause needs the order resolved: the segment long enough for its resolution to
+        // tell neighbouring kinematic orders apart, and the order below the trusted one.
+        let long_enough = m as f64 * du >= SEGMENT_CAUSE_MIN_LEADS;
         for p in find_peaks(analyzer, params.window, &buf, &amp, du, &params.peaks) {
-            let k = classify(p.order, res, params.tolerance_fraction, kinematic);
+            let trusted = p.order <= stroke.max_trusted_order || stroke.max_trusted_order.is_nan();
+            let k = if long_enough && trusted {
+                classify(p.order, res, params.tolerance_fraction, kinematic)
+            } else {
+                unresolved += 1;
+                None
+            };
+            let cause = match k {
+                Some(k) => k.cause.clone(),
+                None if long_enough && trusted => "unexplained".to_string(),
+                None => UNRESOLVED.to_string(),
+            };
             components.push(SignificantComponent {
                 segment: label.clone(),
                 position_mm: centre,
                 order: p.order,
                 amplitude_n: p.amplitude_n,
                 floor_n: p.floor_n,
-                cause: k.map_or_else(|| "unexplained".to_string(), |k| k.cause.clone()),
+                cause,
                 kinematic_order: k.map(|k| k.order),
-                trusted: p.order <= stroke.max_trusted_order || stroke.max_trusted_order.is_nan(),
+                trusted,
             });
         }
         let keep = ((params.report_max_order / res).floor() as usize + 1).min(amp.len());
@@ -403,6 +428,14 @@ pub fn analyze_fluctuation(
         });
     }
     warnings.extend(aliasing_warnings(stroke, kinematic, &components));
+    if unresolved > 0 {
+        warnings.push(format!(
+            "{unresolved} significant component(s) left `{UNRESOLVED}`: their segment spans \
+             fewer than {SEGMENT_CAUSE_MIN_LEADS} leads (order resolution coarser than 0.5) or \
+             their order is above the trusted order {:.2}",
+            stroke.max_trusted_order
+        ));
+    }
     Ok(FluctuationAnalysis {
         spectra,
         components,

@@ -28,7 +28,7 @@ mod spectrum;
 
 pub use fluctuation::{
     analyze_fluctuation, segment_bounds, FluctuationAnalysis, SegmentSpec, SignificantComponent,
-    Spectrum, SpectrumGrid, SpectrumParams, MAX_SEGMENTS,
+    Spectrum, SpectrumGrid, SpectrumParams, MAX_SEGMENTS, SEGMENT_CAUSE_MIN_LEADS, UNRESOLVED,
 };
 pub use kinematic::{classify, kinematic_orders, KinematicOrder};
 pub(crate) use peaks::find_peaks;

@@ -10,7 +10,9 @@ use crate::profile::{
 };
 use crate::stroke::StrokeView;
 use crate::trace::Trace;
+use crate::verdict::{DataVerdict, Support};
 
+use super::withhold::{self, WithheldStroke};
 use super::StudyError;
 
 /// Settings of [`analyze_strokes`] and [`analyze_trace`]; the defaults are those of
@@ -49,9 +51,15 @@ pub struct AnalyzeStudy {
     /// The paper's Table 2: mean residual standard deviation of single polynomials per order
     /// and direction, orders 1 to [`AnalyzeStudyParams::table_max_order`].
     pub order_scan_table: OrderScanTable,
+    /// Strokes left out because their data support no profile (see [`crate::verdict`]).
+    pub withheld: Vec<WithheldStroke>,
+    /// The recording's verdict, when the strokes were estimated here ([`analyze_trace`]).
+    pub verdict: Option<DataVerdict>,
 }
 
-/// Analyse estimated strokes along the travel: for each stroke [`analyze_stroke`] (order scan,
+/// Analyse estimated strokes along the travel: strokes whose data verdict is below
+/// [`Support::Profile`] are withheld (listed in [`AnalyzeStudy::withheld`]); for each other
+/// stroke [`analyze_stroke`] (order scan,
 /// IAFV, FFS, segment spectra, significant components named from the axis geometry) and the
 /// single polynomial of its best scanned order ([`fit_piecewise`] with no breakpoint); then
 /// Table 2 over all strokes ([`order_scan_table`]).
@@ -63,7 +71,8 @@ pub struct AnalyzeStudy {
 /// Paper 000, Section 4.1 (Eq. 6-7, Table 2, Figs 6-10).
 ///
 /// # Errors
-/// [`StudyError::Stroke`] when a stroke cannot be analysed (too few points, a breakpoint
+/// [`StudyError::NotSupported`] when every stroke was withheld; [`StudyError::Stroke`] when a
+/// stroke cannot be analysed (too few points, a breakpoint
 /// outside it, ...), [`StudyError::SinglePolynomial`] when its single polynomial cannot be
 /// fitted, [`StudyError::OrderScanTable`] when Table 2 cannot be computed.
 ///
@@ -91,6 +100,10 @@ pub fn analyze_strokes(
     params: &AnalyzeStudyParams,
     progress: &dyn Fn(usize, usize),
 ) -> Result<AnalyzeStudy, StudyError> {
+    let (strokes, withheld) = withhold::split(strokes, Support::Profile);
+    if strokes.is_empty() && !withheld.is_empty() {
+        return Err(withhold::not_supported("a friction profile", &withheld));
+    }
     let lead = axis.lead_m();
     let views: Vec<StrokeView> = strokes
         .iter()
@@ -101,7 +114,7 @@ pub fn analyze_strokes(
     let mut singles = Vec::with_capacity(views.len());
     progress(0, views.len());
     for (k, (s, v)) in strokes.iter().zip(&views).enumerate() {
-        let a = analyze_stroke(v, axis, &params.analysis, &mut analyzer).map_err(|source| {
+        let mut a = analyze_stroke(v, axis, &params.analysis, &mut analyzer).map_err(|source| {
             StudyError::Stroke {
                 stroke: s.summary.stroke,
                 direction: s.summary.direction.as_str(),
@@ -110,6 +123,7 @@ pub fn analyze_strokes(
                 source,
             }
         })?;
+        withhold::apply(&mut a, withhold::support_of(s));
         let order = a.order_scan.best_order;
         let single =
             fit_piecewise(v.position_m, v.friction_n, &[], &[order]).map_err(|source| {
@@ -130,6 +144,8 @@ pub fn analyze_strokes(
         analyses,
         single_polynomials: singles,
         order_scan_table,
+        withheld,
+        verdict: None,
     })
 }
 
@@ -145,5 +161,7 @@ pub fn analyze_trace(
     progress: &dyn Fn(usize, usize),
 ) -> Result<AnalyzeStudy, StudyError> {
     let est = estimate(trace, axis, &params.estimate)?;
-    analyze_strokes(est.strokes, axis, params, progress)
+    let mut study = analyze_strokes(est.strokes, axis, params, progress)?;
+    study.verdict = Some(est.verdict);
+    Ok(study)
 }

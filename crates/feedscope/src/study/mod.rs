@@ -59,6 +59,7 @@ mod map;
 mod stroke;
 mod trend;
 mod triangle;
+mod withhold;
 
 pub use analyze::{analyze_strokes, analyze_trace, AnalyzeStudy, AnalyzeStudyParams};
 pub use map::{map_grid, map_study, MapStudy, MapStudyParams};
@@ -68,6 +69,7 @@ pub use stroke::{
 };
 pub use trend::{axis_trends, AxisTrendStudy, IndicatorSeries, TrendStudyParams};
 pub use triangle::{triangle_test, TriangleStudyParams, TriangleTest};
+pub use withhold::WithheldStroke;
 
 /// Errors of the workflows: the failing step's error, with where it happened.
 #[derive(Debug, thiserror::Error)]
@@ -126,6 +128,21 @@ pub enum StudyError {
     /// A feed asked for the compensation table lies outside the measured feeds.
     #[error("table feed: {0}")]
     TableFeed(MapError),
+    /// No stroke of the recording supports what the workflow needs (see [`crate::verdict`]).
+    #[error(
+        "no stroke of this recording supports {needed}: {strokes} stroke(s) support {best} at \
+         most ({reasons}); `feedscope estimate` prints the data verdict"
+    )]
+    NotSupported {
+        /// What the workflow needs, in words.
+        needed: &'static str,
+        /// Strokes estimated.
+        strokes: usize,
+        /// The most any of them supports.
+        best: &'static str,
+        /// The binding reasons, by code, joined.
+        reasons: String,
+    },
     /// A parameter of a workflow is out of range.
     #[error("{name} = {value} is out of range: {expected}")]
     BadParameter {
@@ -159,7 +176,9 @@ impl StudyError {
             StudyError::Identify(e) => e.kind(),
             StudyError::Map(e) | StudyError::Position(e) | StudyError::TableFeed(e) => e.kind(),
             StudyError::Trend { source, .. } => source.kind(),
-            StudyError::OneFeed { .. } | StudyError::BadParameter { .. } => ErrorKind::BadInput,
+            StudyError::OneFeed { .. }
+            | StudyError::BadParameter { .. }
+            | StudyError::NotSupported { .. } => ErrorKind::BadInput,
         }
     }
 }

@@ -11,7 +11,9 @@ use crate::order::{FluctuationAnalysis, SignificantComponent, SpectrumAnalyzer};
 use crate::profile::{analyze_stroke, AnalysisParams};
 use crate::stroke::StrokeView;
 use crate::trace::Trace;
+use crate::verdict::{DataVerdict, Support};
 
+use super::withhold::{self, WithheldStroke};
 use super::{IndicatorValue, StudyError};
 
 /// Settings of [`stroke_test`].
@@ -114,6 +116,10 @@ pub struct StrokeTest {
     pub indicators: Vec<IndicatorValue>,
     /// Curves for a report.
     pub curves: Curves,
+    /// Strokes whose data support no profile: no indicator comes from them.
+    pub withheld: Vec<WithheldStroke>,
+    /// The recording's verdict.
+    pub verdict: DataVerdict,
 }
 
 /// Analyse a stroke test: estimate the friction of every stroke ([`estimate`]), fit its IAFV
@@ -137,10 +143,20 @@ pub fn stroke_test(
         });
     }
     let est = estimate(trace, axis, &params.estimate)?;
+    // Only what the data support becomes an indicator: interval means need a profile,
+    // component amplitudes need causes.
+    let (strokes, withheld) = withhold::split(est.strokes, Support::Profile);
+    if strokes.is_empty() {
+        return Err(withhold::not_supported(
+            "a friction profile (the condition indicators need one)",
+            &withheld,
+        ));
+    }
     let lead = axis.lead_m();
     let mut analyzer = SpectrumAnalyzer::new();
-    // (direction, bin) → (Σ |iafv|, Σ (f − iafv)², n); forward first (Direction has no order)
-    let mut bins: BTreeMap<(u8, i64), (f64, f64, usize)> = BTreeMap::new();
+    // (direction, bin) → (Σ |iafv|, Σ (f − iafv)², n, raw effort samples, largest effort
+    // quantum as force); forward first (Direction has no order)
+    let mut bins: BTreeMap<(u8, i64), (f64, f64, usize, f64, f64)> = BTreeMap::new();
     let mut components = Vec::new();
     // (direction, cause) → amplitudes of each stroke (max over its components of that cause)
     let mut amp: BTreeMap<(u8, String), Vec<f64>> = BTreeMap::new();
@@ -148,25 +164,31 @@ pub fn stroke_test(
         profiles: vec![],
         heatmaps: vec![],
     };
-    for s in &est.strokes {
+    for s in &strokes {
         let v = StrokeView::from_estimate(s, lead);
         let d = s.summary.direction;
         let dk = key(d);
-        let a = analyze_stroke(&v, axis, &params.analysis, &mut analyzer).map_err(|source| {
-            StudyError::Stroke {
-                stroke: s.summary.stroke,
-                direction: d.as_str(),
-                start_mm: s.summary.start_mm,
-                end_mm: s.summary.end_mm,
-                source,
-            }
-        })?;
+        // Raw effort samples per resampled point: the independent samples behind a mean.
+        let raw_per_point = s.summary.effort_samples as f64 / s.summary.points.max(1) as f64;
+        let mut a =
+            analyze_stroke(&v, axis, &params.analysis, &mut analyzer).map_err(|source| {
+                StudyError::Stroke {
+                    stroke: s.summary.stroke,
+                    direction: d.as_str(),
+                    start_mm: s.summary.start_mm,
+                    end_mm: s.summary.end_mm,
+                    source,
+                }
+            })?;
+        withhold::apply(&mut a, withhold::support_of(s));
         for ((&z, &f), &m) in s.position_m.iter().zip(&s.friction_n).zip(&a.iafv_n) {
             let b = (z * 1e3 / interval_mm).floor() as i64;
-            let e = bins.entry((dk, b)).or_insert((0.0, 0.0, 0));
+            let e = bins.entry((dk, b)).or_insert((0.0, 0.0, 0, 0.0, 0.0));
             e.0 += m.abs();
             e.1 += (f - m).powi(2);
             e.2 += 1;
+            e.3 += raw_per_point;
+            e.4 = e.4.max(s.summary.effort_quantum_n);
         }
         let mut best: BTreeMap<String, f64> = BTreeMap::new();
         for c in &a.fluctuation.components {
@@ -174,7 +196,11 @@ pub fn stroke_test(
                 direction: d,
                 component: c.clone(),
             });
-            if c.segment == "all" && c.trusted && c.cause != "unexplained" {
+            if c.segment == "all"
+                && c.trusted
+                && c.cause != "unexplained"
+                && c.cause != crate::order::UNRESOLVED
+            {
                 let e = best.entry(c.cause.clone()).or_insert(0.0);
                 *e = e.max(c.amplitude_n);
             }
@@ -201,7 +227,7 @@ pub fn stroke_test(
     let min_n = (0.8 * interval_mm / spacing_mm).floor().max(2.0) as usize;
     let mut intervals = Vec::new();
     let mut indicators = Vec::new();
-    for ((dk, b), (sum, ss, n)) in bins {
+    for ((dk, b), (sum, ss, n, raw, q_n)) in bins {
         if n < min_n {
             continue;
         }
@@ -222,11 +248,11 @@ pub fn stroke_test(
             start_mm,
             end_mm,
         };
-        indicators.push(IndicatorValue::new(
-            i,
-            mean_n,
-            Some(std_n / (n as f64).sqrt()),
-        ));
+        // The scatter averages over the raw effort samples behind the interval (the
+        // resampled points are interpolated from them, not independent); the effort
+        // quantum's rounding need not average out at all.
+        let se = (std_n * std_n / raw.max(1.0) + q_n * q_n / 12.0).sqrt();
+        indicators.push(IndicatorValue::new(i, mean_n, Some(se)));
     }
     for ((dk, cause), v) in amp {
         let i = Indicator::Component {
@@ -244,6 +270,8 @@ pub fn stroke_test(
         components,
         indicators,
         curves,
+        withheld,
+        verdict: est.verdict,
     })
 }
 
