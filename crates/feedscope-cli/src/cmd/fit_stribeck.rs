@@ -5,8 +5,9 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use feedscope::estimate::Direction;
 use feedscope::stribeck::{
-    detect_nonconventional, DeltaMode, NonConventional, NonConventionalParams, ParamEstimate,
-    StribeckFit, StribeckFitParams, StribeckFitter, M_S_PER_MM_MIN,
+    detect_nonconventional, DeltaMode, FitWarning, FrictionModel, NonConventional,
+    NonConventionalParams, ParamEstimate, Reduction, StribeckFit, StribeckFitParams,
+    StribeckFitter, StribeckParams, M_S_PER_MM_MIN,
 };
 use feedscope_io::stribeck_table::{self, EffortColumn, SpeedPoints, TableOptions};
 use serde::Serialize;
@@ -25,6 +26,12 @@ use crate::plot;
 /// vs > 0. Writes OUT/stribeck.json (per direction: parameters in user units, standard
 /// errors, 95 % intervals, warnings, residual, non-conventional falls) and OUT/stribeck.svg
 /// (points and fitted curves), and prints a table. Lines starting with `#` are comments.
+///
+/// A curve the table does not determine is not reported: with fewer distinct feeds than
+/// parameters (4, or 5 with `--delta free`), a singular or ill-conditioned fit, or
+/// non-physical values, the fit falls back to δ = 2 (after δ free), then to Coulomb + viscous
+/// (F = Fc + σ·|v|, from 2 distinct feeds); the model and the reason are printed on stderr
+/// and kept in the JSON. A direction with a single distinct feed is refused (exit 2).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Steady-speed table (CSV with header).
@@ -81,23 +88,49 @@ fn est(e: &ParamEstimate, scale: f64) -> Estimate {
     }
 }
 
+/// Parameters in user units; `null` when the reported model has no such parameter.
 #[derive(Debug, Serialize)]
 pub struct Params {
     pub fc_n: f64,
-    pub fs_n: f64,
-    pub vs_mm_min: f64,
-    pub sigma_n_s_per_m: f64,
-    pub delta: f64,
+    pub fs_n: Option<f64>,
+    pub vs_mm_min: Option<f64>,
+    pub sigma_n_s_per_m: Option<f64>,
+    pub delta: Option<f64>,
 }
 
 #[derive(Debug, Serialize)]
 pub struct Uncertainty {
     pub fc_n: Estimate,
-    pub fs_n: Estimate,
-    pub static_excess_n: Estimate,
-    pub vs_mm_min: Estimate,
-    pub sigma_n_s_per_m: Estimate,
+    pub fs_n: Option<Estimate>,
+    pub static_excess_n: Option<Estimate>,
+    pub vs_mm_min: Option<Estimate>,
+    pub sigma_n_s_per_m: Option<Estimate>,
     pub delta: Option<Estimate>,
+}
+
+/// A warning or a refused model in the JSON: a stable code and the text printed on stderr.
+#[derive(Debug, Serialize)]
+pub struct Note {
+    pub code: &'static str,
+    pub message: String,
+}
+
+impl From<&FitWarning> for Note {
+    fn from(w: &FitWarning) -> Self {
+        Note {
+            code: w.code(),
+            message: w.to_string(),
+        }
+    }
+}
+
+impl From<&Reduction> for Note {
+    fn from(r: &Reduction) -> Self {
+        Note {
+            code: r.code(),
+            message: r.to_string(),
+        }
+    }
 }
 
 #[derive(Debug, Serialize)]
@@ -129,6 +162,10 @@ pub struct Point {
 #[derive(Debug, Serialize)]
 pub struct DirectionFit {
     pub direction: &'static str,
+    /// `stribeck`, `coulomb-viscous` or `coulomb`.
+    pub model: &'static str,
+    /// Richer models refused, in the order tried, and why.
+    pub reductions: Vec<Note>,
     pub points: usize,
     pub feed_min_mm_min: f64,
     pub feed_max_mm_min: f64,
@@ -139,9 +176,14 @@ pub struct DirectionFit {
     pub iterations: usize,
     pub termination: feedscope::stribeck::Termination,
     pub condition_number: Option<f64>,
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Note>,
     pub nonconventional: NonConv,
     pub data: Vec<Point>,
+    /// The reported curve (SI), for the plot.
+    #[serde(skip)]
+    pub curve: StribeckParams,
+    #[serde(skip)]
+    pub model_name: String,
 }
 
 /// stribeck.json.
@@ -176,22 +218,24 @@ fn direction_fit(
     data.sort_by(|a, b| a.feed_mm_min.total_cmp(&b.feed_mm_min));
     DirectionFit {
         direction: direction.as_str(),
+        model: fit.model.code(),
+        reductions: fit.reductions.iter().map(Note::from).collect(),
         points: fit.points,
         feed_min_mm_min: fit.min_speed_m_s * mm,
         feed_max_mm_min: fit.max_speed_m_s * mm,
         params: Params {
             fc_n: p.fc_n,
-            fs_n: p.fs_n,
-            vs_mm_min: p.vs_mm_min(),
-            sigma_n_s_per_m: p.sigma_n_s_per_m,
-            delta: p.delta,
+            fs_n: fit.fs_n(),
+            vs_mm_min: fit.vs_m_s().map(|v| v * mm),
+            sigma_n_s_per_m: fit.sigma_n_s_per_m(),
+            delta: fit.delta(),
         },
         uncertainty: fit.uncertainty.as_ref().map(|u| Uncertainty {
             fc_n: est(&u.fc_n, 1.0),
-            fs_n: est(&u.fs_n, 1.0),
-            static_excess_n: est(&u.static_excess_n, 1.0),
-            vs_mm_min: est(&u.vs_m_s, mm),
-            sigma_n_s_per_m: est(&u.sigma_n_s_per_m, 1.0),
+            fs_n: u.fs_n.as_ref().map(|e| est(e, 1.0)),
+            static_excess_n: u.static_excess_n.as_ref().map(|e| est(e, 1.0)),
+            vs_mm_min: u.vs_m_s.as_ref().map(|e| est(e, mm)),
+            sigma_n_s_per_m: u.sigma_n_s_per_m.as_ref().map(|e| est(e, 1.0)),
             delta: u.delta.as_ref().map(|d| est(d, 1.0)),
         }),
         residual_rms_n: fit.residual_rms_n,
@@ -199,7 +243,7 @@ fn direction_fit(
         iterations: fit.iterations,
         termination: fit.termination,
         condition_number: fit.condition_number,
-        warnings: fit.warnings.iter().map(|w| w.to_string()).collect(),
+        warnings: fit.warnings.iter().map(Note::from).collect(),
         nonconventional: NonConv {
             noise_n: nc.noise_n,
             threshold_n: nc.threshold_n,
@@ -218,6 +262,8 @@ fn direction_fit(
                 .collect(),
         },
         data,
+        curve: *p,
+        model_name: fit.model.to_string(),
     }
 }
 
@@ -236,13 +282,7 @@ fn svg(report: &Report) -> Result<String> {
             points: pts,
             style: plot::Style::Dashed,
         });
-        let p = feedscope::stribeck::StribeckParams {
-            fc_n: d.params.fc_n,
-            fs_n: d.params.fs_n,
-            vs_m_s: d.params.vs_mm_min * M_S_PER_MM_MIN,
-            sigma_n_s_per_m: d.params.sigma_n_s_per_m,
-            delta: d.params.delta,
-        };
+        let p = d.curve;
         // linear and logarithmic spacing together: the hump sits at the low end
         let (lo, hi) = (d.feed_min_mm_min, d.feed_max_mm_min);
         let mut feeds: Vec<f64> = (0..=200)
@@ -256,8 +296,13 @@ fn svg(report: &Report) -> Result<String> {
             .into_iter()
             .map(|f| (f, p.magnitude_n(f * M_S_PER_MM_MIN)))
             .collect();
+        let fitted = if d.model == FrictionModel::Stribeck.code() {
+            "Stribeck fit"
+        } else {
+            "Coulomb + viscous fit"
+        };
         series.push(plot::Series {
-            name: format!("{} Stribeck fit", d.direction),
+            name: format!("{} {fitted}", d.direction),
             points: curve,
             style: plot::Style::Line,
         });
@@ -270,9 +315,12 @@ fn svg(report: &Report) -> Result<String> {
     })
 }
 
-/// `value ± SE`; a standard error of 1e6 or more (an unidentifiable parameter) in
-/// scientific notation so that the table keeps its shape.
-fn pm(e: Option<&Estimate>, value: f64, prec: usize) -> String {
+/// `value ± SE`; a standard error of 1e6 or more in scientific notation so that the table
+/// keeps its shape; `-` for a parameter the reported model does not have.
+fn pm(e: Option<&Estimate>, value: Option<f64>, prec: usize) -> String {
+    let Some(value) = value else {
+        return "-".to_string();
+    };
     match e {
         Some(e) if e.std_error.abs() >= 1e6 => format!("{value:.prec$} ± {:.1e}", e.std_error),
         Some(e) => format!("{value:.prec$} ± {:.prec$}", e.std_error),
@@ -301,10 +349,14 @@ fn print_table(report: &Report) -> Result<()> {
             "{:<9} {:>6}  {:>18}  {:>18}  {:>18}  {:>22}  {:>13}  {:>8.3}",
             d.direction,
             d.points,
-            pm(u.map(|u| &u.fc_n), d.params.fc_n, 2),
-            pm(u.map(|u| &u.fs_n), d.params.fs_n, 2),
-            pm(u.map(|u| &u.vs_mm_min), d.params.vs_mm_min, 2),
-            pm(u.map(|u| &u.sigma_n_s_per_m), d.params.sigma_n_s_per_m, 1),
+            pm(u.map(|u| &u.fc_n), Some(d.params.fc_n), 2),
+            pm(u.and_then(|u| u.fs_n.as_ref()), d.params.fs_n, 2),
+            pm(u.and_then(|u| u.vs_mm_min.as_ref()), d.params.vs_mm_min, 2),
+            pm(
+                u.and_then(|u| u.sigma_n_s_per_m.as_ref()),
+                d.params.sigma_n_s_per_m,
+                1
+            ),
             pm(u.and_then(|u| u.delta.as_ref()), d.params.delta, 3),
             d.residual_rms_n
         )?;
@@ -319,12 +371,43 @@ fn print_table(report: &Report) -> Result<()> {
             )?;
         }
     }
+    print_models(report);
+    Ok(())
+}
+
+/// On stderr: the model of each direction, the refused models with their reasons and what to
+/// do, and every warning's text.
+fn print_models(report: &Report) {
     for d in &report.directions {
+        eprintln!("{}: model {}", d.direction, d.model_name);
+        for r in &d.reductions {
+            eprintln!("  {}", r.message);
+        }
+        if let Some(r) = d.reductions.last() {
+            eprintln!("  {}", advice(r.code, report.delta == "free"));
+        }
         for w in &d.warnings {
-            eprintln!("warning: {}: {w}", d.direction);
+            eprintln!("warning: {}: {}", d.direction, w.message);
         }
     }
-    Ok(())
+}
+
+/// What to measure when a Stribeck curve was refused (shared by `map`, which has δ = 2).
+pub(crate) fn advice(code: &str, delta_free: bool) -> &'static str {
+    match (code, delta_free) {
+        ("too-few-feeds", true) => {
+            "for a Stribeck curve, measure at least 4 distinct feeds per direction (5 with \
+             --delta free), several of them below the expected Stribeck velocity"
+        }
+        ("too-few-feeds", false) => {
+            "for a Stribeck curve, measure at least 4 distinct feeds per direction, several of \
+             them below the expected Stribeck velocity"
+        }
+        _ => {
+            "for a Stribeck curve, add feeds below and around the expected Stribeck velocity \
+             so that the hump is measured"
+        }
+    }
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -345,10 +428,6 @@ pub fn run(args: Args) -> Result<()> {
         delta: args.delta,
         ..StribeckFitParams::default()
     };
-    let n_params = match args.delta {
-        DeltaMode::Free => 5,
-        DeltaMode::Fixed(_) => 4,
-    };
     let name = args.table.display().to_string();
     if fwd.speed_m_s.is_empty() && bwd.speed_m_s.is_empty() {
         return Err(bad(format!("{name}: no data rows")));
@@ -359,20 +438,23 @@ pub fn run(args: Args) -> Result<()> {
     };
     let mut directions = Vec::new();
     for (dir, pts) in [(Direction::Forward, &fwd), (Direction::Backward, &bwd)] {
-        let n = pts.speed_m_s.len();
-        if n == 0 {
+        if pts.speed_m_s.is_empty() {
             continue;
-        }
-        if n <= n_params {
-            return Err(bad(format!(
-                "{name}: {} direction has {n} rows; fitting {n_params} parameters needs at \
-                 least {} (one more than the parameters, for standard errors)",
-                dir.as_str(),
-                n_params + 1
-            )));
         }
         let fitter = StribeckFitter::new(&pts.speed_m_s, &fit_params)
             .map_err(|e| bad(format!("{name}: {} direction: {e}", dir.as_str())))?;
+        // One feed gives a level that mixes Coulomb and viscous friction: not a friction
+        // curve (the library would report it as a Coulomb level).
+        if let [one] = fitter.distinct_speeds_m_s() {
+            return Err(bad(format!(
+                "{name}: the {} direction has 1 distinct feed ({} mm/min, {} rows); a \
+                 friction curve needs at least 2 (Coulomb + viscous), a Stribeck curve at \
+                 least 4 (5 with --delta free): measure at more feeds",
+                dir.as_str(),
+                one / M_S_PER_MM_MIN,
+                pts.speed_m_s.len()
+            )));
+        }
         let fit = fitter
             .fit(&pts.friction_n)
             .map_err(|e| bad(format!("{name}: {} direction: {e}", dir.as_str())))?;
@@ -400,7 +482,10 @@ pub fn run(args: Args) -> Result<()> {
     crate::output::write_atomic(&json_path, json.as_bytes())?;
     crate::output::write_atomic(&svg_path, svg.as_bytes())?;
     match args.format {
-        Format::Json => writeln!(std::io::stdout().lock(), "{json}")?,
+        Format::Json => {
+            writeln!(std::io::stdout().lock(), "{json}")?;
+            print_models(&report);
+        }
         Format::Text => {
             print_table(&report)?;
             eprintln!("wrote {}, {}", json_path.display(), svg_path.display());

@@ -10,7 +10,7 @@ use feedscope::map::{
     FeedScale, FrictionMap, MapParams, NonConventionalSpan, StribeckAtPosition, StribeckProfile,
     TestSet,
 };
-use feedscope::stribeck::{ParamEstimate, M_S_PER_MM_MIN};
+use feedscope::stribeck::{FitWarning, FrictionModel, ParamEstimate, Reduction, M_S_PER_MM_MIN};
 use feedscope::study::{map_grid, map_study, MapStudy, MapStudyParams, StudyError};
 use feedscope_io::compensation::CompensationTable;
 use feedscope_io::test_set::{estimate_set, read_index};
@@ -37,7 +37,10 @@ use crate::plot::{self, Heatmap, LineChart, Series, Style};
 /// min(--feed-order, feeds − 2) in log-feed scaled to [−1, 1]): the friction map F(z, v).
 /// The Stribeck curve (Eq. 9, δ = 2) is fitted to the PPOCM values of every feed at the
 /// chosen positions and at every position of the map grid; falls of friction with feed where
-/// the Stribeck curve rises are reported as non-conventional.
+/// the Stribeck curve rises are reported as non-conventional. Where the feeds do not
+/// determine a Stribeck curve (fewer than 4 distinct feeds per direction, a singular or
+/// ill-conditioned fit, non-physical values) the Coulomb + viscous line F = Fc + σ·v is
+/// reported instead; the model and the reason are printed on stderr with every fit warning.
 ///
 /// Writes into OUT: stribeck.json, stribeck_profile.csv, compensation.csv (long) and
 /// compensation_forward.csv / compensation_backward.csv (matrix: rows positions, columns
@@ -256,6 +259,7 @@ pub fn run(args: Args) -> Result<()> {
     )?;
     write_plots(out, &study, &args)?;
 
+    print_models(at_positions);
     let stdout = std::io::stdout();
     let mut w = stdout.lock();
     match args.format {
@@ -271,6 +275,53 @@ pub fn run(args: Args) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// On stderr, per direction: the model at the chosen positions (once when it is the same
+/// everywhere), the refused models with their reasons and what to do, and every warning.
+fn print_models(at: &[StribeckProfile]) {
+    for p in at {
+        let dir = dir_name(p.direction);
+        let key = |q: &StribeckAtPosition| {
+            q.fit.as_ref().map(|f| {
+                let reasons: Vec<String> = f.reductions.iter().map(|r| r.to_string()).collect();
+                (f.model, reasons)
+            })
+        };
+        let first = p.positions.first().and_then(key);
+        let same = p.positions.iter().all(|q| key(q) == first);
+        let describe = |where_: &str, model: FrictionModel, reductions: &[Reduction]| {
+            eprintln!("{dir}{where_}: model {model}");
+            for r in reductions {
+                eprintln!("  {r}");
+            }
+            if let Some(r) = reductions.last() {
+                eprintln!("  {}", super::fit_stribeck::advice(r.code(), false));
+            }
+        };
+        match (&first, same) {
+            (Some(_), true) => {
+                let f = p.positions[0].fit.as_ref().expect("a fit");
+                describe(" (every position)", f.model, &f.reductions);
+            }
+            _ => {
+                for q in &p.positions {
+                    if let Some(f) = &q.fit {
+                        describe(
+                            &format!(" at {:.3} mm", q.position_mm),
+                            f.model,
+                            &f.reductions,
+                        );
+                    }
+                }
+            }
+        }
+        for q in &p.positions {
+            for w in q.fit.iter().flat_map(|f| &f.warnings) {
+                eprintln!("warning: {dir} at {:.3} mm: {w}", q.position_mm);
+            }
+        }
+    }
 }
 
 fn dir_name(d: Direction) -> &'static str {
@@ -307,9 +358,34 @@ struct Fall {
     excess_drop_n: f64,
 }
 
+/// A warning or a refused model in the JSON: a stable code and the text printed on stderr.
+#[derive(Serialize)]
+struct Note {
+    code: &'static str,
+    message: String,
+}
+
+fn warning_note(w: &FitWarning) -> Note {
+    Note {
+        code: w.code(),
+        message: w.to_string(),
+    }
+}
+
+fn reduction_note(r: &Reduction) -> Note {
+    Note {
+        code: r.code(),
+        message: r.to_string(),
+    }
+}
+
 #[derive(Serialize)]
 struct PositionFit {
     position_mm: f64,
+    /// `stribeck`, `coulomb-viscous` or `coulomb`; `null` when the fit failed.
+    model: Option<&'static str>,
+    /// Richer models refused, in the order tried, and why.
+    reductions: Vec<Note>,
     fc_n: Option<Est>,
     fs_n: Option<Est>,
     static_excess_n: Option<Est>,
@@ -317,7 +393,7 @@ struct PositionFit {
     sigma_n_s_per_m: Option<Est>,
     residual_rms_n: Option<f64>,
     friction_n: Vec<f64>,
-    warnings: Vec<String>,
+    warnings: Vec<Note>,
     nonconventional: Vec<Fall>,
     error: Option<String>,
 }
@@ -326,24 +402,36 @@ fn position_fit(p: &StribeckAtPosition) -> PositionFit {
     let f = p.fit.as_ref();
     let u = f.and_then(|f| f.uncertainty.as_ref());
     let mm = 1.0 / M_S_PER_MM_MIN;
+    // Parameters the reported model does not have are null.
+    let hump = f.filter(|f| f.model == FrictionModel::Stribeck);
+    let viscous = f.filter(|f| f.model != FrictionModel::Coulomb);
     PositionFit {
         position_mm: p.position_mm,
+        model: f.map(|f| f.model.code()),
+        reductions: f
+            .map(|f| f.reductions.iter().map(reduction_note).collect())
+            .unwrap_or_default(),
         fc_n: f.map(|f| est(f.params.fc_n, u.map(|u| &u.fc_n), 1.0)),
-        fs_n: f.map(|f| est(f.params.fs_n, u.map(|u| &u.fs_n), 1.0)),
-        static_excess_n: f.map(|f| {
+        fs_n: hump.map(|f| est(f.params.fs_n, u.and_then(|u| u.fs_n.as_ref()), 1.0)),
+        static_excess_n: hump.map(|f| {
             est(
                 f.params.static_excess_n(),
-                u.map(|u| &u.static_excess_n),
+                u.and_then(|u| u.static_excess_n.as_ref()),
                 1.0,
             )
         }),
-        vs_mm_min: f.map(|f| est(f.params.vs_m_s, u.map(|u| &u.vs_m_s), mm)),
-        sigma_n_s_per_m: f
-            .map(|f| est(f.params.sigma_n_s_per_m, u.map(|u| &u.sigma_n_s_per_m), 1.0)),
+        vs_mm_min: hump.map(|f| est(f.params.vs_m_s, u.and_then(|u| u.vs_m_s.as_ref()), mm)),
+        sigma_n_s_per_m: viscous.map(|f| {
+            est(
+                f.params.sigma_n_s_per_m,
+                u.and_then(|u| u.sigma_n_s_per_m.as_ref()),
+                1.0,
+            )
+        }),
         residual_rms_n: f.map(|f| f.residual_rms_n),
         friction_n: p.friction_n.clone(),
         warnings: f
-            .map(|f| f.warnings.iter().map(ToString::to_string).collect())
+            .map(|f| f.warnings.iter().map(warning_note).collect())
             .unwrap_or_default(),
         nonconventional: p
             .nonconventional
@@ -380,10 +468,13 @@ fn stribeck_report<'a>(
     spans: &'a [NonConventionalSpan],
 ) -> StribeckReport<'a> {
     StribeckReport {
-        model: "F(v) = Fc + (Fs - Fc)*exp(-(v/vs)^2) + sigma*v on friction magnitudes (paper 000 Eq. 9)",
+        model: "F(v) = Fc + (Fs - Fc)*exp(-(v/vs)^2) + sigma*v on friction magnitudes (paper 000 Eq. 9); \
+                where the feeds do not determine it, the Coulomb + viscous line F = Fc + sigma*v \
+                (positions[].model, the reasons in positions[].reductions)",
         conventions: "data points: |PPOCM(z)| of every measured feed at the position; forces in N, \
                       feeds and vs in mm/min, sigma in N*s/m; std_error and 95 % intervals null \
-                      when the fit has no residual degrees of freedom",
+                      when the fit has no residual degrees of freedom; parameters the reported \
+                      model does not have are null",
         directions: at
             .iter()
             .map(|p| DirectionStribeck {
@@ -410,14 +501,15 @@ fn write_profile_csv(path: &Path, profiles: &[StribeckProfile]) -> Result<()> {
     let mut f = csv_file(path)?;
     let w = f.writer();
     writeln!(w, "# Stribeck fit (paper 000 Eq. 9, delta = 2) at every map grid position; forces in N, vs in mm/min, sigma in N*s/m; *_se = standard error")?;
-    writeln!(w, "direction,position_mm,fc_n,fc_se_n,fs_n,fs_se_n,static_excess_n,static_excess_se_n,vs_mm_min,vs_ci95_low_mm_min,vs_ci95_high_mm_min,sigma_n_s_per_m,sigma_se_n_s_per_m,residual_rms_n,nonconventional,warnings")?;
+    writeln!(w, "# model: stribeck, or coulomb-viscous (F = Fc + sigma*v; fs, vs empty) where the feeds do not determine a Stribeck curve (reasons in stribeck.json)")?;
+    writeln!(w, "direction,position_mm,model,fc_n,fc_se_n,fs_n,fs_se_n,static_excess_n,static_excess_se_n,vs_mm_min,vs_ci95_low_mm_min,vs_ci95_high_mm_min,sigma_n_s_per_m,sigma_se_n_s_per_m,residual_rms_n,nonconventional,warnings")?;
     let mm = 1.0 / M_S_PER_MM_MIN;
     for p in profiles {
         for q in &p.positions {
             let Some(fit) = &q.fit else {
                 writeln!(
                     w,
-                    "{},{:.6},,,,,,,,,,,,,,fit failed: {}",
+                    "{},{:.6},,,,,,,,,,,,,,,fit failed: {}",
                     dir_name(p.direction),
                     q.position_mm,
                     q.error.clone().unwrap_or_default().replace(',', ";")
@@ -431,22 +523,24 @@ fn write_profile_csv(path: &Path, profiles: &[StribeckProfile]) -> Result<()> {
                 .iter()
                 .map(|w| w.to_string().replace(',', ";"))
                 .collect();
+            let hump = fit.model == FrictionModel::Stribeck;
             writeln!(
                 w,
-                "{},{:.6},{:.6},{},{:.6},{},{:.6},{},{:.6},{},{},{:.6},{},{:.6},{},{}",
+                "{},{:.6},{},{:.6},{},{},{},{},{},{},{},{},{},{},{:.6},{},{}",
                 dir_name(p.direction),
                 q.position_mm,
+                fit.model.code(),
                 fit.params.fc_n,
                 opt(u.map(|u| u.fc_n.std_error)),
-                fit.params.fs_n,
-                opt(u.map(|u| u.fs_n.std_error)),
-                fit.params.static_excess_n(),
-                opt(u.map(|u| u.static_excess_n.std_error)),
-                fit.params.vs_m_s * mm,
-                opt(u.map(|u| u.vs_m_s.ci95_low * mm)),
-                opt(u.map(|u| u.vs_m_s.ci95_high * mm)),
-                fit.params.sigma_n_s_per_m,
-                opt(u.map(|u| u.sigma_n_s_per_m.std_error)),
+                opt(fit.fs_n()),
+                opt(u.and_then(|u| u.fs_n).map(|e| e.std_error)),
+                opt(hump.then(|| fit.params.static_excess_n())),
+                opt(u.and_then(|u| u.static_excess_n).map(|e| e.std_error)),
+                opt(fit.vs_m_s().map(|v| v * mm)),
+                opt(u.and_then(|u| u.vs_m_s).map(|e| e.ci95_low * mm)),
+                opt(u.and_then(|u| u.vs_m_s).map(|e| e.ci95_high * mm)),
+                opt(fit.sigma_n_s_per_m()),
+                opt(u.and_then(|u| u.sigma_n_s_per_m).map(|e| e.std_error)),
                 fit.residual_rms_n,
                 nc,
                 warn.join(" | ")
@@ -672,24 +766,32 @@ fn text_report(s: &Summary, at: &[StribeckProfile], spans: &[NonConventionalSpan
                 .map_or("n/a (one repeat)".to_string(), |v| format!("{v:.3} N"))
         );
     }
-    let _ = writeln!(o, "Stribeck fits (Eq. 9):");
     let _ = writeln!(
         o,
-        "  direction  position_mm       Fc_N    Fs-Fc_N   vs_mm_min   sigma_Ns/m  rms_N  warnings"
+        "Stribeck fits (Eq. 9; coulomb-viscous where the feeds do not determine one, see stderr):"
     );
+    let _ = writeln!(
+        o,
+        "  direction  position_mm  model                 Fc_N    Fs-Fc_N   vs_mm_min   sigma_Ns/m  rms_N  warnings"
+    );
+    let cell = |x: Option<f64>, w: usize, prec: usize| {
+        x.map_or_else(|| format!("{:>w$}", "-"), |v| format!("{v:w$.prec$}"))
+    };
     for p in at {
         for q in &p.positions {
             match &q.fit {
                 Some(f) => {
+                    let hump = f.model == FrictionModel::Stribeck;
                     let _ = writeln!(
                         o,
-                        "  {:9}  {:11.3}  {:9.2}  {:9.2}  {:10.2}  {:11.1}  {:5.2}  {}",
+                        "  {:9}  {:11.3}  {:15}  {:9.2}  {}  {}  {}  {:5.2}  {}",
                         dir_name(p.direction),
                         q.position_mm,
+                        f.model.code(),
                         f.params.fc_n,
-                        f.params.static_excess_n(),
-                        f.vs_mm_min(),
-                        f.params.sigma_n_s_per_m,
+                        cell(hump.then(|| f.params.static_excess_n()), 9, 2),
+                        cell(f.vs_m_s().map(|v| v / M_S_PER_MM_MIN), 10, 2),
+                        cell(f.sigma_n_s_per_m(), 11, 1),
                         f.residual_rms_n,
                         f.warnings.len()
                     );
@@ -771,7 +873,10 @@ fn write_plots(out: &Path, study: &MapStudy, args: &Args) -> Result<()> {
             }];
             if let Some(f) = &q.fit {
                 series.push(Series {
-                    name: "Stribeck fit (Eq. 9)".into(),
+                    name: match f.model {
+                        FrictionModel::Stribeck => "Stribeck fit (Eq. 9)".into(),
+                        m => format!("{m} fit"),
+                    },
                     points: fine
                         .iter()
                         .map(|&x| (x.log10(), f.magnitude_n(x * M_S_PER_MM_MIN)))

@@ -314,3 +314,92 @@ fn map_with_one_feed_is_refused_and_writes_nothing() {
     );
     assert!(!d.path().join("m").exists(), "nothing written");
 }
+
+/// Every number in a text (JSON, CSV, console): the tokens that parse as f64.
+fn numbers(text: &str) -> Vec<f64> {
+    text.split(|c: char| !(c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | '+')))
+        .filter_map(|t| t.parse::<f64>().ok())
+        .filter(|x| x.is_finite())
+        .collect()
+}
+
+/// A test set at two feeds cannot determine a 4-parameter Stribeck curve (it used to print
+/// Fs − Fc ≈ 2.6e9 N with exit 0 and "warnings 4"): the Coulomb + viscous line through the two
+/// mean friction values is reported, the console says which model and why, and no absurd
+/// number appears anywhere.
+#[test]
+fn map_with_two_feeds_reports_the_coulomb_viscous_line() {
+    let d = tempfile::tempdir().unwrap();
+    setup_feeds(d.path(), &[135.0, 400.0], "");
+    let mut c = feedscope(d.path());
+    c.args([
+        "map",
+        "index.csv",
+        "--axis",
+        "axis.toml",
+        "--out",
+        "m",
+        "--positions",
+        "30,40",
+    ]);
+    let o = run(c);
+    let (out, err) = (stdout(&o), stderr(&o));
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    for needle in [
+        "forward (every position): model Coulomb + viscous (F = Fc + sigma*v)",
+        "backward (every position): model Coulomb + viscous (F = Fc + sigma*v)",
+        "a Stribeck curve (4 parameters) is not determined: it needs at least 4 distinct \
+         feeds; the data have 2 (135 and 400 mm/min)",
+        "measure at least 4 distinct feeds per direction",
+        // every warning's text, not a count
+        "warning: forward at 30.000 mm: 2 points for 2 parameters: no standard errors",
+    ] {
+        assert!(err.contains(needle), "`{needle}` not in: {err}");
+    }
+    assert!(out.contains("coulomb-viscous"), "{out}");
+    let m = d.path().join("m");
+    let json = std::fs::read_to_string(m.join("stribeck.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let feeds_m_s = [135.0 / 60_000.0, 400.0 / 60_000.0];
+    for dj in v["directions"].as_array().unwrap() {
+        for p in dj["positions"].as_array().unwrap() {
+            assert_eq!(p["model"], "coulomb-viscous", "{p}");
+            assert!(p["fs_n"].is_null() && p["vs_mm_min"].is_null(), "{p}");
+            assert_eq!(p["reductions"][0]["code"], "too-few-feeds", "{p}");
+            assert_eq!(p["warnings"][0]["code"], "few-points", "{p}");
+            let fc = p["fc_n"]["value"].as_f64().unwrap();
+            let sigma = p["sigma_n_s_per_m"]["value"].as_f64().unwrap();
+            // the line passes through both points (the JSON keeps ~17 digits)
+            for (k, &vk) in feeds_m_s.iter().enumerate() {
+                let f = p["friction_n"][k].as_f64().unwrap();
+                assert!((fc + sigma * vk - f).abs() < 1e-6 * f, "{p}");
+            }
+            assert!(fc > 50.0 && fc < 1000.0, "{p}");
+        }
+    }
+    let profile = std::fs::read_to_string(m.join("stribeck_profile.csv")).unwrap();
+    let rows: Vec<&str> = profile
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .skip(1)
+        .collect();
+    assert!(!rows.is_empty());
+    assert!(
+        rows.iter().all(|l| l.contains(",coulomb-viscous,")),
+        "{profile}"
+    );
+    let map_json = std::fs::read_to_string(m.join("map.json")).unwrap();
+    for (name, text) in [
+        ("stdout", &out),
+        ("stderr", &err),
+        ("stribeck.json", &json),
+        ("stribeck_profile.csv", &profile),
+        ("map.json", &map_json),
+    ] {
+        // friction here is a few hundred N, σ a few 1e4 N·s/m: 1e6 is absurd in any unit used
+        let worst = numbers(text)
+            .into_iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        assert!(worst < 1e6, "{name}: {worst}");
+    }
+}

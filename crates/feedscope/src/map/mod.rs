@@ -34,7 +34,13 @@
 //! 5. **Stribeck along the travel** ([`stribeck_profile`], Eq. 9): at a position z the data
 //!    points are |PPOCM_f(z)| for every measured feed f; one
 //!    [`StribeckFitter`](crate::stribeck::StribeckFitter) is planned per direction and reused
-//!    at every position. Non-conventional behaviour (friction falling with feed where the
+//!    at every position. Where the feeds do not determine a Stribeck curve (fewer than 4
+//!    distinct feeds, a singular or ill-conditioned fit, non-physical values) the fit is the
+//!    Coulomb + viscous line instead, said so in
+//!    [`StribeckFit::model`](crate::stribeck::StribeckFit::model) and
+//!    [`StribeckFit::reductions`](crate::stribeck::StribeckFit::reductions) (module
+//!    [`stribeck::fit::reduce`](crate::stribeck::fit::reduce)); one feed is refused by the
+//!    map study. Non-conventional behaviour (friction falling with feed where the
 //!    Stribeck curve rises) is detected at each position by
 //!    [`detect_nonconventional`](crate::stribeck::detect_nonconventional) and gathered into
 //!    position spans by [`nonconventional_spans`].

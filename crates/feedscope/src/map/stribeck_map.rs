@@ -17,7 +17,8 @@ pub struct StribeckAtPosition {
     pub position_mm: f64,
     /// The data points: |PPOCM(z)| at each feed of the profile (N).
     pub friction_n: Vec<f64>,
-    /// The fit; `None` when it failed (see `error`).
+    /// The fit: the Stribeck curve, or the reduced model the feeds determine (see
+    /// [`StribeckFit::model`]); `None` when it failed (see `error`).
     pub fit: Option<StribeckFit>,
     /// Non-conventional behaviour found at this position.
     pub nonconventional: Option<NonConventional>,

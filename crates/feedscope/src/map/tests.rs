@@ -429,3 +429,45 @@ proptest::proptest! {
         }
     }
 }
+
+/// A test set at two feeds: at every position the fit is the Coulomb + viscous line through
+/// the two PPOCM values, exactly, and says that four parameters need four feeds.
+#[test]
+fn two_feed_profile_gives_the_line_through_the_ppocm() {
+    let feeds = [600.0, 3000.0];
+    let runs: Vec<RunFriction> = feeds
+        .iter()
+        .flat_map(|&f| {
+            (1..=2).map(move |r| {
+                run(
+                    f,
+                    r,
+                    vec![
+                        stroke(Direction::Forward, f, smooth),
+                        stroke(Direction::Backward, f, |z, f| 1.1 * smooth(z, f)),
+                    ],
+                )
+            })
+        })
+        .collect();
+    let params = MapParams::default();
+    let map = build_map(&runs, LEAD_M, &params).unwrap();
+    for d in &map.directions {
+        let prof = stribeck_profile(d, &[20.0, 30.0, 40.0], &params).unwrap();
+        for p in &prof.positions {
+            let fit = p.fit.as_ref().unwrap();
+            assert_eq!(fit.model, crate::stribeck::FrictionModel::CoulombViscous);
+            let v: Vec<f64> = feeds.iter().map(|&f| feed_mm_min_to_m_s(f)).collect();
+            let (f0, f1) = (p.friction_n[0], p.friction_n[1]);
+            let sigma = (f1 - f0) / (v[1] - v[0]);
+            let fc = f0 - sigma * v[0];
+            // two exact equations on ~250 N values: rounding far below 1e-9
+            assert!((fit.params.fc_n - fc).abs() < 1e-9, "{fit:?}");
+            assert!((fit.params.sigma_n_s_per_m - sigma).abs() < 1e-9 * sigma);
+            let r = &fit.reductions[0];
+            assert_eq!(r.code(), "too-few-feeds");
+            assert!(r.to_string().contains("2 (600 and 3000 mm/min)"), "{r}");
+            assert!(p.error.is_none());
+        }
+    }
+}

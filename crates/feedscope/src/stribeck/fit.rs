@@ -24,6 +24,10 @@
 //!    s² = SSR/(N − p); 95 % intervals ± t_{0.975, N−p}·SE (v_s: v_s·exp(±t·SE(ln v_s)),
 //!    always positive, the exponent capped at 600 to stay finite). The condition number is
 //!    that of J with unit-norm columns.
+//! 5. Determinacy ([`reduce`]): a curve the points do not determine (fewer distinct speeds
+//!    than parameters, a singular or ill-conditioned Jacobian, non-physical or absurd values)
+//!    is not returned; the fit steps down to δ fixed, then to F = F_c + σ·v, then to F = F_c,
+//!    and says so in [`StribeckFit::model`] and [`StribeckFit::reductions`].
 //!
 //! # Reference
 //! Paper 000 Eq. 9 and Section 4.2.1 (fitted with MATLAB `fminsearch` there); paper 001
@@ -33,6 +37,11 @@ use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
 use super::{StribeckError, StribeckParams, M_S_PER_MM_MIN};
+
+pub mod reduce;
+
+use reduce::{distinct_speeds, fit_linear, FALLBACK_DELTA};
+pub use reduce::{FrictionModel, Reduction, Undetermined};
 
 /// Smallest δ allowed when δ is free.
 pub const DELTA_MIN: f64 = 0.3;
@@ -98,6 +107,8 @@ pub enum Termination {
     NoFurtherDecrease,
     /// [`StribeckFitParams::max_iterations`] reached.
     MaxIterations,
+    /// A reduced model, linear in its parameters, solved directly (no iteration).
+    Direct,
 }
 
 /// A parameter with its standard error and 95 % confidence interval (same unit as the value).
@@ -118,14 +129,17 @@ pub struct ParamEstimate {
 pub struct StribeckUncertainty {
     /// Coulomb friction F_c (N).
     pub fc_n: ParamEstimate,
-    /// Static friction F_s (N).
-    pub fs_n: ParamEstimate,
-    /// Static excess F_s − F_c (N), with the covariance of F_s and F_c.
-    pub static_excess_n: ParamEstimate,
-    /// Stribeck velocity v_s (m/s); interval exp(±t·SE) around it from SE(ln v_s).
-    pub vs_m_s: ParamEstimate,
-    /// Viscous coefficient σ (N·s/m).
-    pub sigma_n_s_per_m: ParamEstimate,
+    /// Static friction F_s (N); `None` for a reduced model.
+    pub fs_n: Option<ParamEstimate>,
+    /// Static excess F_s − F_c (N), with the covariance of F_s and F_c; `None` for a reduced
+    /// model.
+    pub static_excess_n: Option<ParamEstimate>,
+    /// Stribeck velocity v_s (m/s); interval exp(±t·SE) around it from SE(ln v_s); `None` for
+    /// a reduced model.
+    pub vs_m_s: Option<ParamEstimate>,
+    /// Viscous coefficient σ (N·s/m); `None` for a Coulomb level or when σ is held at 0 in a
+    /// Coulomb + viscous line.
+    pub sigma_n_s_per_m: Option<ParamEstimate>,
     /// Shape exponent δ when it was free.
     pub delta: Option<ParamEstimate>,
     /// The Student t quantile t_{0.975, N−p} used for the intervals.
@@ -196,6 +210,22 @@ pub enum FitWarning {
     },
 }
 
+impl FitWarning {
+    /// Stable kebab-case identifier of the warning.
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::FewPoints { .. } => "few-points",
+            Self::NoDataBelowTwiceVs { .. } => "no-data-below-twice-vs",
+            Self::AllSpeedsFarAboveVs { .. } => "all-speeds-far-above-vs",
+            Self::NoDataAboveThreeVs { .. } => "no-data-above-three-vs",
+            Self::StdErrorExceedsValue { .. } => "std-error-exceeds-value",
+            Self::AtBound { .. } => "at-bound",
+            Self::IllConditioned { .. } => "ill-conditioned",
+            Self::NotConverged { .. } => "not-converged",
+        }
+    }
+}
+
 impl std::fmt::Display for FitWarning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let mm = |v: f64| v / M_S_PER_MM_MIN;
@@ -256,15 +286,24 @@ impl std::fmt::Display for FitWarning {
     }
 }
 
-/// A fitted Stribeck curve with its diagnostics.
+/// A fitted friction curve with its diagnostics: the Stribeck curve when the data determine
+/// it, else the reduced model they do determine ([`model`](Self::model), the refused models
+/// and why in [`reductions`](Self::reductions)).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StribeckFit {
-    /// Fitted parameters (SI).
+    /// The model reported.
+    pub model: FrictionModel,
+    /// The richer models refused on the way, in the order tried; empty when the curve asked
+    /// for is reported.
+    pub reductions: Vec<Reduction>,
+    /// Fitted parameters (SI). For a reduced model F_s = F_c and v_s = 0 (no hump, so
+    /// [`StribeckParams::magnitude_n`] is the reduced model), σ = 0 for a Coulomb level, and
+    /// δ is the one of the curve asked for (not part of the model).
     pub params: StribeckParams,
     /// Standard errors and intervals; `None` without residual degrees of freedom or with a
     /// singular Jacobian.
     pub uncertainty: Option<StribeckUncertainty>,
-    /// Whether δ was fitted.
+    /// Whether δ was fitted (false after falling back to δ fixed and for reduced models).
     pub delta_free: bool,
     /// Number of points.
     pub points: usize,
@@ -287,9 +326,34 @@ pub struct StribeckFit {
 }
 
 impl StribeckFit {
-    /// Fitted Stribeck velocity in mm/min.
+    /// Fitted Stribeck velocity in mm/min (0 for a reduced model: see [`Self::vs_m_s`]).
     pub fn vs_mm_min(&self) -> f64 {
         self.params.vs_mm_min()
+    }
+
+    /// Stribeck velocity (m/s) when the model has one.
+    pub fn vs_m_s(&self) -> Option<f64> {
+        (self.model == FrictionModel::Stribeck).then_some(self.params.vs_m_s)
+    }
+
+    /// Static friction F_s (N) when the model has a hump.
+    pub fn fs_n(&self) -> Option<f64> {
+        (self.model == FrictionModel::Stribeck).then_some(self.params.fs_n)
+    }
+
+    /// Viscous coefficient σ (N·s/m) when the model has one.
+    pub fn sigma_n_s_per_m(&self) -> Option<f64> {
+        (self.model != FrictionModel::Coulomb).then_some(self.params.sigma_n_s_per_m)
+    }
+
+    /// δ when the model is a Stribeck curve.
+    pub fn delta(&self) -> Option<f64> {
+        (self.model == FrictionModel::Stribeck).then_some(self.params.delta)
+    }
+
+    /// Whether a simpler model than the one asked for is reported.
+    pub fn is_reduced(&self) -> bool {
+        !self.reductions.is_empty()
     }
 
     /// Fitted friction magnitude at a speed (N).
@@ -310,6 +374,8 @@ pub struct StribeckFitter {
     min_speed_m_s: f64,
     /// (ln(v_s/v_ref), δ, e_i) of every grid point.
     grid: Vec<(f64, f64, Vec<f64>)>,
+    /// The distinct speeds (m/s), increasing ([`reduce`]).
+    distinct_m_s: Vec<f64>,
     lo: [f64; 5],
     hi: [f64; 5],
 }
@@ -387,6 +453,7 @@ impl StribeckFitter {
                 }
                 vec![d]
             }
+            // The grid holds δ = FALLBACK_DELTA, so the fixed-δ fallback reuses it.
             DeltaMode::Free => DELTA_GRID.to_vec(),
         };
         let v_ref = speed_m_s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -422,6 +489,7 @@ impl StribeckFitter {
             v_ref,
             min_speed_m_s,
             grid,
+            distinct_m_s: distinct_speeds(speed_m_s),
             lo: [0.0, 0.0, 0.0, (u_min / VS_RANGE).ln(), d_lo],
             hi: [
                 f64::INFINITY,
@@ -438,7 +506,18 @@ impl StribeckFitter {
         self.u.len()
     }
 
+    /// The distinct speeds of the plan (m/s, increasing; speeds within
+    /// [`reduce::DISTINCT_SPEED_TOLERANCE`] count once).
+    pub fn distinct_speeds_m_s(&self) -> &[f64] {
+        &self.distinct_m_s
+    }
+
     /// Fit one set of friction values (N, signs dropped), measured at the planned speeds.
+    ///
+    /// Returns the Stribeck curve asked for when the points determine it, else the richest
+    /// reduced model they determine (δ fixed at [`reduce::FALLBACK_DELTA`] after δ free, then
+    /// F = F_c + σ·v, then F = F_c), with [`StribeckFit::model`] and
+    /// [`StribeckFit::reductions`] saying which and why (module [`reduce`]).
     ///
     /// # Errors
     /// [`StribeckError::LengthMismatch`], [`StribeckError::NonFinite`].
@@ -454,20 +533,275 @@ impl StribeckFitter {
         let f_ref = friction_n.iter().fold(0.0f64, |m, f| m.max(f.abs()));
         let f_ref = if f_ref > 0.0 { f_ref } else { 1.0 };
         let y: Vec<f64> = friction_n.iter().map(|f| f.abs() / f_ref).collect();
-        let delta_free = matches!(self.params.delta, DeltaMode::Free);
+        let k = self.distinct_m_s.len();
+        let mut reductions = Vec::new();
+        let tries: &[bool] = match self.params.delta {
+            DeltaMode::Free => &[true, false],
+            DeltaMode::Fixed(_) => &[false],
+        };
+        for &delta_free in tries {
+            let p = if delta_free { 5 } else { 4 };
+            let reason = if k < p {
+                Undetermined::TooFewSpeeds {
+                    distinct: k,
+                    needed: p,
+                    speeds_m_s: self.distinct_m_s.clone(),
+                }
+            } else {
+                let fit = self.fit_curve(&y, f_ref, delta_free);
+                match self.undetermined(&fit, f_ref) {
+                    None => return Ok(StribeckFit { reductions, ..fit }),
+                    Some(r) => r,
+                }
+            };
+            reductions.push(Reduction {
+                refused: FrictionModel::Stribeck,
+                delta_free,
+                parameters: p,
+                reason,
+            });
+        }
+        let viscous = k >= 2;
+        if !viscous {
+            reductions.push(Reduction {
+                refused: FrictionModel::CoulombViscous,
+                delta_free: false,
+                parameters: 2,
+                reason: Undetermined::TooFewSpeeds {
+                    distinct: k,
+                    needed: 2,
+                    speeds_m_s: self.distinct_m_s.clone(),
+                },
+            });
+        }
+        Ok(StribeckFit {
+            reductions,
+            ..self.fit_reduced(&y, f_ref, viscous)
+        })
+    }
+
+    /// Why the data do not determine this Stribeck curve, if they do not (module [`reduce`]).
+    fn undetermined(&self, fit: &StribeckFit, f_ref: f64) -> Option<Undetermined> {
+        let p = &fit.params;
+        let named = [
+            ("fc_n", p.fc_n),
+            ("fs_n", p.fs_n),
+            ("sigma_n_s_per_m", p.sigma_n_s_per_m),
+            ("vs_m_s", p.vs_m_s),
+            ("delta", p.delta),
+        ];
+        if let Some((name, _)) = named.iter().find(|(_, x)| !x.is_finite()) {
+            return Some(Undetermined::NonFinite {
+                parameter: name.to_string(),
+            });
+        }
+        match fit.condition_number {
+            None => return Some(Undetermined::SingularJacobian),
+            Some(c) if c > reduce::CONDITION_LIMIT => {
+                return Some(Undetermined::IllConditioned {
+                    condition_number: c,
+                })
+            }
+            Some(_) => {}
+        }
+        let v_max = self.v_ref;
+        let limit_n = reduce::MAGNITUDE_LIMIT * f_ref;
+        for (name, force) in [
+            ("fc_n", p.fc_n),
+            ("fs_n", p.fs_n),
+            ("sigma_n_s_per_m * v_max", p.sigma_n_s_per_m * v_max),
+        ] {
+            if force.abs() > limit_n {
+                return Some(Undetermined::AbsurdMagnitude {
+                    parameter: name.to_string(),
+                    limit_n,
+                });
+            }
+        }
+        let u = fit.uncertainty.as_ref();
+        if let Some(u) = u {
+            let se = |e: Option<ParamEstimate>| e.map_or(0.0, |e| e.std_error);
+            for (name, se_n) in [
+                ("fc_n", u.fc_n.std_error),
+                ("fs_n", se(u.fs_n)),
+                ("static_excess_n", se(u.static_excess_n)),
+                ("sigma_n_s_per_m * v_max", se(u.sigma_n_s_per_m) * v_max),
+            ] {
+                if se_n > f_ref {
+                    return Some(Undetermined::AbsurdUncertainty {
+                        parameter: name.to_string(),
+                        limit: f_ref,
+                    });
+                }
+            }
+            if let Some(d) = u.delta.filter(|d| d.std_error > d.value) {
+                return Some(Undetermined::AbsurdUncertainty {
+                    parameter: "delta".to_string(),
+                    limit: d.value,
+                });
+            }
+        }
+        let v_min = self
+            .u
+            .iter()
+            .copied()
+            .filter(|&x| x > 0.0)
+            .fold(1.0, f64::min)
+            * v_max;
+        if p.vs_m_s < v_min / reduce::VS_OUTSIDE_FACTOR
+            || p.vs_m_s > reduce::VS_OUTSIDE_FACTOR * v_max
+        {
+            return Some(Undetermined::VsOutsideData {
+                vs_m_s: p.vs_m_s,
+                min_speed_m_s: v_min,
+                max_speed_m_s: v_max,
+            });
+        }
+        let excess = p.static_excess_n();
+        let excess_se = u.and_then(|u| u.static_excess_n).map(|e| e.std_error);
+        if excess < 0.0 && excess_se.is_none_or(|se| excess < -se) {
+            return Some(Undetermined::StaticBelowCoulomb {
+                static_excess_n: excess,
+                std_error_n: excess_se,
+            });
+        }
+        None
+    }
+
+    /// The reduced model F = F_c + σ·v (`viscous`) or F = F_c, by non-negative linear least
+    /// squares ([`reduce`]).
+    fn fit_reduced(&self, y: &[f64], f_ref: f64, viscous: bool) -> StribeckFit {
+        let n = y.len();
+        let v_ref = self.v_ref;
+        let lin = fit_linear(&self.u, y, viscous);
+        let model = if viscous {
+            FrictionModel::CoulombViscous
+        } else {
+            FrictionModel::Coulomb
+        };
+        let fc_n = lin.c[0] * f_ref;
+        let params = StribeckParams {
+            fc_n,
+            fs_n: fc_n,
+            vs_m_s: 0.0,
+            sigma_n_s_per_m: lin.c[1] * f_ref / v_ref,
+            delta: match self.params.delta {
+                DeltaMode::Fixed(d) => d,
+                DeltaMode::Free => FALLBACK_DELTA,
+            },
+        };
+        let q = lin.free.iter().filter(|&&f| f).count();
+        let p = if viscous { 2 } else { 1 };
+        let dof = n.saturating_sub(q);
+        let uncertainty = (dof > 0 && q > 0).then(|| {
+            let s2 = lin.ssr / dof as f64;
+            let t = t_quantile_975(dof);
+            let est = |value: f64, var: f64, scale: f64| {
+                let se = var.max(0.0).sqrt() * s2.sqrt() * scale;
+                ParamEstimate {
+                    value,
+                    std_error: se,
+                    ci95_low: value - t * se,
+                    ci95_high: value + t * se,
+                }
+            };
+            // (AᵀA)⁻¹ is indexed over the free columns in order.
+            let mut k = 0;
+            let mut next = |free: bool| {
+                free.then(|| {
+                    k += 1;
+                    lin.inv[k - 1][k - 1]
+                })
+            };
+            let var_fc = next(lin.free[0]);
+            let var_sigma = next(lin.free[1]);
+            StribeckUncertainty {
+                fc_n: est(fc_n, var_fc.unwrap_or(0.0), f_ref),
+                fs_n: None,
+                static_excess_n: None,
+                vs_m_s: None,
+                sigma_n_s_per_m: var_sigma.map(|v| est(params.sigma_n_s_per_m, v, f_ref / v_ref)),
+                delta: None,
+                t_quantile: t,
+            }
+        });
+        let mut warnings = Vec::new();
+        if n <= p {
+            warnings.push(FitWarning::FewPoints {
+                points: n,
+                parameters: p,
+            });
+        }
+        if let Some(u) = &uncertainty {
+            for (name, e) in [
+                ("fc_n", Some(u.fc_n)),
+                ("sigma_n_s_per_m", u.sigma_n_s_per_m),
+            ] {
+                if let Some(e) = e.filter(|e| e.std_error > e.value.abs()) {
+                    warnings.push(FitWarning::StdErrorExceedsValue {
+                        parameter: name.to_string(),
+                        value: e.value,
+                        std_error: e.std_error,
+                    });
+                }
+            }
+        }
+        for (i, name) in ["fc_n", "sigma_n_s_per_m"].iter().enumerate().take(p) {
+            if !lin.free[i] {
+                warnings.push(FitWarning::AtBound {
+                    parameter: name.to_string(),
+                    bound: 0.0,
+                });
+            }
+        }
+        if lin.condition_number > reduce::CONDITION_LIMIT {
+            warnings.push(FitWarning::IllConditioned {
+                condition_number: Some(lin.condition_number),
+            });
+        }
+        StribeckFit {
+            model,
+            reductions: Vec::new(),
+            params,
+            uncertainty,
+            delta_free: false,
+            points: n,
+            dof,
+            min_speed_m_s: self.min_speed_m_s,
+            max_speed_m_s: v_ref,
+            residual_rms_n: (lin.ssr / n as f64).sqrt() * f_ref,
+            iterations: 0,
+            termination: Termination::Direct,
+            condition_number: Some(lin.condition_number),
+            warnings,
+        }
+    }
+
+    /// Steps 2-4 of the module docs for the Stribeck curve, δ free or fixed (at the planned δ,
+    /// or [`FALLBACK_DELTA`] when the plan has δ free).
+    fn fit_curve(&self, y: &[f64], f_ref: f64, delta_free: bool) -> StribeckFit {
+        let n = y.len();
         let p = if delta_free { 5 } else { 4 };
+        let fixed = match self.params.delta {
+            DeltaMode::Fixed(d) => d,
+            DeltaMode::Free => FALLBACK_DELTA,
+        };
 
         // Step 2: separable grid start.
         let mut best = (f64::INFINITY, [0.0; 5]);
         for (l, d, e) in &self.grid {
-            let (c, ssr) = nnls3(&self.u, e, &y);
+            // The δ = 2 column of a δ-free grid is the fixed-δ fallback's grid.
+            if !delta_free && (d - fixed).abs() > 1e-12 {
+                continue;
+            }
+            let (c, ssr) = nnls3(&self.u, e, y);
             if ssr < best.0 {
                 best = (ssr, [c[0], c[1], c[2], *l, *d]);
             }
         }
         // Step 3: Levenberg–Marquardt on all free parameters.
         let free = [true, true, true, true, delta_free];
-        let lm = self.levenberg_marquardt(&y, best.1, free);
+        let lm = self.levenberg_marquardt(y, best.1, free);
         let th = lm.theta;
 
         let v_ref = self.v_ref;
@@ -482,7 +816,7 @@ impl StribeckFitter {
         let dof = n.saturating_sub(p);
 
         // Step 4: uncertainty from the Jacobian at the optimum.
-        let (jac, _) = self.jacobian(&th, &y);
+        let (jac, _) = self.jacobian(&th, y);
         let cols: Vec<usize> = (0..5).filter(|&i| free[i]).collect();
         let mut js = DMatrix::zeros(n, p);
         let mut norms = vec![0.0; p];
@@ -510,20 +844,20 @@ impl StribeckFitter {
                 let excess_se = (var(0, 0) + var(1, 1) - 2.0 * var(0, 1)).max(0.0).sqrt() * f_ref;
                 Some(StribeckUncertainty {
                     fc_n: lin(params.fc_n, var(0, 0).max(0.0).sqrt() * f_ref),
-                    fs_n: lin(params.fs_n, var(1, 1).max(0.0).sqrt() * f_ref),
-                    static_excess_n: lin(params.fs_n - params.fc_n, excess_se),
-                    sigma_n_s_per_m: lin(
+                    fs_n: Some(lin(params.fs_n, var(1, 1).max(0.0).sqrt() * f_ref)),
+                    static_excess_n: Some(lin(params.fs_n - params.fc_n, excess_se)),
+                    sigma_n_s_per_m: Some(lin(
                         params.sigma_n_s_per_m,
                         var(2, 2).max(0.0).sqrt() * f_ref / v_ref,
-                    ),
+                    )),
                     // the exponent is capped at 600 so that an unidentifiable v_s still
                     // gets a finite (absurdly wide) interval
-                    vs_m_s: ParamEstimate {
+                    vs_m_s: Some(ParamEstimate {
                         value: params.vs_m_s,
                         std_error: params.vs_m_s * se_l,
                         ci95_low: params.vs_m_s * (-(t * se_l).min(600.0)).exp(),
                         ci95_high: params.vs_m_s * (t * se_l).min(600.0).exp(),
-                    },
+                    }),
                     delta: delta_free.then(|| lin(params.delta, var(4, 4).max(0.0).sqrt())),
                     t_quantile: t,
                 })
@@ -534,13 +868,14 @@ impl StribeckFitter {
         // numbers.
         let uncertainty = uncertainty.filter(|u| {
             let all = [
-                u.fc_n,
+                Some(u.fc_n),
                 u.fs_n,
                 u.static_excess_n,
                 u.sigma_n_s_per_m,
                 u.vs_m_s,
+                u.delta,
             ];
-            all.iter().chain(u.delta.iter()).all(|e| {
+            all.iter().flatten().all(|e| {
                 e.std_error.is_finite() && e.ci95_low.is_finite() && e.ci95_high.is_finite()
             })
         });
@@ -582,12 +917,16 @@ impl StribeckFitter {
                 }
             };
             check("fc_n", &u.fc_n);
-            check("fs_n", &u.fs_n);
-            check("static_excess_n", &u.static_excess_n);
-            check("sigma_n_s_per_m", &u.sigma_n_s_per_m);
-            check("vs_m_s", &u.vs_m_s);
-            if let Some(d) = &u.delta {
-                check("delta", d);
+            for (name, e) in [
+                ("fs_n", &u.fs_n),
+                ("static_excess_n", &u.static_excess_n),
+                ("sigma_n_s_per_m", &u.sigma_n_s_per_m),
+                ("vs_m_s", &u.vs_m_s),
+                ("delta", &u.delta),
+            ] {
+                if let Some(e) = e {
+                    check(name, e);
+                }
             }
         }
         let si = [
@@ -628,7 +967,9 @@ impl StribeckFitter {
                 iterations: lm.iterations,
             });
         }
-        Ok(StribeckFit {
+        StribeckFit {
+            model: FrictionModel::Stribeck,
+            reductions: Vec::new(),
             params,
             uncertainty,
             delta_free,
@@ -641,7 +982,7 @@ impl StribeckFitter {
             termination: lm.termination,
             condition_number,
             warnings,
-        })
+        }
     }
 
     /// Residuals r_i = F(u_i) − y_i and their Jacobian rows ∂r_i/∂θ (scaled units,

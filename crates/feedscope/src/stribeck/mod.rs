@@ -45,8 +45,8 @@ pub mod fit;
 
 pub use behaviour::{detect_nonconventional, FallingRange, NonConventional, NonConventionalParams};
 pub use fit::{
-    fit_stribeck, DeltaMode, FitWarning, ParamEstimate, StribeckFit, StribeckFitParams,
-    StribeckFitter, StribeckUncertainty, Termination,
+    fit_stribeck, DeltaMode, FitWarning, FrictionModel, ParamEstimate, Reduction, StribeckFit,
+    StribeckFitParams, StribeckFitter, StribeckUncertainty, Termination, Undetermined,
 };
 
 use serde::{Deserialize, Serialize};

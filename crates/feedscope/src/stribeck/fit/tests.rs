@@ -98,13 +98,14 @@ fn assert_all_finite(fit: &StribeckFit) {
     all.extend(fit.condition_number);
     if let Some(u) = &fit.uncertainty {
         let ests = [
-            u.fc_n,
+            Some(u.fc_n),
             u.fs_n,
             u.static_excess_n,
             u.vs_m_s,
             u.sigma_n_s_per_m,
+            u.delta,
         ];
-        for e in ests.iter().chain(u.delta.iter()) {
+        for e in ests.iter().flatten() {
             all.extend([e.value, e.std_error, e.ci95_low, e.ci95_high]);
         }
         all.push(u.t_quantile);
@@ -227,13 +228,19 @@ fn standard_errors_cover_the_truth() {
                 &StribeckFitParams::default(),
             )
             .unwrap();
+            assert_eq!(
+                fit.model,
+                FrictionModel::Stribeck,
+                "{seed}: {:?}",
+                fit.reductions
+            );
             let u = fit.uncertainty.expect("uncertainty with 14 dof");
             for (e, truth) in [
                 (u.fc_n, t.fc_n),
-                (u.fs_n, t.fs_n),
-                (u.static_excess_n, t.static_excess_n()),
-                (u.sigma_n_s_per_m, t.sigma_n_s_per_m),
-                (u.vs_m_s, t.vs_m_s),
+                (u.fs_n.unwrap(), t.fs_n),
+                (u.static_excess_n.unwrap(), t.static_excess_n()),
+                (u.sigma_n_s_per_m.unwrap(), t.sigma_n_s_per_m),
+                (u.vs_m_s.unwrap(), t.vs_m_s),
             ] {
                 total += 1;
                 within3 += usize::from((e.value - truth).abs() < 3.0 * e.std_error);
@@ -566,6 +573,294 @@ fn degenerate_inputs_give_finite_results() {
             ];
             assert!(all.iter().all(|x| x.is_finite()), "case {k}: {fit:?}");
             assert_all_finite(&fit);
+        }
+    }
+}
+
+/// The exact line F = Fc + σ·v through two points (v in m/s).
+fn line_through(v: [f64; 2], f: [f64; 2]) -> (f64, f64) {
+    let sigma = (f[1] - f[0]) / (v[1] - v[0]);
+    (f[0] - sigma * v[0], sigma)
+}
+
+/// Two feeds (600 and 3000 mm/min) cannot determine four parameters: the fit is the
+/// Coulomb + viscous line through the two points, exactly, and says why. The points are
+/// those of a real two-feed map that used to give Fs − Fc ≈ 2.6e9 N.
+#[test]
+fn two_feeds_give_the_exact_coulomb_viscous_line() {
+    let v = [600.0 * M_S_PER_MM_MIN, 3000.0 * M_S_PER_MM_MIN];
+    for (f, delta) in [
+        ([183.25, 229.5], DeltaMode::Fixed(2.0)),
+        ([-412.0, -455.125], DeltaMode::Fixed(2.0)),
+        ([183.25, 229.5], DeltaMode::Free),
+    ] {
+        let fit = fit_stribeck(
+            &v,
+            &f,
+            &StribeckFitParams {
+                delta,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let (fc, sigma) = line_through(v, [f[0].abs(), f[1].abs()]);
+        assert_eq!(fit.model, FrictionModel::CoulombViscous, "{fit:?}");
+        // Two exact equations in ~200 N and ~1e4 N·s/m: rounding is ~1e-13 relative.
+        assert!((fit.params.fc_n - fc).abs() < 1e-9 * fc, "{fit:?}");
+        assert!(
+            (fit.params.sigma_n_s_per_m - sigma).abs() < 1e-9 * sigma,
+            "{fit:?}"
+        );
+        for (&vi, &fi) in v.iter().zip(&f) {
+            assert!((fit.magnitude_n(vi) - fi.abs()).abs() < 1e-9 * fi.abs());
+        }
+        assert!(fit.residual_rms_n < 1e-9);
+        assert_eq!(fit.fs_n(), None);
+        assert_eq!(fit.vs_m_s(), None);
+        assert!(fit.uncertainty.is_none(), "no residual degree of freedom");
+        assert_eq!(fit.termination, Termination::Direct);
+        // δ free is refused first (5 parameters), then δ fixed (4).
+        let needed: Vec<usize> = fit.reductions.iter().map(|r| r.parameters).collect();
+        let want: &[usize] = if delta == DeltaMode::Free {
+            &[5, 4]
+        } else {
+            &[4]
+        };
+        assert_eq!(needed, want);
+        let r = fit.reductions.last().unwrap();
+        assert_eq!(r.refused, FrictionModel::Stribeck);
+        assert_eq!(r.code(), "too-few-feeds");
+        assert_eq!(
+            r.to_string(),
+            "a Stribeck curve (4 parameters) is not determined: it needs at least 4 distinct \
+             feeds; the data have 2 (600 and 3000 mm/min)"
+        );
+        assert!(fit.warnings.iter().any(|w| matches!(
+            w,
+            FitWarning::FewPoints {
+                points: 2,
+                parameters: 2
+            }
+        )));
+    }
+}
+
+/// Repeats at two feeds: the least-squares line, with standard errors from the repeats'
+/// scatter (dense solve of the normal equations as the reference).
+#[test]
+fn repeats_at_two_feeds_give_a_line_with_standard_errors() {
+    let v: Vec<f64> = [600.0, 600.0, 600.0, 3000.0, 3000.0, 3000.0]
+        .iter()
+        .map(|f| f * M_S_PER_MM_MIN)
+        .collect();
+    let f = [181.0, 183.5, 185.0, 228.0, 231.0, 229.5];
+    let fit = fit_stribeck(&v, &f, &StribeckFitParams::default()).unwrap();
+    assert_eq!(fit.model, FrictionModel::CoulombViscous);
+    // Reference: the line through the two means, residual variance with n − 2 = 4 dof.
+    let m1 = (181.0 + 183.5 + 185.0) / 3.0;
+    let m2 = (228.0 + 231.0 + 229.5) / 3.0;
+    let (fc, sigma) = line_through([v[0], v[3]], [m1, m2]);
+    assert!((fit.params.fc_n - fc).abs() < 1e-9 * fc);
+    assert!((fit.params.sigma_n_s_per_m - sigma).abs() < 1e-9 * sigma);
+    let ssr: f64 = v
+        .iter()
+        .zip(&f)
+        .map(|(&vi, &fi)| (fc + sigma * vi - fi).powi(2))
+        .sum();
+    let s2 = ssr / 4.0;
+    let a = nalgebra::DMatrix::from_fn(6, 2, |i, j| if j == 0 { 1.0 } else { v[i] });
+    let inv = (a.transpose() * &a).try_inverse().unwrap();
+    let u = fit.uncertainty.expect("4 residual degrees of freedom");
+    assert_eq!(fit.dof, 4);
+    assert!((u.fc_n.std_error - (s2 * inv[(0, 0)]).sqrt()).abs() < 1e-6 * u.fc_n.std_error);
+    let se_sigma = u.sigma_n_s_per_m.unwrap().std_error;
+    assert!((se_sigma - (s2 * inv[(1, 1)]).sqrt()).abs() < 1e-6 * se_sigma);
+    assert!((u.t_quantile - 2.776).abs() < 1e-12);
+    assert!(u.fs_n.is_none() && u.vs_m_s.is_none());
+}
+
+/// One feed: only the friction level is determined (the mean), with its standard error.
+#[test]
+fn one_feed_gives_a_coulomb_level() {
+    let v = [1e-3; 3];
+    let f = [100.0, 102.0, 104.0];
+    let fit = fit_stribeck(&v, &f, &StribeckFitParams::default()).unwrap();
+    assert_eq!(fit.model, FrictionModel::Coulomb);
+    assert!((fit.params.fc_n - 102.0).abs() < 1e-12);
+    assert_eq!(fit.sigma_n_s_per_m(), None);
+    assert!((fit.magnitude_n(1e-3) - 102.0).abs() < 1e-12);
+    // sample std 2 N over √3
+    let u = fit.uncertainty.unwrap();
+    assert!((u.fc_n.std_error - 2.0 / 3f64.sqrt()).abs() < 1e-12);
+    let refused: Vec<(FrictionModel, &str)> = fit
+        .reductions
+        .iter()
+        .map(|r| (r.refused, r.code()))
+        .collect();
+    assert_eq!(
+        refused,
+        [
+            (FrictionModel::Stribeck, "too-few-feeds"),
+            (FrictionModel::CoulombViscous, "too-few-feeds")
+        ]
+    );
+}
+
+/// Friction falling between two feeds (the Stribeck branch seen from two points): σ ≥ 0 holds
+/// it at 0, the level is the mean, and the bound is reported.
+#[test]
+fn two_falling_feeds_hold_sigma_at_zero() {
+    let v = [10.0 * M_S_PER_MM_MIN, 40.0 * M_S_PER_MM_MIN];
+    let fit = fit_stribeck(&v, &[240.0, 200.0], &StribeckFitParams::default()).unwrap();
+    assert_eq!(fit.model, FrictionModel::CoulombViscous);
+    assert!((fit.params.fc_n - 220.0).abs() < 1e-12);
+    assert!(fit.params.sigma_n_s_per_m.abs() < 1e-300);
+    assert!(fit.warnings.iter().any(|w| matches!(
+        w,
+        FitWarning::AtBound { parameter, .. } if parameter == "sigma_n_s_per_m"
+    )));
+}
+
+/// A well-posed curve is reported as before: no reduction, the same parameters as the
+/// Stribeck fit alone (6 log-spaced feeds, noise-free, and 18 noisy feeds).
+#[test]
+fn well_posed_fit_is_not_reduced() {
+    let t = set_a();
+    let v: Vec<f64> = feeds_m_s().into_iter().step_by(3).collect(); // 6 feeds, 5-317 mm/min
+    let f: Vec<f64> = v.iter().map(|&s| t.magnitude_n(s)).collect();
+    let fit = fit_stribeck(&v, &f, &StribeckFitParams::default()).unwrap();
+    assert_eq!(fit.model, FrictionModel::Stribeck);
+    assert!(fit.reductions.is_empty(), "{:?}", fit.reductions);
+    let e = rel_err(&fit, &t);
+    assert!(
+        e.fc < 1e-6 && e.excess < 1e-6 && e.sigma < 1e-6 && e.vs < 1e-6,
+        "{fit:?}"
+    );
+    let v = feeds_m_s();
+    let y = synth(&t, &v, 0.01, 7);
+    let fitter = StribeckFitter::new(&v, &StribeckFitParams::default()).unwrap();
+    let fit = fitter.fit(&y).unwrap();
+    assert!(fit.reductions.is_empty());
+    let f_ref = y.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let raw = fitter.fit_curve(
+        &y.iter().map(|x| x / f_ref).collect::<Vec<_>>(),
+        f_ref,
+        false,
+    );
+    assert_eq!(fit, raw);
+}
+
+/// Pure Coulomb + viscous data at six feeds: F_s = F_c leaves v_s without effect (singular
+/// Jacobian), so the line is reported, exactly.
+#[test]
+fn no_hump_gives_the_line() {
+    let v: Vec<f64> = feeds_m_s().into_iter().step_by(3).collect();
+    let f: Vec<f64> = v.iter().map(|&s| 200.0 + 3000.0 * s).collect();
+    let fit = fit_stribeck(&v, &f, &StribeckFitParams::default()).unwrap();
+    assert_eq!(fit.model, FrictionModel::CoulombViscous, "{fit:?}");
+    assert_eq!(fit.reductions.len(), 1);
+    assert_eq!(fit.reductions[0].code(), "singular-jacobian");
+    assert!((fit.params.fc_n - 200.0).abs() < 1e-9);
+    assert!((fit.params.sigma_n_s_per_m - 3000.0).abs() < 1e-6);
+}
+
+/// Friction rising from the slowest feed (F_s far below F_c): not a Stribeck hump; the
+/// line is reported instead.
+#[test]
+fn static_below_coulomb_is_refused() {
+    let t = StribeckParams {
+        fc_n: 240.0,
+        fs_n: 120.0,
+        ..set_a()
+    };
+    let v = feeds_m_s();
+    let fit = fit_stribeck(&v, &synth(&t, &v, 0.002, 3), &StribeckFitParams::default()).unwrap();
+    assert_eq!(fit.model, FrictionModel::CoulombViscous, "{fit:?}");
+    assert!(
+        matches!(
+            fit.reductions[0].reason,
+            Undetermined::StaticBelowCoulomb { static_excess_n, std_error_n: Some(se) }
+                if static_excess_n < -100.0 && se < 10.0
+        ),
+        "{:?}",
+        fit.reductions
+    );
+}
+
+/// Paper 001 Table 2 with δ free: one feed below v_s cannot pin δ (SE(F_s) ≈ 2e9 N); the fit
+/// falls back to δ = 2 and reports the hump with sane uncertainties.
+#[test]
+fn undetermined_delta_falls_back_to_fixed() {
+    let feeds = [
+        50.0, 100.0, 200.0, 300.0, 400.0, 500.0, 1000.0, 2000.0, 3000.0, 4000.0, 5000.0, 6000.0,
+        7000.0, 8000.0, 9000.0, 10000.0, 11000.0,
+    ];
+    let torque = [
+        1.73, 1.57, 1.48, 1.44, 1.50, 1.55, 1.65, 1.74, 1.81, 1.93, 2.03, 2.09, 2.16, 2.24, 2.31,
+        2.36, 2.50,
+    ];
+    let v: Vec<f64> = feeds.iter().map(|f| f * M_S_PER_MM_MIN).collect();
+    let f: Vec<f64> = torque
+        .iter()
+        .map(|t| 2.0 * std::f64::consts::PI * t / 0.012)
+        .collect();
+    let params = StribeckFitParams {
+        delta: DeltaMode::Free,
+        ..Default::default()
+    };
+    let fit = fit_stribeck(&v, &f, &params).unwrap();
+    assert_eq!(fit.model, FrictionModel::Stribeck);
+    assert!(!fit.delta_free);
+    assert!((fit.params.delta - 2.0).abs() < 1e-15);
+    assert_eq!(fit.reductions.len(), 1);
+    assert!(fit.reductions[0].delta_free);
+    assert!(
+        matches!(
+            fit.reductions[0].code(),
+            "ill-conditioned" | "absurd-uncertainty"
+        ),
+        "{:?}",
+        fit.reductions
+    );
+    let fixed = fit_stribeck(&v, &f, &StribeckFitParams::default()).unwrap();
+    assert_eq!(fit.params, fixed.params);
+    let u = fit.uncertainty.unwrap();
+    let f_max = f.iter().fold(0.0f64, |m, x| m.max(*x));
+    assert!(u.fs_n.unwrap().std_error < f_max && u.static_excess_n.unwrap().std_error < f_max);
+}
+
+/// Whatever the points, a reported model has forces within 10 × the data and finite numbers.
+#[test]
+fn reported_forces_stay_within_the_data_scale() {
+    let v = feeds_m_s();
+    let cases: Vec<(Vec<f64>, Vec<f64>)> = vec![
+        (vec![v[0], v[17]], vec![180.0, 230.0]),
+        (vec![v[10], v[12]], vec![183.0, 229.5]),
+        (vec![v[0], v[1], v[2]], vec![250.0, 180.0, 240.0]),
+        (v[..4].to_vec(), vec![240.0, 180.0, 260.0, 175.0]),
+        (v[..5].to_vec(), vec![240.0, 180.0, 260.0, 175.0, 300.0]),
+    ];
+    for (k, (v, f)) in cases.iter().enumerate() {
+        for delta in [DeltaMode::Fixed(2.0), DeltaMode::Free] {
+            let fit = fit_stribeck(
+                v,
+                f,
+                &StribeckFitParams {
+                    delta,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            assert_all_finite(&fit);
+            let f_max = f.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let v_max = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let p = &fit.params;
+            for x in [p.fc_n, p.fs_n, p.sigma_n_s_per_m * v_max] {
+                assert!(x.abs() <= 10.0 * f_max, "case {k} {delta:?}: {fit:?}");
+            }
+            if let Some(u) = &fit.uncertainty {
+                assert!(u.fc_n.std_error <= f_max, "case {k} {delta:?}: {fit:?}");
+            }
         }
     }
 }
