@@ -2,6 +2,7 @@
 use clap::Parser;
 mod cmd;
 mod output;
+mod paths;
 mod plot;
 mod report;
 

@@ -33,7 +33,9 @@ pub struct AtomicFile {
 }
 
 impl AtomicFile {
+    /// Start `dest`; its folder is made when missing ([`crate::paths::ensure_parent_dir`]).
     pub fn create(dest: &Path) -> Result<Self> {
+        crate::paths::ensure_parent_dir(dest)?;
         let name = dest
             .file_name()
             .with_context(|| format!("{} is not a file path", dest.display()))?;

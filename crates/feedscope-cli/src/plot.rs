@@ -31,6 +31,8 @@ pub enum Style {
     Dashed,
     /// Small dots (raw samples).
     Points,
+    /// Solid line with a marker at every point (one per test in a trend).
+    LineMarkers,
 }
 
 /// One named series of (x, y) points.
@@ -150,16 +152,68 @@ pub fn stacked_svg(charts: &[LineChart]) -> Result<String> {
         root.fill(&WHITE).map_err(plot_err)?;
         let areas = root.split_evenly((n as usize, 1));
         for (chart, area) in charts.iter().zip(areas.iter()) {
-            draw_line_chart(chart, area)?;
+            draw_line_chart(chart, area, true)?;
         }
         root.present().map_err(plot_err)?;
     }
     Ok(svg)
 }
 
+/// Render a line chart with its legend below the plot, in two columns, so that no entry hides
+/// data: for charts whose newest points are at the right edge (trends), or with many series.
+///
+/// # Errors
+/// When no series holds a finite point, or plotters fails.
+pub fn line_chart_legend_below_svg(chart: &LineChart) -> Result<String> {
+    register_font();
+    const ROW: u32 = 22;
+    let rows = chart.series.len().div_ceil(2) as u32;
+    let legend_height = 12 + ROW * rows;
+    let mut svg = String::new();
+    {
+        let root =
+            SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_height)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let (plot_area, legend_area) = root.split_vertically(HEIGHT);
+        draw_line_chart(chart, &plot_area, false)?;
+        for (k, s) in chart.series.iter().enumerate() {
+            let colour = PALETTE[k % PALETTE.len()];
+            let x = 84 + (k as i32 % 2) * 440;
+            let y = 6 + (k as i32 / 2) * ROW as i32 + 8;
+            let style = colour.stroke_width(2);
+            let segments: Vec<(i32, i32)> = match s.style {
+                Style::Dashed => vec![(x, x + 9), (x + 15, x + 24)],
+                _ => vec![(x, x + 24)],
+            };
+            for (a, b) in segments {
+                legend_area
+                    .draw(&PathElement::new(vec![(a, y), (b, y)], style))
+                    .map_err(plot_err)?;
+            }
+            if matches!(s.style, Style::LineMarkers | Style::Points) {
+                legend_area
+                    .draw(&Circle::new((x + 12, y), 3, colour.filled()))
+                    .map_err(plot_err)?;
+            }
+            legend_area
+                .draw(&Text::new(
+                    s.name.clone(),
+                    (x + 32, y - 8),
+                    ("sans-serif", 14).into_font(),
+                ))
+                .map_err(plot_err)?;
+        }
+        root.present().map_err(plot_err)?;
+    }
+    Ok(svg)
+}
+
+/// Draw one chart into `area`; with `legend_inside` the legend sits in the upper right, over
+/// headroom added above the data.
 fn draw_line_chart<DB: DrawingBackend>(
     chart: &LineChart,
     area: &DrawingArea<DB, plotters::coord::Shift>,
+    legend_inside: bool,
 ) -> Result<()>
 where
     DB::ErrorType: 'static,
@@ -177,7 +231,11 @@ where
             .flat_map(|s| s.points.iter().map(|p| p.1)),
     )?;
     // Headroom above the data for the legend.
-    let y1 = y1 + 0.18 * (y1 - y0);
+    let y1 = if legend_inside {
+        y1 + 0.18 * (y1 - y0)
+    } else {
+        y1
+    };
     let mut ctx = ChartBuilder::on(area)
         .caption(chart.title, ("sans-serif", 20))
         .margin(12)
@@ -211,12 +269,20 @@ where
             Style::Points => ctx
                 .draw_series(pts.map(|p| Circle::new(p, 1, colour.mix(0.5).filled())))
                 .map_err(plot_err)?,
+            Style::LineMarkers => {
+                let pts: Vec<(f64, f64)> = pts.collect();
+                ctx.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))
+                    .map_err(plot_err)?;
+                ctx.draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                    .map_err(plot_err)?
+            }
         };
         anno.label(s.name.as_str()).legend(move |(x, y)| {
             PathElement::new(vec![(x, y), (x + 18, y)], legend_colour.stroke_width(3))
         });
     }
-    if chart.series.len() > 1 || chart.series.iter().any(|s| !s.name.is_empty()) {
+    if legend_inside && (chart.series.len() > 1 || chart.series.iter().any(|s| !s.name.is_empty()))
+    {
         ctx.configure_series_labels()
             .label_font(("sans-serif", 13))
             .background_style(WHITE.mix(0.85))
@@ -352,6 +418,42 @@ mod tests {
         .unwrap();
         assert!(svg.contains("position (mm)") && svg.contains("friction (N)"));
         assert!(svg.contains("forward"));
+    }
+
+    /// The legend below the plot: every entry is drawn, markers mark each point, and the plot
+    /// area keeps no headroom for a legend inside it.
+    #[test]
+    fn legend_below_lists_every_series_and_marks_points() {
+        let chart = LineChart {
+            title: "t",
+            x_label: "weeks since the first test",
+            y_label: "Fs (N)",
+            series: vec![
+                Series {
+                    name: "value (N)".into(),
+                    points: vec![(0.0, 1.0), (1.0, 2.0), (2.0, 3.0)],
+                    style: Style::LineMarkers,
+                },
+                Series {
+                    name: "baseline 1.00".into(),
+                    points: vec![(0.0, 1.0), (2.0, 1.0)],
+                    style: Style::Dashed,
+                },
+                Series {
+                    name: "third entry".into(),
+                    points: vec![(0.0, 2.0), (2.0, 2.0)],
+                    style: Style::Line,
+                },
+            ],
+        };
+        let below = line_chart_legend_below_svg(&chart).unwrap();
+        for name in ["value (N)", "baseline 1.00", "third entry"] {
+            assert!(below.contains(name), "{name}");
+        }
+        // 3 markers on the data and 1 in the legend.
+        assert_eq!(below.matches("<circle").count(), 4, "{below}");
+        let inside = line_chart_svg(&chart).unwrap();
+        assert_eq!(inside.matches("<circle").count(), 3);
     }
 
     #[test]

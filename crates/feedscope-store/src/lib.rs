@@ -100,6 +100,14 @@ pub enum StoreError {
     /// No such test.
     #[error("no test with id {0}")]
     NoSuchTest(i64),
+    /// The folder the database file would be in does not exist (nothing was created).
+    #[error("{path}: the folder {folder} does not exist; create it first or choose another --db")]
+    NoFolder {
+        /// The database file asked for.
+        path: String,
+        /// Its parent folder, which is missing.
+        folder: String,
+    },
     /// The database engine said no (its message unchanged).
     #[error(transparent)]
     Backend(#[from] BackendError),
@@ -130,7 +138,8 @@ impl StoreError {
             | StoreError::Foreign { .. }
             | StoreError::NewerSchema { .. }
             | StoreError::Corrupt { .. }
-            | StoreError::NoSuchTest(_) => ErrorKind::BadInput,
+            | StoreError::NoSuchTest(_)
+            | StoreError::NoFolder { .. } => ErrorKind::BadInput,
         }
     }
 }
@@ -386,6 +395,17 @@ pub struct Filter {
     pub axis: Option<String>,
 }
 
+/// One machine/axis series of a store, as [`Store::axes`] lists it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct AxisSeries {
+    /// Machine name.
+    pub machine: String,
+    /// Axis name.
+    pub axis: String,
+    /// Tests stored for it.
+    pub tests: usize,
+}
+
 /// One indicator's series, with the test id of each point.
 pub type Series = Vec<(i64, Point)>;
 
@@ -419,6 +439,24 @@ pub trait Store {
     fn curves(&self, id: i64) -> Result<Option<String>, StoreError>;
     /// The axis parameters (JSON of the axis file) last stored for an axis.
     fn axis_params(&self, machine: &str, axis: &str) -> Result<Option<String>, StoreError>;
+    /// Every machine/axis series with its number of tests, ordered by machine and axis.
+    ///
+    /// Provided from [`Store::list`]; a backend may answer it more cheaply.
+    fn axes(&self) -> Result<Vec<AxisSeries>, StoreError> {
+        let mut out: Vec<AxisSeries> = Vec::new();
+        // `list` orders by machine and axis, so one pass groups them.
+        for t in self.list(&Filter::default())? {
+            match out.last_mut() {
+                Some(a) if a.machine == t.machine && a.axis == t.axis => a.tests += 1,
+                _ => out.push(AxisSeries {
+                    machine: t.machine,
+                    axis: t.axis,
+                    tests: 1,
+                }),
+            }
+        }
+        Ok(out)
+    }
     /// Integrity check; `Ok(())` when the database is sound.
     ///
     /// # Errors

@@ -146,7 +146,18 @@ fn probe(path: &Path) -> Result<(), StoreError> {
     let shown = path.display().to_string();
     let len = match std::fs::metadata(path) {
         Ok(m) => m.len(),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            // SQLite would only say "unable to open database file".
+            return match path.parent() {
+                Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => {
+                    Err(StoreError::NoFolder {
+                        path: shown,
+                        folder: dir.display().to_string(),
+                    })
+                }
+                _ => Ok(()),
+            };
+        }
         Err(e) => return Err(e.into()),
     };
     if len == 0 {
@@ -783,6 +794,38 @@ mod tests {
         assert_eq!(fs, [362.0, 365.0, 369.0]);
         let ids: Vec<i64> = series["fs_n"].iter().map(|(id, _)| *id).collect();
         assert_eq!(ids, z.iter().map(|r| r.id).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn axes_count_the_tests_of_each_series() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = open(&dir);
+        assert!(s.axes().unwrap().is_empty());
+        for (axis, day, content) in [("Z", 9, 1), ("X", 4, 2), ("Z", 5, 3)] {
+            added(
+                s.add(&new_test(axis, day, TestKind::Triangle, content))
+                    .unwrap(),
+            );
+        }
+        let series = |axis: &str, tests| crate::AxisSeries {
+            machine: "m".into(),
+            axis: axis.into(),
+            tests,
+        };
+        assert_eq!(s.axes().unwrap(), [series("X", 1), series("Z", 2)]);
+    }
+
+    #[test]
+    fn a_missing_folder_is_named_and_not_created() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("no-such-folder").join("h.db");
+        let e = SqliteStore::open(&path).err().expect("refused");
+        assert!(
+            matches!(&e, StoreError::NoFolder { folder, .. } if folder.ends_with("no-such-folder")),
+            "{e}"
+        );
+        assert!(e.is_bad_input());
+        assert!(!dir.path().join("no-such-folder").exists());
     }
 
     #[test]

@@ -189,6 +189,8 @@ impl From<&DroppedSample> for DroppedPosition {
 pub struct PlotData {
     pub forward: Vec<Vec<(f64, f64)>>,
     pub backward: Vec<Vec<(f64, f64)>>,
+    /// Stroke numbers of `forward` and `backward`, as the console table numbers them.
+    pub numbers: [Vec<usize>; 2],
 }
 
 const PLOT_POINTS_PER_STROKE: usize = 4000;
@@ -206,13 +208,14 @@ impl PlotData {
             .collect()
     }
 
-    fn add(&mut self, direction: feedscope::estimate::Direction, points: Vec<(f64, f64)>) {
-        let dst = match direction {
-            feedscope::estimate::Direction::Forward => &mut self.forward,
-            feedscope::estimate::Direction::Backward => &mut self.backward,
+    fn add(&mut self, s: &StrokeSummary, points: Vec<(f64, f64)>) {
+        let (dst, numbers) = match s.direction {
+            feedscope::estimate::Direction::Forward => (&mut self.forward, &mut self.numbers[0]),
+            feedscope::estimate::Direction::Backward => (&mut self.backward, &mut self.numbers[1]),
         };
         if dst.len() < PLOT_STROKES_PER_DIRECTION {
             dst.push(points);
+            numbers.push(s.stroke);
         }
     }
 
@@ -225,9 +228,19 @@ impl PlotData {
         mut extra_backward: Vec<plot::Series>,
     ) -> Result<String> {
         let mut charts_series = Vec::new();
-        for (label, strokes, extra) in [
-            ("forward", &self.forward, &mut extra_forward),
-            ("backward", &self.backward, &mut extra_backward),
+        for (label, strokes, numbers, extra) in [
+            (
+                "forward",
+                &self.forward,
+                &self.numbers[0],
+                &mut extra_forward,
+            ),
+            (
+                "backward",
+                &self.backward,
+                &self.numbers[1],
+                &mut extra_backward,
+            ),
         ] {
             if strokes.is_empty() {
                 continue;
@@ -236,10 +249,11 @@ impl PlotData {
                 .iter()
                 .enumerate()
                 .map(|(k, pts)| plot::Series {
+                    // Numbered as in the console table and the CSV, not within the plot.
                     name: if strokes.len() > 1 {
-                        format!("{label} stroke {}", k + 1)
+                        format!("{label} stroke {}", numbers[k])
                     } else {
-                        format!("{label} (estimated)")
+                        format!("{label} stroke {} (estimated)", numbers[k])
                     },
                     points: pts.clone(),
                     style: plot::Style::Line,
@@ -323,7 +337,7 @@ pub fn estimate_to_csv(
                     return Err(anyhow::anyhow!("the CSV writer stopped"));
                 }
                 pb.inc(summary.position_samples as u64);
-                plot.add(summary.direction, pts);
+                plot.add(&summary, pts);
                 summaries.push(summary);
                 Ok(())
             },
@@ -558,7 +572,7 @@ pub fn run(args: Args) -> Result<()> {
     spinner.enable_steady_tick(std::time::Duration::from_millis(120));
     let read = read_trace_file_with(&args.trace, &opts, &GlitchParams::for_axis(&axis));
     spinner.finish_and_clear();
-    let (trace, report) = read?;
+    let (trace, report) = read.map_err(|e| super::effort::name_the_flag(e, opts.effort))?;
     crate::output::print_read_warnings(&args.trace.display().to_string(), &report);
     if let Some((path, letter, prog)) = &program {
         let start_mm = trace.position_m.value.first().copied().unwrap_or(0.0) * 1e3;

@@ -341,6 +341,7 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
     t.reference = a.reference;
     t.compensation_ref = a.compensation.clone();
     let outcome = store.add(&t).map_err(|e| store_err(e, db))?;
+    super::series::announce_add(&store, &t, outcome, a.time.is_none().then_some(&*a.trace))?;
     let (id, dup) = match outcome {
         AddOutcome::Added(id) => (id, false),
         AddOutcome::Duplicate(id) => (id, true),
@@ -574,6 +575,7 @@ pub struct AxisTrends {
 
 /// Resolve the axis name: given, or the only axis of the machine.
 pub fn resolve_axis(store: &dyn Store, machine: &str, axis: Option<&str>) -> Result<String> {
+    super::series::check_known(store, machine, axis)?;
     if let Some(a) = axis {
         return Ok(a.to_string());
     }

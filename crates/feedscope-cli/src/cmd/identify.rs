@@ -195,7 +195,8 @@ fn read(
         }),
         threads: 0,
     };
-    let (trace, report) = read_trace_file_with(path, &opts, &GlitchParams::for_axis(axis))?;
+    let (trace, report) = read_trace_file_with(path, &opts, &GlitchParams::for_axis(axis))
+        .map_err(|e| super::effort::name_the_flag(e, opts.effort))?;
     let source = path.display().to_string();
     crate::output::print_read_warnings(&source, &report);
     Ok((

@@ -8,6 +8,7 @@ use feedscope::ErrorKind;
 mod analyze;
 mod demo;
 mod dynamics;
+mod effort;
 mod estimate;
 mod fit_stribeck;
 pub(crate) mod history;
@@ -16,6 +17,7 @@ mod import;
 mod map;
 mod plan;
 mod report;
+mod series;
 mod simulate;
 
 /// feedscope: how are the ball-screw feed drives of this machine doing?

@@ -55,12 +55,38 @@ pub fn write_report(
     let axis = resolve_axis(&store, machine, axis)?;
     let thresholds = super::history::with_axis_thresholds(&store, machine, &axis, thresholds)?;
     let t = axis_trends(&store, machine, &axis, baseline_tests, &thresholds)?;
-    let html = crate::report::render(&store, &t)?;
+    let html = crate::report::render(&store, &t, baseline_tests)?;
     write_atomic(out, html.as_bytes())
+}
+
+/// Where the database was looked for, in words, when the file is not there: the flag, the
+/// environment variable, or the default name in the current folder, and how to make one.
+fn no_database(flag: Option<&Path>, db: &Path) -> super::BadInput {
+    let looked = if flag.is_some() {
+        format!("{} (--db)", db.display())
+    } else if std::env::var_os("FEEDSCOPE_DB").is_some() {
+        format!("{} (from FEEDSCOPE_DB)", db.display())
+    } else {
+        let here = std::env::current_dir()
+            .map(|d| format!(" in {}", d.display()))
+            .unwrap_or_default();
+        format!(
+            "{}{here} (no --db given and FEEDSCOPE_DB not set)",
+            db.display()
+        )
+    };
+    super::BadInput(format!(
+        "no database at {looked}; a report reads the tests that `feedscope history add` \
+         stores: make one with `{}`",
+        super::series::how_to_add(flag)
+    ))
 }
 
 pub fn run(args: Args) -> Result<()> {
     let db = db_path(args.db.as_deref());
+    if !db.exists() {
+        return Err(no_database(args.db.as_deref(), &db).into());
+    }
     write_report(
         &db,
         &args.machine,

@@ -1,7 +1,7 @@
 //! The condition report: one self-contained HTML file per axis (plots inline as SVG, no
 //! script, no network), rendered from `report.html` with minijinja.
 use anyhow::{Context, Result};
-use feedscope::history::{IndicatorTrend, Status};
+use feedscope::history::{Indicator, IndicatorTrend, Status, TrendParams};
 use feedscope::units::MM_MIN_PER_M_S;
 use feedscope_store::{Identified, Store, TestDetail};
 use serde::Serialize;
@@ -26,6 +26,8 @@ struct Row {
     n: usize,
     baseline: String,
     sigma: String,
+    /// The σ floor of this indicator (its unit) and whether σ was raised to it.
+    floor: String,
     lower: String,
     upper: String,
     latest: String,
@@ -65,7 +67,11 @@ struct Page<'a> {
     first_time: String,
     last_time: String,
     counts: Vec<(String, usize)>,
-    diagnosis: &'a [String],
+    diagnosis: Vec<String>,
+    /// No indicator has a baseline yet.
+    no_baseline: bool,
+    /// The σ floor in words (what it is, its value).
+    sigma_floor: String,
     warnings: Vec<Row>,
     profile: Option<Chart>,
     profile_test: Option<String>,
@@ -118,6 +124,15 @@ fn row(t: &IndicatorTrend) -> Row {
         n,
         baseline: num(t.baseline.mean),
         sigma: num(t.baseline.std),
+        floor: format!(
+            "{}{}",
+            num(sigma_floor_fraction() * t.baseline.mean.abs()),
+            if t.baseline.std_floored {
+                " (σ raised to it)"
+            } else {
+                ""
+            }
+        ),
         lower: num(t.limits.lower),
         upper: num(t.limits.upper),
         latest: num(last),
@@ -152,7 +167,8 @@ fn trend_chart(t: &IndicatorTrend) -> Result<Chart> {
                 .zip(&t.points)
                 .map(|(&x, p)| (x, p.value))
                 .collect(),
-            style: Style::Line,
+            // A marker per test: the tests are few and unevenly spaced in time.
+            style: Style::LineMarkers,
         },
         Series {
             name: "EWMA (λ 0.2)".into(),
@@ -215,7 +231,8 @@ fn trend_chart(t: &IndicatorTrend) -> Result<Chart> {
     }
     let title = format!("{} [{}]", t.indicator.label(), t.status.as_str());
     let y_label = format!("{} ({})", t.indicator.label(), t.indicator.unit());
-    let svg = plot::line_chart_svg(&LineChart {
+    // The legend goes below: inside, its corner would hide the newest tests at the right.
+    let svg = plot::line_chart_legend_below_svg(&LineChart {
         title: &title,
         x_label: "weeks since the first test",
         y_label: &y_label,
@@ -397,8 +414,80 @@ fn responsive(svg: &str) -> String {
     s.replacen("<svg ", "<svg class=\"plot\" ", 1)
 }
 
-/// Render the report of an axis.
-pub fn render(store: &dyn Store, t: &AxisTrends) -> Result<String> {
+/// The floor of the baseline σ relative to |μ₀|, as the trends of `history trend` and the
+/// report use it (the default of [`TrendParams::min_relative_std`]).
+fn sigma_floor_fraction() -> f64 {
+    TrendParams::default().min_relative_std
+}
+
+/// The test kind whose analysis yields an indicator's values.
+fn kind_of(name: &str) -> Option<&'static str> {
+    Indicator::parse(name).map(|i| match i {
+        Indicator::MeanFriction { .. } | Indicator::Component { .. } => "strokes",
+        _ => "triangle",
+    })
+}
+
+/// What the indicators without a baseline would need: per test kind, how many of its
+/// indicators have none, how many tests they have and how many more a baseline of
+/// `baseline_tests` needs. Empty when every indicator has one.
+fn missing_baselines(
+    store: &dyn Store,
+    t: &AxisTrends,
+    baseline_tests: usize,
+) -> Result<Vec<String>> {
+    if t.skipped.is_empty() {
+        return Ok(vec![]);
+    }
+    // The baseline takes the first N tests of each indicator, and at least 2 for a scatter.
+    let need = baseline_tests.max(2);
+    let series = store.series(&t.machine, &t.axis)?;
+    let mut out = Vec::new();
+    for (kind, test_word) in [("strokes", "stroke test"), ("triangle", "triangle test")] {
+        let names: Vec<&String> = t
+            .skipped
+            .iter()
+            .filter(|n| kind_of(n) == Some(kind))
+            .collect();
+        if names.is_empty() {
+            continue;
+        }
+        let have = names
+            .iter()
+            .map(|n| series.get(*n).map_or(0, Vec::len))
+            .max()
+            .unwrap_or(0);
+        let more = need.saturating_sub(have);
+        let plural = |n: usize| if n == 1 { "" } else { "s" };
+        out.push(format!(
+            "{} indicator{} of {test_word}s ha{} no baseline: the baseline is the mean and \
+             scatter of the first {need} tests of each indicator and {} only {have} \
+             {test_word}{}; {more} more {test_word}{} needed.",
+            names.len(),
+            plural(names.len()),
+            if names.len() == 1 { "s" } else { "ve" },
+            if names.len() == 1 {
+                "it has"
+            } else {
+                "they have"
+            },
+            plural(have),
+            if more == 1 { " is" } else { "s are" },
+        ));
+    }
+    let unknown = t.skipped.iter().filter(|n| kind_of(n).is_none()).count();
+    if unknown > 0 {
+        out.push(format!(
+            "{unknown} stored indicator(s) are not known to this version of feedscope and are \
+             not trended."
+        ));
+    }
+    Ok(out)
+}
+
+/// Render the report of an axis whose trends took their baseline from the first
+/// `baseline_tests` tests of each indicator.
+pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Result<String> {
     let details: Vec<TestDetail> = t
         .tests
         .iter()
@@ -507,6 +596,38 @@ pub fn render(store: &dyn Store, t: &AxisTrends) -> Result<String> {
             },
         })
         .collect();
+    let missing = missing_baselines(store, t, baseline_tests)?;
+    let no_baseline = t.trends.is_empty();
+    let diagnosis: Vec<String> = if no_baseline {
+        // The study's "no evidence of a change" would be read as a clean bill of health: with
+        // no baseline there is no evidence either way.
+        let mut d = vec![format!(
+            "No baseline yet, so nothing can be said about a change of condition: {} test{} \
+             stored for this axis.",
+            t.tests.len(),
+            if t.tests.len() == 1 { " is" } else { "s are" }
+        )];
+        d.extend(missing);
+        d
+    } else {
+        t.diagnosis.iter().cloned().chain(missing).collect()
+    };
+    let floor = sigma_floor_fraction();
+    let n_floored = t.trends.iter().filter(|x| x.baseline.std_floored).count();
+    let mut sigma_floor = format!(
+        "σ floor: the σ of each baseline is at least {} % of |μ₀| (in the indicator's unit; \
+         column \"σ floor\"), so that tests which happen to repeat a value do not make every \
+         later wobble an alarm",
+        100.0 * floor
+    );
+    sigma_floor.push_str(&if no_baseline {
+        ".".to_string()
+    } else {
+        format!(
+            "; {n_floored} of {} indicators are at the floor.",
+            t.trends.len()
+        )
+    });
     let mut chart = |c: Chart| Chart {
         title: c.title,
         svg: responsive(&c.svg),
@@ -522,7 +643,9 @@ pub fn render(store: &dyn Store, t: &AxisTrends) -> Result<String> {
         last_time: t.tests.last().map_or(String::new(), |x| x.time_utc.clone()),
         tests,
         counts,
-        diagnosis: &t.diagnosis,
+        diagnosis,
+        no_baseline,
+        sigma_floor,
         warnings: warnings.into_iter().map(|w| w.1).collect(),
         profile_test: curves
             .as_ref()

@@ -1,6 +1,7 @@
 //! End-to-end tests of the `feedscope` binary, each in a temporary directory.
 mod analyze;
 mod dynamics;
+mod edges;
 mod estimate;
 mod fit_stribeck;
 mod glitch;

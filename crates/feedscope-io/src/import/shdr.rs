@@ -294,6 +294,7 @@ pub fn parse_shdr(
     model: &DeviceModel,
     device: Option<&str>,
 ) -> Result<ShdrLog, ImportError> {
+    check_looks_like_shdr(text, source_name)?;
     let (dev, device_rule) = choose_device(text, source_name, model, device)?;
     let device_model = &model.devices[dev];
     let mut log = ShdrLog {
@@ -460,6 +461,39 @@ pub fn parse_shdr(
     }
     log.series = index.into_iter().collect();
     Ok(log)
+}
+
+/// Refuse text whose first data line is no SHDR line (no `|`): a CSV or another log given by
+/// mistake would otherwise fail later with a message about timestamps or devices.
+fn check_looks_like_shdr(text: &str, source_name: &str) -> Result<(), ImportError> {
+    let mut endings = LineEndings::default();
+    let first = split_lines(text, &mut endings).find(|(_, l)| {
+        // Agent commands (`*`), and the comments a CSV trace opens with (`#`).
+        let t = l.trim_start();
+        !t.is_empty() && !t.starts_with('*') && !t.starts_with('#')
+    });
+    let Some((line, l)) = first else {
+        return Ok(()); // empty: said as such by the parser
+    };
+    // A lone timestamp is an SHDR line cut short; the parser names what is missing.
+    if l.contains('|') || Timestamp::parse(l.trim()).is_ok() {
+        return Ok(());
+    }
+    let hint = if l.contains(',') || l.contains(';') {
+        " It looks like CSV: a feedscope trace (`time_s,channel,value`) is read directly by \
+         `feedscope estimate`; a UMich mill CSV converts with `feedscope import umich`."
+    } else {
+        ""
+    };
+    Err(ImportError::Malformed {
+        source_name: source_name.to_string(),
+        line,
+        reason: format!(
+            "not an MTConnect SHDR log: `{}` has no `|`; SHDR lines are \
+             `timestamp|key|value|…`, e.g. `2022-08-08T13:51:34.716Z|Zabs|123.456`.{hint}",
+            shorten(l.trim())
+        ),
+    })
 }
 
 /// The text field of a multi-field item in SHDR version 1: the fields from `start` joined by `|`
@@ -929,6 +963,18 @@ mod tests {
         assert!(matches!(e, ImportError::Empty { .. }), "{e}");
         let e = parse("2024-01-01T00:00:00Z\n").unwrap_err();
         assert!(e.to_string().starts_with("log.txt:1: "), "{e}");
+    }
+
+    #[test]
+    fn csv_is_not_taken_for_shdr() {
+        let e = parse("# a trace\ntime_s,channel,value\n0.0,position_mm,1.0\n").unwrap_err();
+        let m = e.to_string();
+        assert!(m.starts_with("log.txt:2: not an MTConnect SHDR log"), "{m}");
+        assert!(
+            m.contains("timestamp|key|value") && m.contains("looks like CSV"),
+            "{m}"
+        );
+        assert!(e.kind() == feedscope::ErrorKind::BadInput);
     }
 
     #[test]

@@ -472,6 +472,9 @@ impl BlockParser {
             found: shorten(line),
             reason,
         };
+        if let Some(reason) = foreign_header(&text) {
+            return Err(bad(reason));
+        }
         for (k, n) in names.iter().enumerate() {
             if let Some(why) = name_problem(n.as_bytes()) {
                 return Err(bad(format!(
@@ -1025,6 +1028,50 @@ fn parse_piece(
     }
     p.lines = line_no;
     Ok(p)
+}
+
+/// Why a first line is not a trace header when it is another format met in practice, with
+/// what to do: an MTConnect SHDR log or a UMich mill CSV (both convert with `feedscope
+/// import`), or a semicolon-separated CSV as spreadsheets write it where the decimal mark is a
+/// comma. `None` for anything else (the generic header checks then explain).
+fn foreign_header(line: &str) -> Option<String> {
+    let b = line.as_bytes();
+    // `2022-08-08T13:51:34.7167146Z|avail|AVAILABLE`: an ISO date, a `T`, fields split by `|`.
+    let iso_date = b.len() > 11
+        && b[..4].iter().all(u8::is_ascii_digit)
+        && b[4] == b'-'
+        && b[7] == b'-'
+        && b[10] == b'T';
+    if iso_date && line.contains('|') {
+        return Some(
+            "this is an MTConnect SHDR log (`timestamp|key|value|…` lines), not a trace; \
+             convert it with `feedscope import shdr LOG --devices Devices.xml --axis AXIS \
+             --torque-per-load-nm N -o trace.csv`"
+                .into(),
+        );
+    }
+    let lower = line.to_ascii_lowercase();
+    if lower.contains("_actualposition") && lower.contains("_currentfeedback") {
+        return Some(
+            "this is a UMich SMART CNC mill CSV (`X1_ActualPosition`, …, no time column), not \
+             a trace; convert it with `feedscope import umich FILE --axis X -o trace.csv`"
+                .into(),
+        );
+    }
+    let semicolon_names = line
+        .split(';')
+        .map(|n| n.trim().trim_matches('"').to_ascii_lowercase())
+        .any(|n| n == "time_s" || n == "time_ms");
+    if semicolon_names || (line.contains(';') && !line.contains(',')) {
+        return Some(
+            "fields are separated by `;` (a semicolon CSV, as spreadsheets write it where the \
+             decimal mark is a comma); a trace separates fields with `,` and writes decimals \
+             with `.` (`time_s,channel,value` then `0.036,current_a,0.842`): export it again \
+             that way, turning decimal commas (`0,036`) into points"
+                .into(),
+        );
+    }
+    None
 }
 
 #[cfg(test)]
