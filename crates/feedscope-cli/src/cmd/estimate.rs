@@ -191,6 +191,10 @@ pub struct PlotData {
     pub backward: Vec<Vec<(f64, f64)>>,
     /// Stroke numbers of `forward` and `backward`, as the console table numbers them.
     pub numbers: [Vec<usize>; 2],
+    /// Whether each stroke is drawn as its mean level only (its data support no profile).
+    pub mean_only: [Vec<bool>; 2],
+    /// The friction's sign comes from the direction of motion (the effort is a magnitude).
+    pub sign_from_direction: bool,
 }
 
 const PLOT_POINTS_PER_STROKE: usize = 4000;
@@ -198,7 +202,13 @@ const PLOT_STROKES_PER_DIRECTION: usize = 6;
 
 impl PlotData {
     /// Friction vs position of one stroke, decimated for plotting ((mm, N) pairs).
+    /// A stroke whose data support no profile is drawn as its mean level: a flat line, not
+    /// the spline's swings between sparse samples.
     fn points(s: &StrokeFriction) -> Vec<(f64, f64)> {
+        if mean_only(&s.summary) {
+            let m = s.summary.mean_friction_n;
+            return vec![(s.summary.start_mm, m), (s.summary.end_mm, m)];
+        }
         let stride = s.position_m.len().div_ceil(PLOT_POINTS_PER_STROKE).max(1);
         s.position_m
             .iter()
@@ -209,13 +219,16 @@ impl PlotData {
     }
 
     fn add(&mut self, s: &StrokeSummary, points: Vec<(f64, f64)>) {
-        let (dst, numbers) = match s.direction {
-            feedscope::estimate::Direction::Forward => (&mut self.forward, &mut self.numbers[0]),
-            feedscope::estimate::Direction::Backward => (&mut self.backward, &mut self.numbers[1]),
+        let k = usize::from(s.direction == feedscope::estimate::Direction::Backward);
+        let dst = if k == 0 {
+            &mut self.forward
+        } else {
+            &mut self.backward
         };
         if dst.len() < PLOT_STROKES_PER_DIRECTION {
             dst.push(points);
-            numbers.push(s.stroke);
+            self.numbers[k].push(s.stroke);
+            self.mean_only[k].push(mean_only(s));
         }
     }
 
@@ -228,17 +241,19 @@ impl PlotData {
         mut extra_backward: Vec<plot::Series>,
     ) -> Result<String> {
         let mut charts_series = Vec::new();
-        for (label, strokes, numbers, extra) in [
+        for (label, strokes, numbers, flat, extra) in [
             (
                 "forward",
                 &self.forward,
                 &self.numbers[0],
+                &self.mean_only[0],
                 &mut extra_forward,
             ),
             (
                 "backward",
                 &self.backward,
                 &self.numbers[1],
+                &self.mean_only[1],
                 &mut extra_backward,
             ),
         ] {
@@ -250,10 +265,13 @@ impl PlotData {
                 .enumerate()
                 .map(|(k, pts)| plot::Series {
                     // Numbered as in the console table and the CSV, not within the plot.
-                    name: if strokes.len() > 1 {
-                        format!("{label} stroke {}", numbers[k])
-                    } else {
-                        format!("{label} stroke {} (estimated)", numbers[k])
+                    name: match (strokes.len() > 1, flat.get(k).copied().unwrap_or(false)) {
+                        (_, true) => format!(
+                            "{label} stroke {}: mean level only (no profile supported)",
+                            numbers[k]
+                        ),
+                        (true, false) => format!("{label} stroke {}", numbers[k]),
+                        (false, false) => format!("{label} stroke {} (estimated)", numbers[k]),
                     },
                     points: pts.clone(),
                     style: plot::Style::Line,
@@ -272,7 +290,11 @@ impl PlotData {
             .map(|((_, series), t)| plot::LineChart {
                 title: t,
                 x_label: "position (mm)",
-                y_label: "friction F_f (N, signed as Eq. 5)",
+                y_label: if self.sign_from_direction {
+                    "friction F_f (N, sign from the direction of motion)"
+                } else {
+                    "friction F_f (N, signed as Eq. 5)"
+                },
                 series,
             })
             .collect();
@@ -482,6 +504,13 @@ pub fn print_table(summary: &Summary) -> Result<()> {
     Ok(())
 }
 
+/// True when a stroke's data verdict supports no more than its mean level.
+fn mean_only(s: &StrokeSummary) -> bool {
+    s.verdict
+        .as_ref()
+        .is_some_and(|v| v.support < feedscope::verdict::Support::Profile)
+}
+
 /// The binding reasons of the strokes' verdicts, by code: how many strokes and the first
 /// stroke's message.
 fn verdict_reasons(
@@ -586,7 +615,7 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     let source = args.trace.display().to_string();
-    let outcome = estimate_to_csv(&trace, &report, &source, &axis, &params, &args.output)?;
+    let mut outcome = estimate_to_csv(&trace, &report, &source, &axis, &params, &args.output)?;
     drop(trace);
     let json = serde_json::to_string_pretty(&outcome.summary)?;
     // Everything is rendered before anything is put in place, so an error leaves earlier
@@ -595,6 +624,7 @@ pub fn run(args: Args) -> Result<()> {
         Some(_) => {
             let name = axis.name.as_deref().unwrap_or("axis");
             let v = &outcome.summary.verdict;
+            outcome.plot.sign_from_direction = v.friction_sign == FrictionSign::FromDirection;
             Some(outcome.plot.svg(
                 &format!(
                     "Friction along the travel ({name}); data support: {}{}",
