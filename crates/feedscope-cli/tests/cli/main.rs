@@ -12,6 +12,7 @@ mod map;
 mod parquet;
 mod plan;
 mod program;
+mod real;
 mod report;
 mod simulate;
 mod util;
