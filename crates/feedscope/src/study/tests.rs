@@ -592,3 +592,30 @@ fn analyze_trace_estimates_then_analyses_both_directions() {
     assert!(matches!(e, StudyError::Estimate(_)), "{e}");
     assert_eq!(e.kind(), ErrorKind::BadInput);
 }
+
+#[test]
+fn trends_without_a_baseline_say_what_is_missing() {
+    // Two tests of one indicator against a five-test baseline: nothing can be assessed, and
+    // the diagnosis must not read that silence as "no change".
+    let p = |t: f64, v: f64| Point {
+        time_s: t,
+        value: v,
+        std_error: Some(1.0),
+    };
+    let mut s: BTreeMap<String, IndicatorSeries> = BTreeMap::new();
+    s.insert(
+        "fs_n".into(),
+        vec![(1, p(0.0, 100.0)), (2, p(86400.0, 101.0))],
+    );
+    let t = axis_trends(&s, None, &TrendStudyParams::default()).unwrap();
+    assert!(t.trends.is_empty());
+    assert_eq!(t.skipped, ["fs_n"]);
+    assert_eq!(t.diagnosis.len(), 1, "{:?}", t.diagnosis);
+    let d = &t.diagnosis[0];
+    assert!(d.contains("No indicator has a baseline yet"), "{d}");
+    assert!(
+        d.contains("needs 5 tests") && d.contains("at most 2") && d.contains("3 more"),
+        "{d}"
+    );
+    assert!(!d.contains("no evidence"), "{d}");
+}

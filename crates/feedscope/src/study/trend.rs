@@ -116,7 +116,29 @@ pub fn axis_trends(
             })
             .then(start(&a.indicator).total_cmp(&start(&b.indicator)))
     });
-    let diagnosis = diagnose(&trends);
+    // Without a baseline nothing can have left it: say what is missing instead of reading
+    // silence as health.
+    let most = series.values().map(|s| s.len()).max().unwrap_or(0);
+    let short = skipped
+        .iter()
+        .filter(|n| Indicator::parse(n).is_some())
+        .count();
+    let mut diagnosis = if trends.is_empty() {
+        vec![format!(
+            "No indicator has a baseline yet: a baseline needs {} tests and the series have \
+             at most {most}; {} more test(s) are needed before a change can be detected (no \
+             statement about the condition is possible yet).",
+            params.baseline_tests,
+            params.baseline_tests.saturating_sub(most).max(1)
+        )]
+    } else {
+        diagnose(&trends)
+    };
+    if !trends.is_empty() && short > 0 {
+        diagnosis.push(format!(
+            "{short} indicator(s) have too few tests for a baseline and are not assessed."
+        ));
+    }
     Ok(AxisTrendStudy {
         trends,
         skipped,
