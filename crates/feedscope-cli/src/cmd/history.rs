@@ -331,6 +331,18 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
     };
     let analysis = analyze_test(&trace, &axis, a.kind, &params)
         .with_context(|| format!("analysing {}", a.trace.display()))?;
+    if let feedscope::study::TestAnalysis::Strokes(st) = &analysis {
+        eprintln!("{}", st.verdict.headline());
+        if !st.withheld.is_empty() {
+            let which: Vec<String> = st.withheld.iter().map(|w| w.stroke.to_string()).collect();
+            eprintln!(
+                "verdict: {} stroke(s) give no indicator, their data support no profile \
+                 (strokes {}; `feedscope estimate` says why)",
+                st.withheld.len(),
+                which.join(", ")
+            );
+        }
+    }
     let mut t = NewTest::from_analysis(&analysis, &axis, &bytes);
     t.machine = a.machine.clone();
     t.axis = axis_name(a.axis_name.as_deref(), &axis, &a.axis);
