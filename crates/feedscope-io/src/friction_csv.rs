@@ -490,8 +490,9 @@ fn unknown_summary(stroke: usize, direction: Direction, summary_name: &str) -> S
         verdict: None,
         program_line: None,
         programmed_feed_mm_min: None,
-        warnings: vec![format!(
-            "no summary {summary_name} found: the aliasing limit is unknown"
+        warnings: vec![feedscope::diag::Diagnostic::new(
+            "no-summary",
+            format!("no summary {summary_name} found: the aliasing limit is unknown"),
         )],
     }
 }
@@ -546,9 +547,11 @@ mod tests {
             assert_eq!(g.position_m, w.position_m);
             assert_eq!(g.summary.direction, w.summary.direction);
             assert!(g.summary.feed_mm_min.is_nan());
+            assert_eq!(g.summary.warnings.len(), 1);
+            assert_eq!(g.summary.warnings[0].code, "no-summary");
             assert_eq!(
-                g.summary.warnings,
-                ["no summary f.json found: the aliasing limit is unknown"]
+                g.summary.warnings[0].message,
+                "no summary f.json found: the aliasing limit is unknown"
             );
             for (a, b) in g.friction_n.iter().zip(&w.friction_n) {
                 assert!((a - b).abs() <= 0.5e-4 + 1e-12, "{a} {b}");

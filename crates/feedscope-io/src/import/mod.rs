@@ -499,8 +499,8 @@ pub struct ImportReport {
     pub effort: ChannelReport,
     /// How the effort was obtained, in words (e.g. `Z1load (%) × 0.2 N·m/%`).
     pub effort_rule: String,
-    /// Things to know before estimating from this trace.
-    pub warnings: Vec<String>,
+    /// Things to know before estimating from this trace, each with a stable code.
+    pub warnings: Vec<feedscope::diag::Diagnostic>,
 }
 
 impl ImportReport {
@@ -588,14 +588,18 @@ fn sampling_warnings(report: &mut ImportReport, trace: &Trace) {
             (a.min(x), b.max(x))
         });
     if p.is_empty() || hi - lo <= 0.0 {
-        report.warnings.push(
-            "the position never moves in this trace; `feedscope estimate` needs strokes".into(),
-        );
+        report.warnings.push(feedscope::diag::Diagnostic::new(
+            "position-never-moves",
+            "the position never moves in this trace; `feedscope estimate` needs strokes",
+        ));
     }
     if trace.effort.value.iter().all(|&v| v == 0.0) {
-        report.warnings.push(format!(
-            "the effort ({}) is zero in every sample: nothing to estimate friction from",
-            report.effort.source_key
+        report.warnings.push(feedscope::diag::Diagnostic::new(
+            "effort-all-zero",
+            format!(
+                "the effort ({}) is zero in every sample: nothing to estimate friction from",
+                report.effort.source_key
+            ),
         ));
     }
     let dt = report
@@ -605,11 +609,14 @@ fn sampling_warnings(report: &mut ImportReport, trace: &Trace) {
     if dt.is_finite() && dt > 0.0 {
         // Nyquist: a sampling interval dt resolves frequencies below 1/(2 dt); in screw
         // orders at feed v and lead p that is order < p / (2 v dt).
-        report.warnings.push(format!(
-            "median sampling interval {dt:.3} s resolves only frequencies below {:.2} Hz \
+        report.warnings.push(feedscope::diag::Diagnostic::new(
+            "slow-sampling",
+            format!(
+                "median sampling interval {dt:.3} s resolves only frequencies below {:.2} Hz \
              (screw orders below lead / (2 × feed × {dt:.3} s)): mean friction per stroke, \
              not its ripple",
-            0.5 / dt
+                0.5 / dt
+            ),
         ));
     }
 }

@@ -29,6 +29,7 @@ use std::path::Path;
 use super::devices::{Category, DeviceModel, Shape};
 use super::{read_text, shorten, split_lines, ChannelReport, ImportError, ImportReport, Imported};
 use super::{LineEndings, Timestamp};
+use feedscope::diag::Diagnostic;
 use feedscope::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 
 /// Observations of one key.
@@ -612,9 +613,12 @@ impl ShdrLog {
         let mut warnings = Vec::new();
         match it(pos).units.as_deref() {
             Some("MILLIMETER") => {}
-            None => warnings.push(format!(
-                "{} declares no units; taken as MILLIMETER (the MTConnect unit of POSITION)",
-                it(pos).key()
+            None => warnings.push(Diagnostic::new(
+                "position-units-assumed",
+                format!(
+                    "{} declares no units; taken as MILLIMETER (the MTConnect unit of POSITION)",
+                    it(pos).key()
+                ),
             )),
             Some(u) => {
                 return Err(item_err(format!(
@@ -691,43 +695,55 @@ impl ShdrLog {
                 });
             }
         }
-        warnings.push(format!(
-            "load is integer percent: torque is quantised in steps of 1 % = {:.4} N·m",
-            scale / 100.0
+        warnings.push(Diagnostic::new(
+            "load-whole-percent",
+            format!(
+                "load is integer percent: torque is quantised in steps of 1 % = {:.4} N·m",
+                scale / 100.0
+            ),
         ));
         if effort.value.iter().all(|&v| v >= 0.0) {
-            warnings.push(
+            warnings.push(Diagnostic::new(
+                "load-unsigned",
                 "the load is never negative: drives usually report its magnitude, so the torque \
-                 sign (and the sign of friction on backward strokes) is lost"
-                    .into(),
-            );
+                 sign (and the sign of friction on backward strokes) is lost",
+            ));
         }
         if self.segments.len() > 1 {
-            warnings.push(format!(
-                "the log is pieced together from {} recordings (time jumps back at lines {}); \
+            warnings.push(Diagnostic::new(
+                "pieced-recording",
+                format!(
+                    "the log is pieced together from {} recordings (time jumps back at lines {}); \
                  samples were put in time order, with gaps between the recordings",
-                self.segments.len(),
-                self.segments[1..]
-                    .iter()
-                    .map(|g| g.first_line.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                    self.segments.len(),
+                    self.segments[1..]
+                        .iter()
+                        .map(|g| g.first_line.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
             ));
         }
         for (rep, what) in [(&prep, "position"), (&lrep, "load")] {
             if rep.interleaved {
-                warnings.push(format!(
-                    "{what}: recordings of the log overlap in time and their samples \
+                warnings.push(Diagnostic::new(
+                    "recordings-interleave",
+                    format!(
+                        "{what}: recordings of the log overlap in time and their samples \
                      interleave; check the trace before estimating"
+                    ),
                 ));
             }
         }
         let t0_lag = prep.span_s.0.min(lrep.span_s.0);
         if t0_lag > 3600.0 {
-            warnings.push(format!(
-                "the first line of the log is {:.1} h before the first sample of this axis \
+            warnings.push(Diagnostic::new(
+                "first-line-long-before",
+                format!(
+                    "the first line of the log is {:.1} h before the first sample of this axis \
                  (a state dump?); --time-origin trace starts the trace at its first sample",
-                t0_lag / 3600.0
+                    t0_lag / 3600.0
+                ),
             ));
         }
         let unsigned = effort.value.iter().all(|&v| v >= 0.0);
@@ -753,10 +769,13 @@ impl ShdrLog {
             })
             .max_by(|a, b| a.1.total_cmp(&b.1));
         if let Some((key, top)) = &spindle {
-            warnings.push(format!(
+            warnings.push(Diagnostic::new(
+                "process-load",
+                format!(
                 "a spindle turns in this log ({key} up to {top:.0}/min): the program may cut, so \
                  the load may hold process forces besides friction; only mean levels are \
                  reported as upper bounds"
+            ),
             ));
         }
         let trace = Trace {
@@ -1024,7 +1043,7 @@ mod tests {
             .report
             .warnings
             .iter()
-            .any(|w| w.contains("2 recordings")));
+            .any(|w| w.code == "pieced-recording" && w.message.contains("2 recordings")));
     }
 
     #[test]

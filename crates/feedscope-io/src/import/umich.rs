@@ -13,6 +13,7 @@ use std::path::Path;
 
 use super::LineEndings;
 use super::{read_text, shorten, split_lines, ChannelReport, ImportError, ImportReport, Imported};
+use feedscope::diag::Diagnostic;
 use feedscope::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 
 /// Which current column becomes `current_a`.
@@ -241,16 +242,16 @@ impl UmichTable {
             ..Default::default()
         };
         crep.finish(&effort);
-        let mut warnings = vec![
-            "values carry 3 significant figures: positions of 100-999 mm are quantised to 1 mm"
-                .to_string(),
-        ];
+        let mut warnings = vec![Diagnostic::new(
+            "three-significant-figures",
+            "values carry 3 significant figures: positions of 100-999 mm are quantised to 1 mm",
+        )];
         if params.current == CurrentColumn::Output {
-            warnings.push(
+            warnings.push(Diagnostic::new(
+                "output-current-not-torque",
                 "OutputCurrent in the UMich files stays near 328 A whatever the axis does; \
-                 CurrentFeedback is the torque current"
-                    .into(),
-            );
+                 CurrentFeedback is the torque current",
+            ));
         }
         let trace = Trace {
             position_m,

@@ -330,8 +330,10 @@ pub struct StrokeSummary {
     /// friction CSV read without its summary).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub verdict: Option<StrokeVerdict>,
-    /// Things a user should know about this stroke.
-    pub warnings: Vec<String>,
+    /// Things a user should know about this stroke, each with a stable code
+    /// (`position-not-monotone`, `few-samples-per-lead`, `position-smoothed-below-order`,
+    /// `noise-floor-high`).
+    pub warnings: Vec<Diagnostic>,
 }
 
 /// Friction of one stroke on the resampling grid (SI, arrays of equal length, time order).
@@ -937,11 +939,11 @@ pub fn estimate_stroke(
         out.friction_n.push(f);
     }
     if non_monotone {
-        warnings.push(
+        warnings.push(Diagnostic::new(
+            "position-not-monotone",
             "the position spline is not monotone somewhere in this stroke (noisy or coarsely \
-             quantised position at a low feed); t(z) took the nearest solution"
-                .to_string(),
-        );
+             quantised position at a low feed); t(z) took the nearest solution",
+        ));
     }
     let mean = sum / count as f64;
     let var = out
@@ -969,23 +971,29 @@ pub fn estimate_stroke(
     sm.max_order = spl / 2.5;
     let feed_mm_min = feed_m_s * 60e3;
     if spl < 8.0 {
-        warnings.push(format!(
-            "only {spl:.1} raw samples per lead: fluctuation above order {:.1} cannot be \
+        warnings.push(Diagnostic::new(
+            "few-samples-per-lead",
+            format!(
+                "only {spl:.1} raw samples per lead: fluctuation above order {:.1} cannot be \
              trusted; sample faster or feed slower (below {:.0} mm/min for 8 samples per lead)",
-            spl / 2.5,
-            feed_mm_min * spl / 8.0
+                spl / 2.5,
+                feed_mm_min * spl / 8.0
+            ),
         ));
     }
     if let Some(order) = sm.position_cutoff_order {
         if order < sm.max_order {
             sm.max_order = order;
             if order < 10.0 {
-                warnings.push(format!(
-                    "the position is smoothed above {:.1} Hz, order {order:.1} at this feed: \
+                warnings.push(Diagnostic::new(
+                    "position-smoothed-below-order",
+                    format!(
+                        "the position is smoothed above {:.1} Hz, order {order:.1} at this feed: \
                      the table acceleration of higher orders is not resolved, so their \
                      amplitudes lack the inertia term; finer position quanta, faster sampling \
                      or a slower feed resolve more",
-                    sm.position_cutoff_hz.unwrap_or(0.0)
+                        sm.position_cutoff_hz.unwrap_or(0.0)
+                    ),
                 ));
             }
         }
@@ -1005,14 +1013,17 @@ pub fn estimate_stroke(
         } else {
             "holds all of the friction variation along this stroke".to_string()
         };
-        warnings.push(format!(
-            "predicted noise floor {:.2} N RMS (position quantisation {:.2}, effort noise \
+        warnings.push(Diagnostic::new(
+            "noise-floor-high",
+            format!(
+                "predicted noise floor {:.2} N RMS (position quantisation {:.2}, effort noise \
              {:.2}, inertia {:.2}) {share}: the profile is only good to about ±{:.1} N",
-            fl.total_n,
-            fl.quantisation_n,
-            fl.effort_n,
-            fl.inertia_n,
-            2.0 * fl.total_n
+                fl.total_n,
+                fl.quantisation_n,
+                fl.effort_n,
+                fl.inertia_n,
+                2.0 * fl.total_n
+            ),
         ));
     }
     sm.verdict = Some(judge_stroke(&StrokeEvidence {

@@ -8,6 +8,7 @@ use super::kinematic::{classify, KinematicOrder};
 use super::peaks::{find_peaks, PeakParams};
 use super::spectrum::{SpectrumAnalyzer, Window};
 use super::OrderError;
+use crate::diag::Diagnostic;
 use crate::stroke::StrokeView;
 
 /// How the travel is split into segments for the spectra.
@@ -227,8 +228,10 @@ pub struct FluctuationAnalysis {
     pub max_trusted_order: f64,
     /// The significance rule in words.
     pub noise_floor_rule: String,
-    /// Aliasing and other warnings.
-    pub warnings: Vec<String>,
+    /// Aliasing and other warnings, each with a stable code (`segments-skipped`,
+    /// `kinematic-order-above-trusted`, `components-above-trusted`, `components-unresolved`,
+    /// and from a study `components-withheld`, `causes-withheld`).
+    pub warnings: Vec<Diagnostic>,
 }
 
 /// Segment spectra on one order grid, for a heat map of amplitude over order and position.
@@ -366,10 +369,13 @@ pub fn analyze_fluctuation(
         segs.push(((i + 1).to_string(), lo, hi));
     }
     if !skipped.is_empty() {
-        warnings.push(format!(
-            "{} segment(s) with fewer than 16 samples skipped (first: {})",
-            skipped.len(),
-            skipped[0]
+        warnings.push(Diagnostic::new(
+            "segments-skipped",
+            format!(
+                "{} segment(s) with fewer than 16 samples skipped (first: {})",
+                skipped.len(),
+                skipped[0]
+            ),
         ));
     }
     let mut spectra = Vec::new();
@@ -429,11 +435,14 @@ pub fn analyze_fluctuation(
     }
     warnings.extend(aliasing_warnings(stroke, kinematic, &components));
     if unresolved > 0 {
-        warnings.push(format!(
-            "{unresolved} significant component(s) left `{UNRESOLVED}`: their segment spans \
-             fewer than {SEGMENT_CAUSE_MIN_LEADS} leads (order resolution coarser than 0.5) or \
-             their order is above the trusted order {:.2}",
-            stroke.max_trusted_order
+        warnings.push(Diagnostic::new(
+            "components-unresolved",
+            format!(
+                "{unresolved} significant component(s) left `{UNRESOLVED}`: their segment \
+                 spans fewer than {SEGMENT_CAUSE_MIN_LEADS} leads (order resolution coarser \
+                 than 0.5) or their order is above the trusted order {:.2}",
+                stroke.max_trusted_order
+            ),
         ));
     }
     Ok(FluctuationAnalysis {
@@ -461,7 +470,7 @@ fn aliasing_warnings(
     stroke: &StrokeView<'_>,
     kinematic: &[KinematicOrder],
     components: &[SignificantComponent],
-) -> Vec<String> {
+) -> Vec<Diagnostic> {
     let mut out = Vec::new();
     let limit = stroke.max_trusted_order;
     let highest = kinematic.iter().max_by(|a, b| a.order.total_cmp(&b.order));
@@ -474,18 +483,24 @@ fn aliasing_warnings(
             }
             _ => format!("feed at most {:.3} x the present feed", 1.0 / factor),
         };
-        out.push(format!(
-            "highest kinematic order {:.2} ({}) exceeds the highest trusted order {limit:.2} \
-             (raw samples per lead / 2): sample at least {factor:.2} x faster or {feed} so \
-             that it is resolved without aliasing",
-            h.order, h.cause
+        out.push(Diagnostic::new(
+            "kinematic-order-above-trusted",
+            format!(
+                "highest kinematic order {:.2} ({}) exceeds the highest trusted order \
+                 {limit:.2} (raw samples per lead / 2): sample at least {factor:.2} x faster \
+                 or {feed} so that it is resolved without aliasing",
+                h.order, h.cause
+            ),
         ));
     }
     let untrusted = components.iter().filter(|c| !c.trusted).count();
     if untrusted > 0 {
-        out.push(format!(
-            "{untrusted} significant component(s) above the trusted order {limit:.2} are flagged \
-             trusted = false: they may be aliases of higher orders"
+        out.push(Diagnostic::new(
+            "components-above-trusted",
+            format!(
+                "{untrusted} significant component(s) above the trusted order {limit:.2} are \
+                 flagged trusted = false: they may be aliases of higher orders"
+            ),
         ));
     }
     out

@@ -778,7 +778,24 @@ fn aliasing_guard_flags_untrusted_orders_and_gives_the_feed() {
         .iter()
         .any(|c| c.segment == "all" && (c.order - 19.0).abs() < 0.02 && !c.trusted));
     assert!(comps.iter().filter(|c| c.order <= 12.0).all(|c| c.trusted));
-    let w = a.fluctuation.warnings.join("\n");
+    let codes: Vec<&str> = a
+        .fluctuation
+        .warnings
+        .iter()
+        .map(|d| d.code.as_str())
+        .collect();
+    assert!(
+        codes.contains(&"kinematic-order-above-trusted"),
+        "{codes:?}"
+    );
+    assert!(codes.contains(&"components-above-trusted"), "{codes:?}");
+    let w: Vec<String> = a
+        .fluctuation
+        .warnings
+        .iter()
+        .map(|d| d.to_string())
+        .collect();
+    let w = w.join("\n");
     assert!(
         w.contains("28.50") && w.contains("84.2 mm/min") && w.contains("2.38 x faster"),
         "{w}"

@@ -90,11 +90,14 @@ pub(crate) fn not_supported(needed: &'static str, withheld: &[WithheldStroke]) -
 pub(crate) fn apply(a: &mut StrokeAnalysis, support: Support) {
     let fl = &mut a.fluctuation;
     if support < Support::Orders && !fl.components.is_empty() {
-        fl.warnings.push(format!(
-            "{} significant component(s) withheld: the data verdict of this stroke is `{}` \
-             (no fluctuation orders)",
-            fl.components.len(),
-            support.as_str()
+        fl.warnings.push(Diagnostic::new(
+            "components-withheld",
+            format!(
+                "{} significant component(s) withheld: the data verdict of this stroke is \
+                 `{}` (no fluctuation orders)",
+                fl.components.len(),
+                support.as_str()
+            ),
         ));
         fl.components.clear();
     } else if support < Support::Causes {
@@ -107,10 +110,13 @@ pub(crate) fn apply(a: &mut StrokeAnalysis, support: Support) {
             }
         }
         if n > 0 {
-            fl.warnings.push(format!(
-                "{n} component cause(s) withheld (`{UNRESOLVED}`): the data verdict of this \
-                 stroke is `{}` (too few leads to tell kinematic orders apart)",
-                support.as_str()
+            fl.warnings.push(Diagnostic::new(
+                "causes-withheld",
+                format!(
+                    "{n} component cause(s) withheld (`{UNRESOLVED}`): the data verdict of \
+                     this stroke is `{}` (too few leads to tell kinematic orders apart)",
+                    support.as_str()
+                ),
             ));
         }
     }
