@@ -288,7 +288,11 @@ pub struct StrokeSummary {
     pub mean_friction_n: f64,
     /// Standard error of [`mean_friction_n`](Self::mean_friction_n) (N): the effort noise over
     /// the raw effort samples, and the effort quantum's rounding, which need not average out:
-    /// sqrt(σ_F²/N_e + q_F²/12). `None` when not known (a friction CSV without its summary).
+    /// sqrt(σ_F²/N_e + b²) with b = (q_F/√12)·exp(−2π²σ_d²/q_F²), the rounding's bias left
+    /// after the dither σ_d² = max(0, σ_F² − q_F²/12) that the noise and the signal's own
+    /// variation give it (q_F/√12 on a reading that sits still; nothing once σ_d ≳ q_F/2, when
+    /// the rounding is already in σ_F). `None` when not known (a friction CSV without its
+    /// summary).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mean_friction_se_n: Option<f64>,
     /// Resolution of the effort as force (N): the larger of the quantum found in the samples
@@ -534,6 +538,8 @@ fn check_effort_informative(trace: &Trace, planned: &Plan) -> Result<(), Estimat
     let Some(&first) = v.first() else {
         return Ok(());
     };
+    // Exactly one value: a channel that never changed, not one that changed a little.
+    #[allow(clippy::float_cmp)]
     let constant = v.iter().all(|&e| e == first);
     let both = planned
         .spans
@@ -636,6 +642,21 @@ fn rms_about_mean(v: &[f64]) -> f64 {
     (v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / v.len() as f64).sqrt()
 }
 
+/// Standard error of the mean of `n` effort samples of robust noise `std` and quantum `q`, in
+/// the effort's unit (see [`StrokeSummary::mean_friction_se_n`]): the noise over √n, and the
+/// rounding's bias that the dither σ_d² = std² − q²/12 leaves. Under Gaussian dither the mean
+/// rounding error's k-th harmonic falls as exp(−2π²k²σ_d²/q²); its first, scaled to the
+/// undithered q/√12, bounds the bias: at σ_d = q/2 it is 0.7 % of q/√12.
+fn mean_se(std: f64, q: f64, n: usize) -> f64 {
+    let noise = std * std / n.max(1) as f64;
+    if q <= 0.0 {
+        return noise.sqrt();
+    }
+    let dither = (std * std - q * q / 12.0).max(0.0);
+    let bias = q * q / 12.0 * (-4.0 * std::f64::consts::PI.powi(2) * dither / (q * q)).exp();
+    (noise + bias).sqrt()
+}
+
 /// Estimate one stroke (step 1-7), with the position treatment chosen from its samples
 /// ([`floor`]).
 ///
@@ -676,7 +697,16 @@ pub fn estimate_stroke(
     // The effort's resolution: what its samples show, or what the recording declares (a whole
     // percent of load rounds however the signal moves), whichever is coarser.
     let (effort_std, effort_q_seen) = floor::channel_noise(&te_all[e0..e1], ee_span);
-    let effort_q = effort_q_seen.max(trace.facts.effort_quantum.unwrap_or(0.0));
+    // A coarse quantum can hold a whole steady stroke on one value, which shows no step: the
+    // steps are then seen in the ramps of the enclosing move (turning point to turning point).
+    let (m0, m1) = (pos.time_s[span.move_first], pos.time_s[span.move_last]);
+    let effort_q_move = floor::quantum(
+        &trace.effort.value
+            [te_all.partition_point(|&t| t < m0)..te_all.partition_point(|&t| t <= m1)],
+    );
+    let effort_q = effort_q_seen
+        .max(effort_q_move)
+        .max(trace.facts.effort_quantum.unwrap_or(0.0));
     let effort_var = (effort_std * effort_std).max(effort_q * effort_q / 12.0);
     let noise = floor::SampleNoise {
         interval_s: h,
@@ -847,11 +877,7 @@ pub fn estimate_stroke(
             position_cutoff_order: cutoff_hz.map(|f| f * lead / feed_m_s),
             settle_margin_s: margin_s,
             noise_floor: NoiseFloor::new(quantisation_n, noise.effort_n, inertia_n),
-            mean_friction_se_n: Some(
-                gain * (effort_std * effort_std / ee_span.len() as f64
-                    + effort_q * effort_q / 12.0)
-                    .sqrt(),
-            ),
+            mean_friction_se_n: Some(gain * mean_se(effort_std, effort_q, ee_span.len())),
             effort_quantum_n: gain * effort_q,
             verdict: None,
             program_line: None,

@@ -5,3 +5,4 @@ mod map;
 mod nc;
 mod profile;
 mod util;
+mod verdict;
