@@ -305,7 +305,11 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
         })?),
         None => None,
     };
-    let axis = feedscope_io::axis::load(&a.axis)?;
+    // The triangle test identifies J and B: its axis file may leave them out.
+    let mut axis = match a.kind {
+        TestKind::Triangle => feedscope_io::axis::load_for_identification(&a.axis)?,
+        _ => feedscope_io::axis::load(&a.axis)?,
+    };
     let bytes =
         std::fs::read(&a.trace).with_context(|| format!("reading {}", a.trace.display()))?;
     let time_s = match time_given {
@@ -331,6 +335,9 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
     };
     let analysis = analyze_test(&trace, &axis, a.kind, &params)
         .with_context(|| format!("analysing {}", a.trace.display()))?;
+    if let feedscope::study::TestAnalysis::Triangle(tri) = &analysis {
+        axis.resolve_identified(tri.identification.fit.j_total_kgm2);
+    }
     let mut t = NewTest::from_analysis(&analysis, &axis, &bytes);
     t.machine = a.machine.clone();
     t.axis = axis_name(a.axis_name.as_deref(), &axis, &a.axis);
