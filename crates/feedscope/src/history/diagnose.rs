@@ -35,9 +35,10 @@ fn pct(t: &IndicatorTrend) -> String {
 ///   friction to non-uniform pitch error (wear where the machine works most) and to
 ///   misalignment of guides and screw.
 /// - Shaft-order components up: pitch error or wear of the screw shaft (paper 000, Group 2).
-/// - J moved *and* the change exceeds its own uncertainty (see [`j_change_sigma`]): the
-///   moving mass changed (fixture, workpiece), not the friction. A J outside a narrow
-///   baseline band but within 3 combined standard errors is measurement scatter, not news.
+/// - J moved *and* |J_latest − μ₀| exceeds 3 combined standard errors
+///   √(SE_latest² + SE_μ₀²) (SE_μ₀ of the baseline mean, from the SEs stored with the
+///   tests): the moving mass changed (fixture, workpiece), not the friction. A J outside a
+///   narrow baseline band but within its own uncertainty is measurement scatter, not news.
 /// - Then every indicator with a projected threshold crossing.
 pub fn diagnose(trends: &[IndicatorTrend]) -> Vec<String> {
     let mut out = Vec::new();
