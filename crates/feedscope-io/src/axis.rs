@@ -1,5 +1,6 @@
 //! Axis description files: [`load`] reads one and validates it with [`AxisParams::parse`],
-//! TOML or (named `*.json`) JSON.
+//! TOML or (named `*.json`) JSON; [`load_for_identification`] also accepts a file without the
+//! inertia and damping that the one-test identification finds.
 
 use std::path::Path;
 
@@ -57,6 +58,25 @@ pub fn load(path: &Path) -> Result<AxisParams, AxisFileError> {
         error,
     })?;
     Ok(AxisParams::parse(
+        &text,
+        ConfigFormat::from_path(path),
+        &source_name,
+    )?)
+}
+
+/// Read and validate an axis file for the one-test identification (`feedscope identify`,
+/// `history add --kind triangle`): as [`load`], but `inertia_kgm2` and
+/// `damping_nms_per_rad` may be absent ([`AxisParams::parse_for_identification`]).
+///
+/// # Errors
+/// As [`load`].
+pub fn load_for_identification(path: &Path) -> Result<AxisParams, AxisFileError> {
+    let source_name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|error| AxisFileError::Read {
+        source_name: source_name.clone(),
+        error,
+    })?;
+    Ok(AxisParams::parse_for_identification(
         &text,
         ConfigFormat::from_path(path),
         &source_name,

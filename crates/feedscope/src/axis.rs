@@ -152,15 +152,97 @@ impl AxisParams {
         let parsed: Self = match format {
             ConfigFormat::Toml => toml::from_str(text).map_err(|e| AxisError::Parse {
                 source_name: source_name.to_string(),
-                message: e.to_string().trim_end().to_string(),
+                message: with_identified_hint(e.to_string().trim_end()),
             })?,
             ConfigFormat::Json => serde_json::from_str(text).map_err(|e| AxisError::Parse {
                 source_name: source_name.to_string(),
-                message: e.to_string(),
+                message: with_identified_hint(&e.to_string()),
             })?,
         };
         parsed.validate(source_name)?;
         Ok(parsed)
+    }
+
+    /// Parse and validate an axis description for the one-test identification
+    /// ([`crate::ident::identify`], [`crate::study::triangle_test`]), which identifies the
+    /// inertia and the damping: `inertia_kgm2` and `damping_nms_per_rad` may be absent.
+    ///
+    /// An absent key is held as NaN ("not given"): such an axis must not reach estimation or
+    /// simulation, which need the values. Before storing or reusing it, fill the keys with
+    /// [`AxisParams::resolve_identified`]. Given keys are validated as by
+    /// [`AxisParams::parse`].
+    ///
+    /// # Errors
+    /// As [`AxisParams::parse`], except that the two keys may be missing.
+    pub fn parse_for_identification(
+        text: &str,
+        format: ConfigFormat,
+        source_name: &str,
+    ) -> Result<Self, AxisError> {
+        const IDENTIFIED: [&str; 2] = ["inertia_kgm2", "damping_nms_per_rad"];
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let parse_err = |message: String| AxisError::Parse {
+            source_name: source_name.to_string(),
+            message,
+        };
+        // Fill the absent keys with 0 (valid), deserialize, then mark them NaN.
+        let mut missing = [false; 2];
+        let mut parsed: Self = match format {
+            ConfigFormat::Toml => {
+                let mut t: toml::Table = toml::from_str(text)
+                    .map_err(|e| parse_err(e.to_string().trim_end().to_string()))?;
+                for (k, key) in IDENTIFIED.iter().enumerate() {
+                    if !t.contains_key(*key) {
+                        missing[k] = true;
+                        t.insert((*key).to_string(), toml::Value::Float(0.0));
+                    }
+                }
+                toml::Value::Table(t)
+                    .try_into()
+                    .map_err(|e| parse_err(e.to_string().trim_end().to_string()))?
+            }
+            ConfigFormat::Json => {
+                let mut v: serde_json::Value =
+                    serde_json::from_str(text).map_err(|e| parse_err(e.to_string()))?;
+                if let Some(o) = v.as_object_mut() {
+                    for (k, key) in IDENTIFIED.iter().enumerate() {
+                        if !o.contains_key(*key) {
+                            missing[k] = true;
+                            o.insert((*key).to_string(), serde_json::json!(0.0));
+                        }
+                    }
+                }
+                serde_json::from_value(v).map_err(|e| parse_err(e.to_string()))?
+            }
+        };
+        parsed.validate(source_name)?;
+        if missing[0] {
+            parsed.inertia_kgm2 = f64::NAN;
+        }
+        if missing[1] {
+            parsed.damping_nms_per_rad = f64::NAN;
+        }
+        Ok(parsed)
+    }
+
+    /// True when `inertia_kgm2` and `damping_nms_per_rad` hold values (always, except for an
+    /// axis from [`AxisParams::parse_for_identification`] whose file left them out).
+    pub fn has_dynamics(&self) -> bool {
+        self.inertia_kgm2.is_finite() && self.damping_nms_per_rad.is_finite()
+    }
+
+    /// Fill the keys that [`AxisParams::parse_for_identification`] left as NaN with what the
+    /// identification found for the total inertia J_total (kg·m²): `inertia_kgm2` =
+    /// J_total − m_t·(p/2π)² (not below 0), `damping_nms_per_rad` = 0 (the identification
+    /// lumps the bearing damping into its σ). Given values are kept.
+    pub fn resolve_identified(&mut self, j_total_kgm2: f64) {
+        if !self.inertia_kgm2.is_finite() {
+            let k = self.lead_m() / (2.0 * PI);
+            self.inertia_kgm2 = (j_total_kgm2 - self.table_mass_kg * k * k).max(0.0);
+        }
+        if !self.damping_nms_per_rad.is_finite() {
+            self.damping_nms_per_rad = 0.0;
+        }
     }
 
     /// Check every value against its physical range.
@@ -291,6 +373,22 @@ impl AxisParams {
     }
 }
 
+/// A parser's message, with a hint when it is about a missing key that the one-test
+/// identification could supply.
+fn with_identified_hint(message: &str) -> String {
+    let key = ["inertia_kgm2", "damping_nms_per_rad"]
+        .into_iter()
+        .find(|k| message.contains(&format!("missing field `{k}`")));
+    match key {
+        Some(k) => format!(
+            "{message}\n(`{k}` is required here; `feedscope identify` and `feedscope history \
+             add --kind triangle` identify it from a triangular-wave test and accept an axis \
+             file without it)"
+        ),
+        None => message.to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -304,6 +402,43 @@ mod tests {
         assert!((a.lead_m() - 0.01).abs() < 1e-15);
         // 425 + 4π²·0.004/1e-4 = 425 + 1579.14
         assert!((a.equivalent_mass_kg() - (425.0 + 1579.1367)).abs() < 1e-3);
+    }
+
+    #[test]
+    fn identification_accepts_an_axis_without_inertia_and_damping() {
+        let text = "lead_mm = 16\ntable_mass_kg = 400\ntorque_constant_nm_per_a = 1.2\n\
+                    [thresholds]\nfs_n = { upper = 480 }\n";
+        // estimation needs the keys: the error names the first and says who identifies it
+        let e = AxisParams::parse(text, ConfigFormat::Toml, "a.toml").unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains("inertia_kgm2") && msg.contains("identify"),
+            "{msg}"
+        );
+        let mut a =
+            AxisParams::parse_for_identification(text, ConfigFormat::Toml, "a.toml").unwrap();
+        assert!(a.inertia_kgm2.is_nan() && a.damping_nms_per_rad.is_nan());
+        assert!(!a.has_dynamics());
+        assert_eq!(a.thresholds["fs_n"].upper, Some(480.0));
+        // J_total 0.0056 with 400 kg at 16 mm: J_m = 0.0056 − 400·(0.016/2π)² = 0.0030061
+        a.resolve_identified(0.0056);
+        assert!((a.inertia_kgm2 - (0.0056 - 400.0 * (0.016 / (2.0 * PI)).powi(2))).abs() < 1e-15);
+        assert!(a.has_dynamics());
+        assert!(a.validate("a.toml").is_ok());
+        // given keys are kept and still validated; JSON works the same
+        let full = AxisParams::parse_for_identification(MINIMAL, ConfigFormat::Toml, "a").unwrap();
+        assert!((full.inertia_kgm2 - 0.004).abs() < 1e-15);
+        let bad = MINIMAL.replace("inertia_kgm2 = 0.004", "inertia_kgm2 = -1");
+        let e = AxisParams::parse_for_identification(&bad, ConfigFormat::Toml, "a").unwrap_err();
+        assert!(e.to_string().contains("inertia_kgm2"), "{e}");
+        let json = r#"{"lead_mm": 5, "table_mass_kg": 100, "torque_constant_nm_per_a": 0.9,
+            "damping_nms_per_rad": 0.001}"#;
+        let j = AxisParams::parse_for_identification(json, ConfigFormat::Json, "a.json").unwrap();
+        assert!(j.inertia_kgm2.is_nan() && (j.damping_nms_per_rad - 0.001).abs() < 1e-15);
+        // other missing keys are still refused
+        let e = AxisParams::parse_for_identification("lead_mm = 5\n", ConfigFormat::Toml, "a")
+            .unwrap_err();
+        assert!(e.to_string().contains("table_mass_kg"), "{e}");
     }
 
     #[test]

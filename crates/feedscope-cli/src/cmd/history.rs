@@ -305,7 +305,11 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
         })?),
         None => None,
     };
-    let axis = feedscope_io::axis::load(&a.axis)?;
+    // The triangle test identifies J and B: its axis file may leave them out.
+    let mut axis = match a.kind {
+        TestKind::Triangle => feedscope_io::axis::load_for_identification(&a.axis)?,
+        _ => feedscope_io::axis::load(&a.axis)?,
+    };
     let bytes =
         std::fs::read(&a.trace).with_context(|| format!("reading {}", a.trace.display()))?;
     let time_s = match time_given {
@@ -342,6 +346,9 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
                 which.join(", ")
             );
         }
+    }
+    if let feedscope::study::TestAnalysis::Triangle(tri) = &analysis {
+        axis.resolve_identified(tri.identification.fit.j_total_kgm2);
     }
     let mut t = NewTest::from_analysis(&analysis, &axis, &bytes);
     t.machine = a.machine.clone();

@@ -18,13 +18,17 @@ use crate::plot;
 /// Identify friction and inertia from one test (paper 002): J, Tc, Ts, vs, σ.
 ///
 /// Reads one trace of the variable-amplitude, variable-velocity triangular wave planned by
-/// `feedscope plan triangle` (position and motor torque or current, ideally synchronous at
-/// 1 kHz), smooths position and torque alike, differentiates the position twice and fits
-/// T = J·θ'' + sgn(v)·[Tc + (Ts − Tc)·exp(−(|v|/vs)^δ)] + σ·v + T0 by separable least
-/// squares. Samples slower than --min-speed-mm-min, and those within the guard time of them
-/// (reversals: pre-sliding), are excluded. Writes the parameters (motor side, force side via
+/// `feedscope plan triangle` (position and motor torque or current, synchronous at 80 Hz or
+/// more) and fits T = J·θ'' + sgn(v)·[Tc + (Ts − Tc)·exp(−(|v|/vs)^δ)] + σ·v + T0 jointly
+/// by separable least squares on hat-kernel averages: the position's second divided
+/// difference is exactly the kernel average of the acceleration, and the torque and the
+/// friction terms are averaged with the same kernel, so every sample of the acceleration
+/// phases identifies J. Rows near a standstill or a reversal (within --guard-s), or across
+/// the corner of a move, are excluded. Writes the parameters (motor side, force side via
 /// F = 2π·T/p, standard errors, residual RMS) as JSON and a plot of measured and computed
-/// torque over time. With --compare, the same model is also fitted to the mean friction of
+/// torque over time. The axis file needs the lead and the torque constant; `inertia_kgm2`
+/// and `damping_nms_per_rad` may be left out (the test identifies them; --compare needs
+/// them). With --compare, the same model is also fitted to the mean friction of
 /// the constant-speed strokes of a second trace (the traditional test) and the two parameter
 /// sets are reported side by side.
 ///
@@ -34,7 +38,8 @@ use crate::plot;
 pub struct Args {
     /// Trace file of the triangular-wave test (CSV or Parquet, as for `estimate`).
     pub trace: PathBuf,
-    /// Axis parameters (TOML, or JSON with the same keys): lead, torque constant.
+    /// Axis parameters (TOML, or JSON with the same keys): lead, torque constant; inertia and
+    /// damping optional.
     #[arg(long)]
     pub axis: PathBuf,
     /// Parameters JSON to write.
@@ -49,13 +54,15 @@ pub struct Args {
     /// Trace of constant-feed idle strokes at several feeds, fitted for comparison.
     #[arg(long, value_name = "GROUPS_TRACE")]
     pub compare: Option<PathBuf>,
-    /// Smoothing half-power frequency for position and torque (Hz) [default: min(30, fs/8)].
+    /// Half-width of the averaging kernel (s), rounded to whole sampling intervals
+    /// [default: 0.01, at least one interval].
     #[arg(long)]
-    pub cutoff_hz: Option<f64>,
+    pub kernel_s: Option<f64>,
     /// Exclude samples slower than this (mm/min): standstill and pre-sliding.
     #[arg(long, default_value_t = 1.0)]
     pub min_speed_mm_min: f64,
-    /// Also exclude samples within this time of a slow sample (s) [default: 1.5/cutoff].
+    /// Also exclude rows within this time of a slow sample or a reversal (s) [default: three
+    /// kernel half-widths].
     #[arg(long)]
     pub guard_s: Option<f64>,
     /// Stribeck shape exponent δ (held fixed).
@@ -158,11 +165,12 @@ struct Output {
     #[serde(flatten)]
     set: ParamSet,
     samples_total: usize,
-    cutoff_hz: f64,
+    kernel_half_width_s: f64,
     reversal_guard_s: f64,
     sample_interval_s: f64,
-    /// J_total the axis file predicts (motor + screw + table), for comparison.
-    axis_j_total_kgm2: f64,
+    /// J_total the axis file predicts (motor + screw + table), for comparison; null when the
+    /// file gives no `inertia_kgm2`.
+    axis_j_total_kgm2: Option<f64>,
     params: IdentParams,
     warnings: Vec<String>,
     compare: Option<Comparison>,
@@ -170,7 +178,7 @@ struct Output {
 
 fn params_from(a: &Args) -> IdentParams {
     IdentParams {
-        cutoff_hz: a.cutoff_hz,
+        kernel_half_width_s: a.kernel_s,
         min_speed_mm_min: a.min_speed_mm_min,
         reversal_guard_s: a.guard_s,
         delta: a.delta,
@@ -227,7 +235,7 @@ fn svg(id: &Identification, title: &str) -> Result<String> {
         y_label: "torque (N·m)",
         series: vec![
             plot::Series {
-                name: "measured (smoothed)".to_string(),
+                name: "measured (kernel average)".to_string(),
                 points: pts(&|k| id.regressors.torque_nm[k]),
                 style: plot::Style::Line,
             },
@@ -316,11 +324,10 @@ fn print_text(out: &Output) -> Result<()> {
          equivalent mass {:.1} kg",
         f.fc_n, f.fs_n, f.sigma_n_s_per_m, f.equivalent_mass_kg
     )?;
-    writeln!(
-        w,
-        "  the axis file predicts J total {:.6} kg·m²",
-        out.axis_j_total_kgm2
-    )?;
+    match out.axis_j_total_kgm2 {
+        Some(j) => writeln!(w, "  the axis file predicts J total {j:.6} kg·m²")?,
+        None => writeln!(w, "  the axis file gives no inertia: J is the test's alone")?,
+    }
     if let Some(c) = cmp {
         let d = &c.difference_percent;
         writeln!(
@@ -340,7 +347,21 @@ fn print_text(out: &Output) -> Result<()> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let axis = feedscope_io::axis::load(&args.axis)?;
+    // J and B are what the test identifies: the axis file may leave them out.
+    let axis = feedscope_io::axis::load_for_identification(&args.axis)?;
+    if args.compare.is_some() && !axis.has_dynamics() {
+        let key = if axis.inertia_kgm2.is_finite() {
+            "damping_nms_per_rad"
+        } else {
+            "inertia_kgm2"
+        };
+        return Err(BadInput(format!(
+            "{}: --compare estimates the friction of the constant-speed strokes (paper 000 \
+             Eq. 5), which needs key `{key}` in the axis file",
+            args.axis.display()
+        ))
+        .into());
+    }
     let params = params_from(&args);
     let plot_path = (!args.no_plot).then(|| {
         args.plot
@@ -396,7 +417,7 @@ pub fn run(args: Args) -> Result<()> {
         lead_mm: axis.lead_mm,
         set,
         samples_total: id.samples_total,
-        cutoff_hz: id.cutoff_hz,
+        kernel_half_width_s: id.kernel_half_width_s,
         reversal_guard_s: id.reversal_guard_s,
         sample_interval_s: id.sample_interval_s,
         axis_j_total_kgm2: id.axis_j_total_kgm2,

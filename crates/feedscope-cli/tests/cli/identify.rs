@@ -247,6 +247,107 @@ fn bad_parameter_is_exit_2() {
     assert!(stderr(&o).contains("delta"), "{}", stderr(&o));
 }
 
+/// The axis file of [`AXIS`] without the inertia and the damping: what a user knows before
+/// the test (lead, table mass, torque constant).
+const AXIS_NO_J: &str = "name = \"ident Z\"\nlead_mm = 12\ntable_mass_kg = 180\n\
+    torque_constant_nm_per_a = 1.2\n";
+
+/// `identify` and `history add --kind triangle` accept an axis file without
+/// `inertia_kgm2`/`damping_nms_per_rad` (J is what they identify); `estimate`, `history add
+/// --kind strokes` and `identify --compare` still need them and say so (exit 2, key named).
+#[test]
+fn axis_without_inertia_is_enough_to_identify() {
+    let d = tempfile::tempdir().unwrap();
+    triangle_trace(d.path());
+    std::fs::write(d.path().join("axis-no-j.toml"), AXIS_NO_J).unwrap();
+    let mut c = feedscope(d.path());
+    c.args([
+        "identify",
+        "tri.csv",
+        "--axis",
+        "axis-no-j.toml",
+        "--no-plot",
+    ]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("gives no inertia"), "{}", stdout(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("ident.json")).unwrap())
+            .unwrap();
+    assert!(v["axis_j_total_kgm2"].is_null(), "{v}");
+    // 1 kHz, 10 nm, ideal dynamics: J within 1 % (the joint fit's target)
+    let k = 0.012 / (2.0 * PI);
+    assert!(
+        rel(&v["motor"]["j_total_kgm2"], 0.0025 + 180.0 * k * k) < 0.01,
+        "{v}"
+    );
+
+    let needs = |args: &[&str]| {
+        let mut c = feedscope(d.path());
+        c.args(args);
+        let o = run(c);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(
+            e.contains("inertia_kgm2") && e.contains("axis-no-j.toml"),
+            "{args:?}: {e}"
+        );
+    };
+    needs(&[
+        "estimate",
+        "tri.csv",
+        "--axis",
+        "axis-no-j.toml",
+        "-o",
+        "f.csv",
+    ]);
+    needs(&[
+        "identify",
+        "tri.csv",
+        "--axis",
+        "axis-no-j.toml",
+        "--compare",
+        "tri.csv",
+    ]);
+    needs(&[
+        "history",
+        "--db",
+        "h.db",
+        "add",
+        "tri.csv",
+        "--kind",
+        "strokes",
+        "--axis",
+        "axis-no-j.toml",
+    ]);
+
+    let mut c = feedscope(d.path());
+    c.args([
+        "history",
+        "--db",
+        "h.db",
+        "add",
+        "tri.csv",
+        "--kind",
+        "triangle",
+        "--axis",
+        "axis-no-j.toml",
+    ]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut c = feedscope(d.path());
+    c.args(["history", "--db", "h.db", "export", "--format", "csv"]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j_row = stdout(&o)
+        .lines()
+        .find(|l| l.contains(",j_total_kgm2,"))
+        .map(str::to_string)
+        .unwrap_or_else(|| panic!("no J row in {}", stdout(&o)));
+    let j: f64 = j_row.split(',').nth(6).unwrap().parse().unwrap();
+    assert!((j / (0.0025 + 180.0 * k * k) - 1.0).abs() < 0.01, "{j_row}");
+}
+
 #[test]
 fn identify_help() {
     let d = tempfile::tempdir().unwrap();

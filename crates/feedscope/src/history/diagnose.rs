@@ -35,7 +35,10 @@ fn pct(t: &IndicatorTrend) -> String {
 ///   friction to non-uniform pitch error (wear where the machine works most) and to
 ///   misalignment of guides and screw.
 /// - Shaft-order components up: pitch error or wear of the screw shaft (paper 000, Group 2).
-/// - J moved: the moving mass changed (fixture, workpiece), not the friction.
+/// - J moved *and* |J_latest − μ₀| exceeds 3 combined standard errors
+///   √(SE_latest² + SE_μ₀²) (SE_μ₀ of the baseline mean, from the SEs stored with the
+///   tests): the moving mass changed (fixture, workpiece), not the friction. A J outside a
+///   narrow baseline band but within its own uncertainty is measurement scatter, not news.
 /// - Then every indicator with a projected threshold crossing.
 pub fn diagnose(trends: &[IndicatorTrend]) -> Vec<String> {
     let mut out = Vec::new();
@@ -160,12 +163,19 @@ pub fn diagnose(trends: &[IndicatorTrend]) -> Vec<String> {
         ));
     }
     if let Some(j) = j.filter(|t| moved(t) != 0) {
-        out.push(format!(
-            "The inertia J has changed ({}): the moving mass is different (fixture, \
-             workpiece); friction indicators of these tests are comparable with the earlier \
-             ones only with care.",
-            pct(j)
-        ));
+        match j_change_sigma(j) {
+            Some(z) if z.abs() <= J_CHANGE_SIGMA => {}
+            z => out.push(format!(
+                "The inertia J has changed ({}{}): the moving mass is different (fixture, \
+                 workpiece); friction indicators of these tests are comparable with the \
+                 earlier ones only with care.",
+                pct(j),
+                z.map_or(String::new(), |z| format!(
+                    ", {:.1} combined standard errors",
+                    z.abs()
+                ))
+            )),
+        }
     }
     for t in trends {
         if let Some(p) = &t.projection {
@@ -190,6 +200,43 @@ pub fn diagnose(trends: &[IndicatorTrend]) -> Vec<String> {
     out
 }
 
+/// A J change enters the diagnosis only beyond this many combined standard errors.
+const J_CHANGE_SIGMA: f64 = 3.0;
+
+/// The latest J minus the baseline J in units of their combined standard error,
+/// (J_latest − μ₀)/√(SE_latest² + SE_μ₀²), or `None` when the series carries no standard
+/// errors.
+///
+/// SE_μ₀ is that of the baseline mean: √(Σ SE_i²)/N over the N points that set it (the first
+/// N tests), or the reference test's own SE when the baseline is one reference test (the
+/// point whose value is μ₀). J is the one indicator whose week-to-week scatter should be
+/// pure measurement noise (the mass does not wear), so its own standard error, not the
+/// baseline's scatter alone, says whether a change is real.
+pub(crate) fn j_change_sigma(t: &IndicatorTrend) -> Option<f64> {
+    let last = t.points.last()?;
+    let se_last = last.std_error?;
+    let b = &t.baseline;
+    let se_base = if b.count <= 1 {
+        t.points
+            .iter()
+            .min_by(|p, q| {
+                (p.value - b.mean)
+                    .abs()
+                    .total_cmp(&(q.value - b.mean).abs())
+            })?
+            .std_error?
+    } else {
+        let first = t.points.get(..b.count)?;
+        let ss = first
+            .iter()
+            .map(|p| p.std_error.map(|s| s * s))
+            .sum::<Option<f64>>()?;
+        ss.sqrt() / b.count as f64
+    };
+    let se = (se_last * se_last + se_base * se_base).sqrt();
+    (se > 0.0).then(|| (last.value - b.mean) / se)
+}
+
 /// A number with about 3 significant digits.
 pub(crate) fn fmt_num(x: f64) -> String {
     if x.abs() >= 100.0 {
@@ -209,5 +256,67 @@ pub(crate) fn fmt_days(d: f64) -> String {
         format!("{:.0} weeks", d / 7.0)
     } else {
         format!("{:.0} months", d / 30.4)
+    }
+}
+
+#[cfg(test)]
+mod j_tests {
+    use super::*;
+    use crate::history::{assess, Point, Threshold, TrendParams};
+
+    /// J series of 8 weekly tests with standard error `se` each; the last value `last`.
+    fn j_trend(values: &[f64], se: Option<f64>) -> IndicatorTrend {
+        let pts: Vec<Point> = values
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| Point {
+                time_s: i as f64 * 7.0 * 86_400.0,
+                value: v,
+                std_error: se,
+            })
+            .collect();
+        let params = TrendParams {
+            // no σ floor: the baseline band is the scatter of the first five tests alone
+            min_relative_std: 0.0,
+            ..TrendParams::default()
+        };
+        assess(&Indicator::Inertia, &pts, &params, &Threshold::default()).unwrap()
+    }
+
+    fn says_j(d: &[String]) -> bool {
+        d.iter().any(|s| s.contains("inertia J"))
+    }
+
+    /// Five nearly identical baseline values make a band narrower than J's own standard error:
+    /// a last value 0.3 % off is out of that band but within 3 combined SEs (0.2 % each):
+    /// no J finding. The same change with SEs of 0.02 % is 13.7 SEs: reported, with the
+    /// number. Without SEs the status alone decides, as before.
+    #[test]
+    fn j_change_is_reported_only_beyond_its_uncertainty() {
+        let base = [5.600e-3, 5.6005e-3, 5.5995e-3, 5.6002e-3, 5.5998e-3];
+        let mut vals = base.to_vec();
+        vals.extend([5.601e-3, 5.599e-3, 5.6168e-3]);
+        let t = j_trend(&vals, Some(0.002 * 5.6e-3));
+        assert_ne!(
+            t.status,
+            crate::history::Status::Ok,
+            "out of the narrow band"
+        );
+        let z = j_change_sigma(&t).unwrap();
+        // Δ = 0.0168e-3; SE = 0.0112e-3·√(1 + 1/5)
+        assert!((z - 0.0168 / (0.0112 * 1.2f64.sqrt())).abs() < 1e-6, "{z}");
+        assert!(!says_j(&diagnose(&[t])));
+
+        let t = j_trend(&vals, Some(0.0002 * 5.6e-3));
+        let d = diagnose(&[t]);
+        assert!(
+            d.iter()
+                .any(|s| s.contains("inertia J") && s.contains("13.7 combined")),
+            "{d:?}"
+        );
+
+        let t = j_trend(&vals, None);
+        assert!(j_change_sigma(&t).is_none());
+        assert!(says_j(&diagnose(&[t])));
     }
 }

@@ -1,9 +1,10 @@
 //! The separable least-squares fit of the torque model (steps 4-5 of the method in the
 //! [module docs](super)): variable projection over v_s, standard errors from the full
-//! Jacobian.
+//! Jacobian, with the sandwich form when the rows are kernel averages of the samples.
 
 use nalgebra::{DMatrix, DVector};
 
+use super::kernel::Averaging;
 use super::model::{Regressors, TorqueFit, TorqueStdError};
 use super::{check_params, IdentError, IdentParams};
 use crate::lugre::sign;
@@ -12,11 +13,16 @@ use crate::units::{feed_m_s_to_mm_min, feed_mm_min_to_m_s};
 /// The separable least-squares problem: fixed columns (linear in the data) plus the Stribeck
 /// column sgn(v)·exp(−(|v|/v_s)^δ) whose shape depends on v_s.
 pub(super) struct Separable<'a> {
-    /// Columns that do not depend on v_s, each of length n.
+    /// Columns that do not depend on v_s, each of length n (the rows).
     pub(super) fixed: Vec<Vec<f64>>,
+    /// Velocities the Stribeck column is evaluated at: one per row, or one per sample when
+    /// `avg` is given.
     pub(super) v: &'a [f64],
     pub(super) y: &'a [f64],
     pub(super) delta: f64,
+    /// When the rows are kernel averages K·(samples): K, applied to the Stribeck column and
+    /// used for the sandwich covariance. `None`: pointwise rows.
+    pub(super) avg: Option<&'a Averaging>,
 }
 
 pub(super) struct LinSolve {
@@ -26,10 +32,15 @@ pub(super) struct LinSolve {
 
 impl Separable<'_> {
     pub(super) fn stribeck_col(&self, vs: f64) -> Vec<f64> {
-        self.v
+        let c: Vec<f64> = self
+            .v
             .iter()
             .map(|&v| sign(v) * (-(v.abs() / vs).powf(self.delta)).exp())
-            .collect()
+            .collect();
+        match self.avg {
+            Some(k) => k.apply(&c),
+            None => c,
+        }
     }
 
     /// Design matrix with columns scaled to unit norm; returns it and the scales.
@@ -168,17 +179,7 @@ impl Separable<'_> {
     /// Covariance factor (JᵀJ)⁻¹ of all parameters (fixed…, Stribeck amplitude, v_s) and the
     /// condition number of the scaled Jacobian.
     pub(super) fn covariance(&self, vs: f64, amplitude: f64) -> (DMatrix<f64>, f64) {
-        let sc = self.stribeck_col(vs);
-        let dvs: Vec<f64> = self
-            .v
-            .iter()
-            .zip(&sc)
-            .map(|(&v, &e)| {
-                let u = (v.abs() / vs).powf(self.delta);
-                amplitude * e * self.delta * u / vs
-            })
-            .collect();
-        let (a, scales) = self.design(&[sc, dvs]);
+        let (a, scales) = self.design(&self.jacobian_vs_columns(vs, amplitude));
         let svd = a.svd(false, true);
         let smax = svd.singular_values.max();
         let smin = svd.singular_values.min();
@@ -204,9 +205,67 @@ impl Separable<'_> {
         }
         (cov, cond)
     }
+
+    /// The Stribeck column and ∂(model)/∂v_s at v_s, each averaged like the rows.
+    fn jacobian_vs_columns(&self, vs: f64, amplitude: f64) -> [Vec<f64>; 2] {
+        let (mut sc, mut dvs) = (Vec::with_capacity(self.v.len()), Vec::new());
+        for &v in self.v {
+            let u = (v.abs() / vs).powf(self.delta);
+            let e = sign(v) * (-u).exp();
+            sc.push(e);
+            dvs.push(amplitude * e * self.delta * u / vs);
+        }
+        match self.avg {
+            Some(k) => [k.apply(&sc), k.apply(&dvs)],
+            None => [sc, dvs],
+        }
+    }
+
+    /// Covariance of all parameters (fixed…, Stribeck amplitude, v_s) at the optimum, and the
+    /// condition number of the scaled Jacobian X.
+    ///
+    /// Pointwise rows: s²·(XᵀX)⁻¹ with s² = RSS/(n − p). Kernel rows ȳ = K·y: if the sample
+    /// noise is white with variance s², the rows' noise has covariance s²·KKᵀ (neighbouring
+    /// rows share samples), and the least-squares estimate has the sandwich covariance
+    /// s²·C·(XᵀK)(KᵀX)·C with C = (XᵀX)⁻¹; E[RSS] = s²·(tr KKᵀ − tr(C·XᵀKKᵀX)) gives s².
+    pub(super) fn parameter_covariance(
+        &self,
+        vs: f64,
+        amplitude: f64,
+        rss: f64,
+    ) -> (DMatrix<f64>, f64) {
+        let (c, cond) = self.covariance(vs, amplitude);
+        let n = self.y.len();
+        let p = c.nrows();
+        let Some(k) = self.avg else {
+            let s2 = if n > p {
+                rss / (n - p) as f64
+            } else {
+                f64::NAN
+            };
+            return (c * s2, cond);
+        };
+        let extra = self.jacobian_vs_columns(vs, amplitude);
+        let cols: Vec<&Vec<f64>> = self.fixed.iter().chain(extra.iter()).collect();
+        // KᵀX, one column per parameter, then B = (KᵀX)ᵀ(KᵀX).
+        let ktx: Vec<Vec<f64>> = cols.iter().map(|c| k.apply_transpose(c)).collect();
+        let mut b = DMatrix::<f64>::zeros(p, p);
+        for i in 0..p {
+            for j in i..p {
+                let s: f64 = ktx[i].iter().zip(&ktx[j]).map(|(x, y)| x * y).sum();
+                b[(i, j)] = s;
+                b[(j, i)] = s;
+            }
+        }
+        let cb = &c * &b;
+        let dof = k.trace_kkt() - cb.trace();
+        let s2 = if dof > 0.0 { rss / dof } else { f64::NAN };
+        ((&cb * &c) * s2, cond)
+    }
 }
 
-/// Fit the torque model of the module docs to prepared samples (all of them are used).
+/// Fit the torque model of the module docs to prepared samples (all of them are used, each
+/// as one row: a pointwise fit).
 ///
 /// # Errors
 /// [`IdentError::InvalidParam`] for bad settings; [`IdentError::NotIdentifiable`] for fewer
@@ -222,18 +281,52 @@ pub fn fit_torque(r: &Regressors, params: &IdentParams) -> Result<TorqueFit, Ide
     if params.fit_offset {
         fixed.push(vec![1.0; n]);
     }
-    let p = fixed.len() + 2;
-    if n <= p {
-        return Err(IdentError::NotIdentifiable {
-            reason: format!("{n} samples for {p} parameters"),
-        });
-    }
     let sep = Separable {
         fixed,
         v: &r.velocity_m_s,
         y: &r.torque_nm,
         delta: params.delta,
+        avg: None,
     };
+    fit_separable(&sep, params)
+}
+
+/// The joint fit on kernel rows: T̄ = J·θ̄'' + K·T_f(v̂) (see `kernel.rs`). `accel_rad_s2` and
+/// `torque_nm` hold one value per row, `velocity_m_s` one per sample; `avg` maps samples to
+/// rows.
+pub(super) fn fit_kernel(
+    accel_rad_s2: Vec<f64>,
+    velocity_m_s: &[f64],
+    torque_nm: &[f64],
+    avg: &Averaging,
+    params: &IdentParams,
+) -> Result<TorqueFit, IdentError> {
+    check_params(params)?;
+    let n = avg.samples_len();
+    let sgn: Vec<f64> = velocity_m_s.iter().map(|&v| sign(v)).collect();
+    let mut fixed = vec![accel_rad_s2, avg.apply(&sgn), avg.apply(velocity_m_s)];
+    if params.fit_offset {
+        fixed.push(avg.apply(&vec![1.0; n]));
+    }
+    let sep = Separable {
+        fixed,
+        v: velocity_m_s,
+        y: torque_nm,
+        delta: params.delta,
+        avg: Some(avg),
+    };
+    fit_separable(&sep, params)
+}
+
+/// Steps 4-5 on a prepared problem whose first fixed columns are θ'', sgn v, v (and 1).
+fn fit_separable(sep: &Separable<'_>, params: &IdentParams) -> Result<TorqueFit, IdentError> {
+    let n = sep.y.len();
+    let p = sep.fixed.len() + 2;
+    if n <= p {
+        return Err(IdentError::NotIdentifiable {
+            reason: format!("{n} samples for {p} parameters"),
+        });
+    }
     let (vs, sol, evals, at_bound) = sep.minimise(
         feed_mm_min_to_m_s(params.vs_min_mm_min),
         feed_mm_min_to_m_s(params.vs_max_mm_min),
@@ -243,12 +336,11 @@ pub fn fit_torque(r: &Regressors, params: &IdentParams) -> Result<TorqueFit, Ide
     let (j, tc, sigma) = (th[0], th[1], th[2]);
     let offset = if params.fit_offset { th[3] } else { 0.0 };
     let ds = th[th.len() - 1];
-    let (cov, cond) = sep.covariance(vs, ds);
-    let s2 = sol.rss / (n - p) as f64;
-    let var = |i: usize| (cov[(i, i)] * s2).max(0.0).sqrt();
+    let (cov, cond) = sep.parameter_covariance(vs, ds, sol.rss);
+    let se = |i: usize| cov[(i, i)].max(0.0).sqrt();
     let ia = p - 2; // Stribeck amplitude
     let iv = p - 1; // v_s
-    let ts_se = ((cov[(1, 1)] + cov[(ia, ia)] + 2.0 * cov[(1, ia)]) * s2)
+    let ts_se = (cov[(1, 1)] + cov[(ia, ia)] + 2.0 * cov[(1, ia)])
         .max(0.0)
         .sqrt();
     Ok(TorqueFit {
@@ -260,12 +352,12 @@ pub fn fit_torque(r: &Regressors, params: &IdentParams) -> Result<TorqueFit, Ide
         offset_nm: offset,
         delta: params.delta,
         std_error: TorqueStdError {
-            j_total_kgm2: var(0),
-            tc_nm: var(1),
+            j_total_kgm2: se(0),
+            tc_nm: se(1),
             ts_nm: ts_se,
-            vs_mm_min: feed_m_s_to_mm_min(var(iv)),
-            sigma_nm_s_per_m: var(2),
-            offset_nm: if params.fit_offset { var(3) } else { 0.0 },
+            vs_mm_min: feed_m_s_to_mm_min(se(iv)),
+            sigma_nm_s_per_m: se(2),
+            offset_nm: if params.fit_offset { se(3) } else { 0.0 },
         },
         residual_rms_nm: (sol.rss / n as f64).sqrt(),
         condition_number: cond,

@@ -116,6 +116,7 @@ pub fn fit_groups(
         v: &r.velocity_m_s,
         y: &r.torque_nm,
         delta: params.delta,
+        avg: None,
     };
     let (vs, sol, evals, at_bound) = sep.minimise(
         feed_mm_min_to_m_s(params.vs_min_mm_min),

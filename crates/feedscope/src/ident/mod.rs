@@ -14,24 +14,33 @@
 //! mean of an asymmetric Coulomb level; paper 002 has none). Force-side values follow from
 //! F = (2π/p)·T (paper 002 Eq. 3).
 //!
-//! # Method
-//! 1. Velocity and acceleration from the position: a Reinsch smoothing spline
-//!    ([`crate::spline::smoothing_moments`]) with its half-power point at
-//!    [`IdentParams::cutoff_hz`] is differentiated twice (paper 002 Eq. 5-6 use differences;
-//!    at kHz sampling those swamp θ'' with quantisation noise).
-//! 2. The torque is smoothed by the same filter, so both sides of the model see the same
-//!    low-pass (exact for the terms linear in the signals; for the friction curve the error is
-//!    second order in the velocity change over the filter's window).
-//! 3. Samples slower than [`IdentParams::min_speed_mm_min`], or within
-//!    [`IdentParams::reversal_guard_s`] of such a sample (reversals, starts, stops: the
-//!    pre-sliding regime and the smeared friction sign change), are excluded.
-//! 4. Separable least squares (variable projection): for a fixed v_s the model is linear in
-//!    (J, T_c, T_s − T_c, σ, T_0), solved by SVD of the column-scaled regressor matrix; the
-//!    residual sum of squares as a function of log v_s is scanned on a grid and refined by
-//!    golden-section search (paper 002 Eq. 9-10 is the linear step for known v_s).
-//! 5. Standard errors from the full Jacobian at the optimum (linear columns plus ∂/∂v_s),
-//!    Cov = s²·(JᵀJ)⁻¹, with s² inflated by n/n_eff because the smoothing correlates
-//!    neighbouring residuals (n_eff = 2·f_c·duration of the used samples).
+//! # Method (the joint fit)
+//! 1. **Kernel rows.** For each position sample t_k and a half-width of m samples, the
+//!    second divided difference ā_k = 2·z[t_{k−m}, t_k, t_{k+m}] is *exactly* the average of
+//!    the table acceleration weighted by the hat kernel M_k with knots t_{k−m}, t_k, t_{k+m}
+//!    (see `kernel.rs`). The torque samples are averaged with the same kernel
+//!    (T̄_k = Σ w_ki·T_i, exact for T linear between samples), and so are the friction
+//!    columns, evaluated at the central-difference velocity v̂_i. The model averaged with M_k,
+//!    T̄_k = J·(2π/p)·ā_k + (K·T_f(v̂))_k, has J on an exactly known regressor: no smoothing
+//!    of the trajectory, no blurred acceleration steps. m = round([`IdentParams::kernel_half_width_s`]/Δt),
+//!    at least 1 (one sample at paper 002's 83.33 Hz; paper 002 Eq. 5-6 are the m = 1
+//!    differences).
+//! 2. **Exclusions.** Standstill (|v̂| below [`IdentParams::min_speed_mm_min`] or less than
+//!    1.5 position quanta over the difference window) and sign changes of v̂ are events at
+//!    which the friction is not a function of v̂ (pre-sliding, the sign step); a row is
+//!    excluded when an event lies within [`IdentParams::reversal_guard_s`] (default 3·m·Δt)
+//!    or within its support. Everything else is used, including the whole acceleration and
+//!    deceleration phases of the reversals, which is where J is seen.
+//! 3. **Separable least squares** (variable projection): for a fixed v_s the rows are linear
+//!    in (J, T_c, T_s − T_c, σ, T_0), solved by SVD of the column-scaled regressor matrix
+//!    (paper 002 Eq. 9-10 is this linear step); the residual as a function of log v_s is
+//!    scanned on a grid and refined by golden-section search.
+//! 4. **Standard errors** from the full Jacobian X at the optimum (linear columns plus
+//!    ∂/∂v_s) in the sandwich form that the kernel requires: neighbouring rows share torque
+//!    samples, so with white sample noise of variance s² the rows' noise covariance is
+//!    s²·KKᵀ and Cov = s²·C·XᵀKKᵀX·C, C = (XᵀX)⁻¹, with s² = RSS/(tr KKᵀ − tr(C·XᵀKKᵀX))
+//!    (the unbiased estimate under that noise model). Model error (a friction ripple along
+//!    the travel, a wrong δ) is not in them.
 //!
 //! # Example
 //! ```
@@ -60,11 +69,14 @@
 //! - `model.rs`: the regressors ([`Regressors`]) and the fitted model ([`TorqueFit`],
 //!   [`ForceSide`]).
 //! - `triangle.rs`: identification from a triangular-wave trace ([`identify`]).
-//! - `fit.rs`: the separable least-squares fit ([`fit_torque`]).
+//! - `kernel.rs`: the hat-kernel rows (divided differences and matching torque averages).
+//! - `fit.rs`: the separable least-squares fit ([`fit_torque`] pointwise, and the kernel
+//!   rows' joint fit with its sandwich standard errors).
 //! - `groups.rs`: the constant-speed comparison ([`fit_groups`]).
 
 mod fit;
 mod groups;
+mod kernel;
 mod model;
 mod triangle;
 
@@ -76,21 +88,20 @@ pub use triangle::{identify, Identification};
 use serde::{Deserialize, Serialize};
 
 use crate::estimate::EstimateError;
-use crate::spline::SplineError;
 
-/// Settings of the identification. The defaults suit a kHz synchronous trace of the test
-/// planned by [`crate::plan::triangle_program`].
+/// Settings of the identification. The defaults suit a synchronous trace (83 Hz to kHz) of
+/// the test planned by [`crate::plan::triangle_program`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct IdentParams {
-    /// Half-power frequency of the smoothing applied to position and torque (Hz). `None`
-    /// (default) takes min(30 Hz, f_sample/8).
-    pub cutoff_hz: Option<f64>,
+    /// Half-width of the hat kernel (s), rounded to m ≥ 1 sampling intervals. `None`
+    /// (default) takes 10 ms: m = 1 at 83 Hz, m = 10 at 1 kHz.
+    pub kernel_half_width_s: Option<f64>,
     /// Samples slower than this are pre-sliding or standstill and are excluded (mm/min).
     /// Default 1.
     pub min_speed_mm_min: f64,
-    /// Samples within this time of a slow sample are excluded too (s): the smoothing smears
-    /// the friction sign change over about 1/f_c. `None` (default) takes 1.5/f_c.
+    /// Rows within this time of a slow sample or a velocity sign change are excluded too (s).
+    /// `None` (default) takes three kernel half-widths, 3·m·Δt.
     pub reversal_guard_s: Option<f64>,
     /// Stribeck shape exponent δ, held fixed. Default 2.
     pub delta: f64,
@@ -110,7 +121,7 @@ pub struct IdentParams {
 impl Default for IdentParams {
     fn default() -> Self {
         Self {
-            cutoff_hz: None,
+            kernel_half_width_s: None,
             min_speed_mm_min: 1.0,
             reversal_guard_s: None,
             delta: 2.0,
@@ -143,14 +154,6 @@ pub enum IdentError {
         /// Why it is rejected.
         reason: &'static str,
     },
-    /// A smoothing spline could not be built.
-    #[error("{channel} spline: {error}")]
-    Spline {
-        /// Channel name.
-        channel: &'static str,
-        /// The spline's complaint.
-        error: SplineError,
-    },
     /// The constant-speed comparison could not estimate the groups.
     #[error("constant-speed groups: {0}")]
     Groups(#[from] EstimateError),
@@ -164,9 +167,9 @@ fn check_params(p: &IdentParams) -> Result<(), IdentError> {
             reason,
         })
     };
-    if let Some(c) = p.cutoff_hz {
+    if let Some(c) = p.kernel_half_width_s {
         if !(c.is_finite() && c > 0.0) {
-            return bad("cutoff_hz", c, "must be finite and > 0");
+            return bad("kernel_half_width_s", c, "must be finite and > 0");
         }
     }
     if !(p.min_speed_mm_min.is_finite() && p.min_speed_mm_min >= 0.0) {

@@ -1,6 +1,7 @@
 //! Round trips through the digital twin: simulate a drive with known friction, estimate it,
 //! compare with the truth.
 mod estimate;
+mod ident;
 mod map;
 mod nc;
 mod profile;
