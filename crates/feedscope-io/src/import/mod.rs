@@ -546,6 +546,8 @@ pub fn write_trace_csv<W: Write>(imported: &Imported, mut w: W) -> std::io::Resu
 ///
 /// # Errors
 /// [`ImportError::NoInformation`] naming the channel and its source.
+// Exact equality is the point: one value repeated bit for bit is a channel that never changed.
+#[allow(clippy::float_cmp)]
 pub fn check_informative(imported: &Imported) -> Result<(), ImportError> {
     let no_info =
         |channel: &ChannelReport, column: &str, what: String| ImportError::NoInformation {

@@ -154,9 +154,8 @@ pub fn stroke_test(
     }
     let lead = axis.lead_m();
     let mut analyzer = SpectrumAnalyzer::new();
-    // (direction, bin) → (Σ |iafv|, Σ (f − iafv)², n, raw effort samples, largest effort
-    // quantum as force); forward first (Direction has no order)
-    let mut bins: BTreeMap<(u8, i64), (f64, f64, usize, f64, f64)> = BTreeMap::new();
+    // (direction, bin) → its sums; forward first (Direction has no order)
+    let mut bins: BTreeMap<(u8, i64), Bin> = BTreeMap::new();
     let mut components = Vec::new();
     // (direction, cause) → amplitudes of each stroke (max over its components of that cause)
     let mut amp: BTreeMap<(u8, String), Vec<f64>> = BTreeMap::new();
@@ -183,12 +182,12 @@ pub fn stroke_test(
         withhold::apply(&mut a, withhold::support_of(s));
         for ((&z, &f), &m) in s.position_m.iter().zip(&s.friction_n).zip(&a.iafv_n) {
             let b = (z * 1e3 / interval_mm).floor() as i64;
-            let e = bins.entry((dk, b)).or_insert((0.0, 0.0, 0, 0.0, 0.0));
-            e.0 += m.abs();
-            e.1 += (f - m).powi(2);
-            e.2 += 1;
-            e.3 += raw_per_point;
-            e.4 = e.4.max(s.summary.effort_quantum_n);
+            let e = bins.entry((dk, b)).or_default();
+            e.sum_abs_iafv_n += m.abs();
+            e.sum_sq_residual_n2 += (f - m).powi(2);
+            e.points += 1;
+            e.raw_samples += raw_per_point;
+            e.quantum_n = e.quantum_n.max(s.summary.effort_quantum_n);
         }
         let mut best: BTreeMap<String, f64> = BTreeMap::new();
         for c in &a.fluctuation.components {
@@ -227,7 +226,14 @@ pub fn stroke_test(
     let min_n = (0.8 * interval_mm / spacing_mm).floor().max(2.0) as usize;
     let mut intervals = Vec::new();
     let mut indicators = Vec::new();
-    for ((dk, b), (sum, ss, n, raw, q_n)) in bins {
+    for ((dk, b), bin) in bins {
+        let Bin {
+            sum_abs_iafv_n: sum,
+            sum_sq_residual_n2: ss,
+            points: n,
+            raw_samples: raw,
+            quantum_n: q_n,
+        } = bin;
         if n < min_n {
             continue;
         }
@@ -273,6 +279,21 @@ pub fn stroke_test(
         withheld,
         verdict: est.verdict,
     })
+}
+
+/// Sums over the resampled points of one direction in one position interval.
+#[derive(Default)]
+struct Bin {
+    /// Σ |IAFV| (N).
+    sum_abs_iafv_n: f64,
+    /// Σ (friction − IAFV)² (N²).
+    sum_sq_residual_n2: f64,
+    /// Resampled points.
+    points: usize,
+    /// Raw effort samples behind them.
+    raw_samples: f64,
+    /// Largest effort quantum of the strokes there, as force (N).
+    quantum_n: f64,
 }
 
 fn key(d: Direction) -> u8 {
