@@ -75,6 +75,8 @@ struct Page<'a> {
     warnings: Vec<Row>,
     profile: Option<Chart>,
     profile_test: Option<String>,
+    /// The data verdict of that test, in words.
+    profile_verdict: Option<String>,
     heatmaps: Vec<Chart>,
     stribeck: Option<Chart>,
     params: Vec<Param>,
@@ -650,6 +652,10 @@ pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Resul
         profile_test: curves
             .as_ref()
             .map(|(_, d)| format!("test {} ({})", d.test.id, d.test.time_utc)),
+        profile_verdict: curves
+            .as_ref()
+            .and_then(|(c, _)| c.verdict.as_ref())
+            .map(|v| v.headline()),
         profile: profile.map(&mut chart),
         heatmaps: heatmaps.into_iter().map(&mut chart).collect(),
         stribeck: stribeck_chart(&details)?.map(&mut chart),

@@ -413,6 +413,11 @@ fn stroke_test_stores_intervals_and_components() {
     ]);
     let o = run(c);
     assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("data verdict: a friction profile, fluctuation orders"),
+        "{}",
+        stderr(&o)
+    );
     let mut c = feedscope(d);
     c.args(["history", "--db", "h.db", "show", "1", "--format", "json"]);
     let o = run(c);
@@ -440,6 +445,16 @@ fn stroke_test_stores_intervals_and_components() {
         "{names:?}"
     );
     assert!(!v["components"].as_array().unwrap().is_empty());
+    // The data verdict travels to the report.
+    let mut c = feedscope(d);
+    c.args(["report", "--db", "h.db", "-o", "r.html"]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(d.join("r.html")).unwrap();
+    assert!(
+        html.contains("data verdict: a friction profile, fluctuation orders and their causes"),
+        "the report states the stored test's verdict"
+    );
 }
 
 #[test]

@@ -291,8 +291,9 @@ pub struct StrokeSummary {
     /// sqrt(σ_F²/N_e + b²) with b = (q_F/√12)·exp(−2π²σ_d²/q_F²), the rounding's bias left
     /// after the dither σ_d² = max(0, σ_F² − q_F²/12) that the noise and the signal's own
     /// variation give it (q_F/√12 on a reading that sits still; nothing once σ_d ≳ q_F/2, when
-    /// the rounding is already in σ_F). `None` when not known (a friction CSV without its
-    /// summary).
+    /// the rounding is already in σ_F); a quantum the recording's facts declare keeps its full
+    /// q_F/√12 (the drive's rounding rule is unknown). `None` when not known (a friction CSV
+    /// without its summary).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mean_friction_se_n: Option<f64>,
     /// Resolution of the effort as force (N): the larger of the quantum found in the samples
@@ -647,14 +648,19 @@ fn rms_about_mean(v: &[f64]) -> f64 {
 /// rounding's bias that the dither σ_d² = std² − q²/12 leaves. Under Gaussian dither the mean
 /// rounding error's k-th harmonic falls as exp(−2π²k²σ_d²/q²); its first, scaled to the
 /// undithered q/√12, bounds the bias: at σ_d = q/2 it is 0.7 % of q/√12.
-fn mean_se(std: f64, q: f64, n: usize) -> f64 {
+///
+/// A quantum the recording declares (`declared_q`, e.g. a drive load in whole percent) keeps
+/// its full q/√12: how the drive rounds (to nearest, or down) is not known, so its bias is
+/// not assumed to average out.
+fn mean_se(std: f64, q: f64, declared_q: f64, n: usize) -> f64 {
     let noise = std * std / n.max(1) as f64;
+    let declared = declared_q * declared_q / 12.0;
     if q <= 0.0 {
-        return noise.sqrt();
+        return (noise + declared).sqrt();
     }
     let dither = (std * std - q * q / 12.0).max(0.0);
     let bias = q * q / 12.0 * (-4.0 * std::f64::consts::PI.powi(2) * dither / (q * q)).exp();
-    (noise + bias).sqrt()
+    (noise + bias.max(declared)).sqrt()
 }
 
 /// Estimate one stroke (step 1-7), with the position treatment chosen from its samples
@@ -877,7 +883,14 @@ pub fn estimate_stroke(
             position_cutoff_order: cutoff_hz.map(|f| f * lead / feed_m_s),
             settle_margin_s: margin_s,
             noise_floor: NoiseFloor::new(quantisation_n, noise.effort_n, inertia_n),
-            mean_friction_se_n: Some(gain * mean_se(effort_std, effort_q, ee_span.len())),
+            mean_friction_se_n: Some(
+                gain * mean_se(
+                    effort_std,
+                    effort_q,
+                    trace.facts.effort_quantum.unwrap_or(0.0),
+                    ee_span.len(),
+                ),
+            ),
             effort_quantum_n: gain * effort_q,
             verdict: None,
             program_line: None,

@@ -71,6 +71,9 @@ pub struct Curves {
     pub profiles: Vec<ProfileCurve>,
     /// Segment spectra of the FFS, one heat map per direction.
     pub heatmaps: Vec<HeatmapData>,
+    /// The test's data verdict (absent in curves stored before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub verdict: Option<DataVerdict>,
 }
 
 /// Friction and IAFV of one stroke, thinned to at most about 1,500 points.
@@ -162,6 +165,7 @@ pub fn stroke_test(
     let mut curves = Curves {
         profiles: vec![],
         heatmaps: vec![],
+        verdict: Some(est.verdict.clone()),
     };
     for s in &strokes {
         let v = StrokeView::from_estimate(s, lead);
