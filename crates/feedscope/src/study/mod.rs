@@ -237,8 +237,8 @@ impl IndicatorValue {
 /// The results of one condition test.
 #[derive(Debug, Clone)]
 pub enum TestAnalysis {
-    /// A stroke test.
-    Strokes(StrokeTest),
+    /// A stroke test (boxed: its curves and verdict make it large).
+    Strokes(Box<StrokeTest>),
     /// A triangle test (boxed: the identification's diagnostics make it the large one).
     Triangle(Box<TriangleTest>),
 }
@@ -272,7 +272,9 @@ pub fn analyze_test(
     params: &TestStudyParams,
 ) -> Result<TestAnalysis, StudyError> {
     Ok(match kind {
-        TestKind::Strokes => TestAnalysis::Strokes(stroke_test(trace, axis, &params.strokes)?),
+        TestKind::Strokes => {
+            TestAnalysis::Strokes(Box::new(stroke_test(trace, axis, &params.strokes)?))
+        }
         TestKind::Triangle => {
             TestAnalysis::Triangle(Box::new(triangle_test(trace, axis, &params.triangle)?))
         }
