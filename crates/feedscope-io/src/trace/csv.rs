@@ -13,6 +13,7 @@ use std::path::Path;
 use feedscope::trace::{Channel, EffortKind, GlitchParams, RecordingFacts, Trace};
 
 use super::format::Layout;
+use super::limits;
 use super::read::{
     choose_effort, name_problem, screen_and_check, shorten, show_name, EffortChoice, Origin,
     ReadOptions, ReadReport, TraceError,
@@ -746,6 +747,23 @@ fn relocate(e: TraceError, line_abs: u64) -> TraceError {
             name,
             reason,
         },
+        TraceError::Implausible {
+            source_name,
+            row,
+            channel,
+            value,
+            limit,
+            unit,
+            ..
+        } => TraceError::Implausible {
+            source_name,
+            line: Some(line_abs),
+            row,
+            channel,
+            value,
+            limit,
+            unit,
+        },
         other => other,
     }
 }
@@ -953,6 +971,9 @@ fn parse_piece(
                     Slot::Current => (&mut p.cur, 1, "current_a"),
                     Slot::Torque => (&mut p.tor, 2, "torque_nm"),
                 };
+                if let Some(e) = limits::check(name, cname, v, Some(0), None) {
+                    return Err((line_no, e));
+                }
                 if let Some(&prev) = ch.time_s.last() {
                     if t <= prev {
                         return Err(not_inc(cname, line_no, t, prev));
@@ -1002,6 +1023,9 @@ fn parse_piece(
                         continue; // no sample of this channel at this time
                     }
                     let v = num(cell, &names[col], line_no)? * scale;
+                    if let Some(e) = limits::check(name, cname, v, Some(0), None) {
+                        return Err((line_no, e));
+                    }
                     let (ch, idx) = if slot == 0 {
                         (&mut p.pos, 0)
                     } else if slot == 1 {

@@ -75,6 +75,7 @@ use feedscope::trace::{GlitchParams, Trace};
 
 mod csv;
 mod format;
+pub mod limits;
 mod parquet;
 mod read;
 

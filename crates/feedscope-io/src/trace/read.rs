@@ -234,6 +234,30 @@ pub enum TraceError {
         /// The speed limit of the screening (mm/min).
         limit_mm_min: f64,
     },
+    /// A sample beyond the bounds of a feed axis ([`super::limits`]): |position| > 100 m,
+    /// |current| > 10 kA or |torque| > 1 MN·m is not a ball-screw drive but a corrupt or
+    /// mis-scaled file.
+    #[error(
+        "{source_name}{}: channel `{channel}`: {value:e} {unit} is beyond ±{limit:e} {unit}, \
+         which no feed axis reaches (a corrupt or mis-scaled value)",
+        at(line, row)
+    )]
+    Implausible {
+        /// The file.
+        source_name: String,
+        /// 1-based line (CSV).
+        line: Option<u64>,
+        /// 1-based data row (Parquet).
+        row: Option<u64>,
+        /// The channel: `position`, `current_a` or `torque_nm`.
+        channel: String,
+        /// The value, in SI units (m, A, N·m).
+        value: f64,
+        /// The bound (same unit).
+        limit: f64,
+        /// The unit.
+        unit: &'static str,
+    },
     /// Time does not strictly increase within a channel of a Parquet file
     /// ([`TraceError::TimeNotIncreasing`] of a row, not a line).
     #[error(

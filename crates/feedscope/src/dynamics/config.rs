@@ -311,6 +311,23 @@ fn positive(key: &'static str, value: f64) -> Result<(), DynamicsError> {
     }
 }
 
+/// A value within the physical range `[lo, hi]` of its key (`lo` > 0). The ranges are wide
+/// (far beyond any ball-screw drive) but finite: the model multiplies and factors these
+/// numbers, and a Hertz constant of 1e308 N/m^1.5 made every natural frequency 0.0 Hz.
+fn ranged(
+    key: &'static str,
+    value: f64,
+    lo: f64,
+    hi: f64,
+    reason: &'static str,
+) -> Result<(), DynamicsError> {
+    if value.is_finite() && value >= lo && value <= hi {
+        Ok(())
+    } else {
+        Err(DynamicsError::InvalidValue { key, value, reason })
+    }
+}
+
 fn non_negative(key: &'static str, value: f64) -> Result<(), DynamicsError> {
     if value.is_finite() && value >= 0.0 {
         Ok(())
@@ -386,15 +403,69 @@ impl DriveConfig {
     /// [`DynamicsError::InvalidValue`] naming the first offending key.
     pub fn validate(&self) -> Result<(), DynamicsError> {
         let s = &self.screw;
-        positive("screw.length_mm", s.length_mm)?;
-        positive("screw.lead_mm", s.lead_mm)?;
-        positive("screw.nominal_diameter_mm", s.nominal_diameter_mm)?;
-        positive("screw.stiffness_area_mm2", s.stiffness_area_mm2)?;
-        positive("screw.mass_area_mm2", s.mass_area_mm2)?;
-        positive("screw.polar_moment_mm4", s.polar_moment_mm4)?;
-        positive("screw.youngs_modulus_gpa", s.youngs_modulus_gpa)?;
-        positive("screw.shear_modulus_gpa", s.shear_modulus_gpa)?;
-        positive("screw.density_kg_m3", s.density_kg_m3)?;
+        ranged(
+            "screw.length_mm",
+            s.length_mm,
+            1.0,
+            50_000.0,
+            "must lie in [1, 50000] mm",
+        )?;
+        ranged(
+            "screw.lead_mm",
+            s.lead_mm,
+            0.1,
+            500.0,
+            "must lie in [0.1, 500] mm",
+        )?;
+        ranged(
+            "screw.nominal_diameter_mm",
+            s.nominal_diameter_mm,
+            1.0,
+            1000.0,
+            "must lie in [1, 1000] mm",
+        )?;
+        ranged(
+            "screw.stiffness_area_mm2",
+            s.stiffness_area_mm2,
+            0.1,
+            1e6,
+            "must lie in [0.1, 1e6] mm²",
+        )?;
+        ranged(
+            "screw.mass_area_mm2",
+            s.mass_area_mm2,
+            0.1,
+            1e6,
+            "must lie in [0.1, 1e6] mm²",
+        )?;
+        ranged(
+            "screw.polar_moment_mm4",
+            s.polar_moment_mm4,
+            1e-3,
+            1e12,
+            "must lie in [1e-3, 1e12] mm⁴",
+        )?;
+        ranged(
+            "screw.youngs_modulus_gpa",
+            s.youngs_modulus_gpa,
+            1.0,
+            1500.0,
+            "must lie in [1, 1500] GPa (steel: 210)",
+        )?;
+        ranged(
+            "screw.shear_modulus_gpa",
+            s.shear_modulus_gpa,
+            0.5,
+            1000.0,
+            "must lie in [0.5, 1000] GPa (steel: 80)",
+        )?;
+        ranged(
+            "screw.density_kg_m3",
+            s.density_kg_m3,
+            100.0,
+            25_000.0,
+            "must lie in [100, 25000] kg/m³ (steel: 7850)",
+        )?;
         if let Some(k) = s.motor_torsional_stiffness_nm_per_rad {
             positive("screw.motor_torsional_stiffness_nm_per_rad", k)?;
         }
@@ -405,7 +476,13 @@ impl DriveConfig {
         positive("nut.loaded_turns", n.loaded_turns)?;
         positive("nut.rated_dynamic_load_kn", n.rated_dynamic_load_kn)?;
         non_negative("nut.preload_fraction", n.preload_fraction)?;
-        positive("nut.hertz_constant_n_per_m1_5", n.hertz_constant_n_per_m1_5)?;
+        ranged(
+            "nut.hertz_constant_n_per_m1_5",
+            n.hertz_constant_n_per_m1_5,
+            1e6,
+            1e13,
+            "must lie in [1e6, 1e13] N/m^1.5 (steel balls: about 3e9)",
+        )?;
         positive("nut.stiffness_weight", n.stiffness_weight)?;
         if n.ball_diameter_mm >= s.nominal_diameter_mm {
             return Err(DynamicsError::InvalidValue {
@@ -419,12 +496,21 @@ impl DriveConfig {
         positive("bearings.loaded_rows", b.loaded_rows)?;
         positive("bearings.balls_per_row", b.balls_per_row)?;
         non_negative("bearings.screw_pretension_kn", b.screw_pretension_kn)?;
-        positive(
+        ranged(
             "bearings.hertz_constant_n_per_m1_5",
             b.hertz_constant_n_per_m1_5,
+            1e6,
+            1e13,
+            "must lie in [1e6, 1e13] N/m^1.5 (steel balls: about 3e9)",
         )?;
         positive("bearings.stiffness_weight", b.stiffness_weight)?;
-        positive("table.mass_kg", self.table.mass_kg)?;
+        ranged(
+            "table.mass_kg",
+            self.table.mass_kg,
+            1e-3,
+            1e6,
+            "must lie in [0.001, 1e6] kg",
+        )?;
         non_negative(
             "table.guide_stiffness_n_per_um",
             self.table.guide_stiffness_n_per_um,
