@@ -87,7 +87,6 @@ fn main() -> ExitCode {
         Err(e) => eprintln!("feedscope-fuzz: cannot create {}: {e}", dump.display()),
     }
     watchdog::start(args.corpus_out.clone(), limits.time);
-    quiet_panics();
     let scratch = match tempfile::tempdir() {
         Ok(d) => d,
         Err(e) => {
@@ -146,8 +145,11 @@ fn fuzz(
     limits: &Limits,
     budget: &Budget,
 ) -> Stats {
+    // Seeds are made with the default panic hook: a failing seed is the harness's own bug.
+    let _ = std::panic::take_hook();
     let seeds = t.seeds();
     let mutator = t.mutator();
+    quiet_panics();
     let mut rng = Rng::new(args.seed ^ watchdog::fnv(t.name.as_bytes()));
     let start = Instant::now();
     let mut s = Stats {

@@ -32,11 +32,16 @@ pub const SIM_EXAMPLE: &str = include_str!("../../../examples/nc-mill.toml");
 
 /// A short twin recording: two 8 mm strokes at 600 mm/min, and the axis it was simulated with.
 pub fn twin() -> (feedscope::trace::Trace, AxisParams) {
-    let mut cfg = SimConfig::from_toml_str(
+    twin_of(8.0)
+}
+
+/// The twin with strokes of `mm`.
+fn twin_of(mm: f64) -> (feedscope::trace::Trace, AxisParams) {
+    let mut cfg = SimConfig::from_toml_str(&format!(
         "[motion]\nlead_in_s = 0.1\nlead_out_s = 0.1\n\
-         [[motion.stroke]]\nto_mm = 8\nfeed_mm_min = 600\n\
-         [[motion.stroke]]\nto_mm = 0\nfeed_mm_min = 600\n",
-    )
+         [[motion.stroke]]\nto_mm = {mm}\nfeed_mm_min = 600\n\
+         [[motion.stroke]]\nto_mm = 0\nfeed_mm_min = 600\n"
+    ))
     .expect("the twin config is valid");
     cfg.dynamics.mode = DynamicsMode::Ideal;
     let sim = simulate(&cfg, &mut |_| {}).expect("the twin runs");
@@ -96,17 +101,29 @@ pub fn trace_parquet() -> Vec<Vec<u8>> {
 /// Axis files: the twin's axis, and a full one with geometry, travel and thresholds.
 pub fn axis_toml() -> Vec<Vec<u8>> {
     let (_, axis) = twin();
-    let mut full = toml::to_string(&axis).expect("serialisable");
-    full.push_str(
-        "screw_diameter_mm = 40\nscrew_ball_diameter_mm = 6.35\ncontact_angle_deg = 45\n\
-         screw_balls_per_turn = 19\ntravel_min_mm = 0\ntravel_max_mm = 600\n\
-         rapid_rate_mm_min = 24000\n[[declared_order]]\norder = 0.56\ncause = \"mark\"\n\
-         [thresholds]\nfs_n = { upper = 480 }\n\"mean_n/forward/0-100mm\" = { lower = 1, upper = 900 }\n",
+    let mut full = axis.clone();
+    full.screw_diameter_mm = Some(40.0);
+    full.screw_ball_diameter_mm = Some(6.35);
+    full.contact_angle_deg = Some(45.0);
+    full.screw_balls_per_turn = Some(19.0);
+    full.travel_min_mm = Some(0.0);
+    full.travel_max_mm = Some(600.0);
+    full.rapid_rate_mm_min = Some(24_000.0);
+    full.declared_orders = vec![feedscope::axis::DeclaredOrder {
+        order: 0.56,
+        cause: "mark".into(),
+    }];
+    full.thresholds.insert(
+        "fs_n".into(),
+        feedscope::history::Threshold {
+            upper: Some(480.0),
+            lower: None,
+        },
     );
-    vec![
-        toml::to_string(&axis).expect("serialisable").into_bytes(),
-        full.into_bytes(),
-    ]
+    [axis, full]
+        .iter()
+        .map(|a| toml::to_string(a).expect("serialisable").into_bytes())
+        .collect()
 }
 
 /// The axis files as JSON.
@@ -162,11 +179,9 @@ pub fn stribeck_table() -> Vec<Vec<u8>> {
 
 /// A friction CSV and its JSON summary, estimated from the twin.
 pub fn friction_csv_and_summary() -> (Vec<u8>, Vec<u8>) {
-    let (t, axis) = twin();
-    let params = EstimateParams {
-        samples_per_lead: 64,
-        ..EstimateParams::default()
-    };
+    // Strokes long enough for the estimate's minimum of spline knots.
+    let (t, axis) = twin_of(40.0);
+    let params = EstimateParams::default();
     let est = estimate(&t, &axis, &params).expect("the twin estimates");
     let mut csv = Vec::new();
     feedscope_io::friction_csv::write(&mut csv, est.effort_kind, &est.strokes).expect("memory");
