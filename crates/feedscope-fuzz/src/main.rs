@@ -87,7 +87,7 @@ fn main() -> ExitCode {
         Err(e) => eprintln!("feedscope-fuzz: cannot create {}: {e}", dump.display()),
     }
     watchdog::start(args.corpus_out.clone(), limits.time);
-    let scratch = match tempfile::tempdir() {
+    let scratch = match targets::scratch_dir() {
         Ok(d) => d,
         Err(e) => {
             eprintln!("feedscope-fuzz: no temporary directory: {e}");

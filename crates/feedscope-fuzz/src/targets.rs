@@ -35,10 +35,31 @@ pub enum Mutator {
     Parquet(Vec<ParquetSeed>),
 }
 
-/// Per-run context: a scratch directory for targets whose public API reads a file.
+/// Per-run context: a scratch directory for the targets that must go through a file (the
+/// SQLite store, the JSON summary read beside a friction CSV, and non-UTF-8 inputs, whose
+/// refusal happens in the file readers).
 pub struct Ctx {
-    /// Scratch directory (a temporary directory of the run).
+    /// Scratch directory (a temporary directory of the run; [`scratch_dir`] puts it in memory).
     pub dir: PathBuf,
+}
+
+/// A temporary directory for [`Ctx`]: under `/dev/shm` (a RAM file system: a write and read
+/// per input there costs microseconds, not the milliseconds of a disk's file system) when it
+/// exists, else in the system's temporary directory.
+///
+/// # Errors
+/// When neither can hold a new directory.
+pub fn scratch_dir() -> std::io::Result<tempfile::TempDir> {
+    let shm = Path::new("/dev/shm");
+    if shm.is_dir() {
+        if let Ok(d) = tempfile::Builder::new()
+            .prefix("feedscope-fuzz-")
+            .tempdir_in(shm)
+        {
+            return Ok(d);
+        }
+    }
+    tempfile::Builder::new().prefix("feedscope-fuzz-").tempdir()
 }
 
 impl Ctx {
@@ -374,25 +395,46 @@ fn run_umich(b: &[u8], _: &Ctx) -> Result<Verdict, Finding> {
     Ok(verdict)
 }
 
-/// True when a value serialised as TOML holds no NaN or infinity.
+/// True when a value, serialised into TOML values, holds no NaN or infinity. The walk is over
+/// typed values (not the text): a multi-line string such as an NC program may say `nan`.
 fn toml_finite<T: serde::Serialize>(v: &T) -> Result<(), Finding> {
-    let s = toml::to_string(v).map_err(|e| format!("accepted value does not serialise: {e}"))?;
-    for line in s.lines() {
-        let value = line.split_once('=').map_or(line, |(_, v)| v).trim();
-        // Text values may say anything; numbers (alone or in arrays) must be finite.
-        if value.starts_with('"') || value.starts_with('\'') {
-            continue;
-        }
-        if ["nan", "inf"].iter().any(|w| value.contains(w)) {
-            return Err(format!("accepted a non-finite value: `{line}`"));
+    fn walk(path: &str, v: &toml::Value) -> Result<(), Finding> {
+        match v {
+            toml::Value::Float(x) if !x.is_finite() => {
+                Err(format!("accepted a non-finite value: `{path} = {x}`"))
+            }
+            toml::Value::Array(a) => a
+                .iter()
+                .enumerate()
+                .try_for_each(|(k, x)| walk(&format!("{path}[{k}]"), x)),
+            toml::Value::Table(t) => t.iter().try_for_each(|(k, x)| {
+                walk(
+                    &if path.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{path}.{k}")
+                    },
+                    x,
+                )
+            }),
+            _ => Ok(()),
         }
     }
-    Ok(())
+    let value =
+        toml::Value::try_from(v).map_err(|e| format!("accepted value does not serialise: {e}"))?;
+    walk("", &value)
 }
 
 fn run_axis(b: &[u8], ctx: &Ctx, name: &str) -> Result<Verdict, Finding> {
-    let p = ctx.file(name, b);
-    match feedscope_io::axis::load(&p) {
+    use feedscope::axis::{AxisParams, ConfigFormat};
+    // Text parses from memory (the parser `load` calls); other bytes go through the file,
+    // where reading them as UTF-8 is what refuses them.
+    let parsed = match std::str::from_utf8(b) {
+        Ok(text) => AxisParams::parse(text, ConfigFormat::from_path(Path::new(name)), name)
+            .map_err(feedscope_io::axis::AxisFileError::from),
+        Err(_) => feedscope_io::axis::load(&ctx.file(name, b)),
+    };
+    match parsed {
         Ok(a) => {
             toml_finite(&a)?;
             let derived = [
@@ -444,16 +486,23 @@ fn run_drive(b: &[u8], _: &Ctx) -> Result<Verdict, Finding> {
 }
 
 fn run_sim(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
-    let p = ctx.file("sim.toml", b);
-    match feedscope_io::sim::read_config(&p) {
+    // A relative `motion.program_file` resolves in the scratch directory, as beside a file.
+    let parsed = match std::str::from_utf8(b) {
+        Ok(text) => feedscope_io::sim::config_from_toml_str_in_dir(text, &ctx.dir),
+        Err(_) => feedscope_io::sim::read_config(&ctx.file("sim.toml", b)),
+    };
+    match parsed {
         Ok(c) => toml_finite(&c).map(|()| Verdict::Accepted),
         Err(e) => refused(e.kind(), e.to_string()),
     }
 }
 
 fn run_map_index(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
-    let p = ctx.file("index.csv", b);
-    match feedscope_io::test_set::read_index(&p) {
+    let parsed = match std::str::from_utf8(b) {
+        Ok(text) => feedscope::map::TestSet::parse_index(text, &ctx.dir, "index.csv"),
+        Err(_) => feedscope_io::test_set::read_index(&ctx.file("index.csv", b)),
+    };
+    match parsed {
         Ok(set) => {
             for r in &set.runs {
                 if !(r.feed_mm_min.is_finite() && r.feed_mm_min > 0.0) {
@@ -467,13 +516,16 @@ fn run_map_index(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
 }
 
 fn run_stribeck(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
-    use feedscope_io::stribeck_table::{read, TableOptions};
-    let p = ctx.file("table.csv", b);
+    use feedscope_io::stribeck_table::{parse, read, TableOptions};
     let opts = TableOptions {
         lead_mm: Some(10.0),
         efficiency: 0.9,
     };
-    match read(&p, &opts) {
+    let parsed = match std::str::from_utf8(b) {
+        Ok(text) => parse(text, "table.csv", &opts),
+        Err(_) => read(&ctx.file("table.csv", b), &opts),
+    };
+    match parsed {
         Ok(t) => {
             for pts in [&t.forward, &t.backward] {
                 for (&v, &f) in pts.speed_m_s.iter().zip(&pts.friction_n) {
@@ -513,29 +565,46 @@ fn check_strokes(s: &[feedscope::estimate::StrokeFriction]) -> Result<(), Findin
 }
 
 fn run_friction_csv(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
-    let p = ctx.file("friction.csv", b);
-    let _ = std::fs::remove_file(p.with_extension("json"));
-    match feedscope_io::friction_csv::read(&p, 0.01) {
+    // Without a summary beside it, as `read` of a CSV that has none.
+    let parsed = match std::str::from_utf8(b) {
+        Ok(text) => {
+            feedscope_io::friction_csv::parse(text, "friction.csv", 0.01, None, "friction.json")
+        }
+        Err(_) => {
+            let p = ctx.file("friction.csv", b);
+            let _ = std::fs::remove_file(p.with_extension("json"));
+            feedscope_io::friction_csv::read(&p, 0.01)
+        }
+    };
+    match parsed {
         Ok(s) => check_strokes(&s).map(|()| Verdict::Accepted),
         Err(e) => refused(e.kind(), e.to_string()),
     }
 }
 
 fn run_summary(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
+    use feedscope_io::friction_csv::{parse, read_summary};
     thread_local! {
-        static CSV: Vec<u8> = seeds::friction_csv_and_summary().0;
+        static CSV: String = String::from_utf8(seeds::friction_csv_and_summary().0)
+            .expect("the friction CSV seed is text");
     }
-    let p: PathBuf = CSV.with(|c| ctx.file("est.csv", c));
-    ctx.file("est.json", b);
-    match feedscope_io::friction_csv::read(&p, 0.01) {
+    // The summary is only read from a file; the CSV it goes with parses from memory, as in
+    // `friction_csv::read`.
+    let json = ctx.file("est.json", b);
+    let parsed = read_summary(&json)
+        .and_then(|summary| CSV.with(|c| parse(c, "est.csv", 0.01, summary.as_ref(), "est.json")));
+    match parsed {
         Ok(s) => check_strokes(&s).map(|()| Verdict::Accepted),
         Err(e) => refused(e.kind(), e.to_string()),
     }
 }
 
 fn run_thresholds(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
-    let p = ctx.file("thresholds.toml", b);
-    match feedscope_io::thresholds::read(&p) {
+    let parsed = match std::str::from_utf8(b) {
+        Ok(text) => feedscope_io::thresholds::parse(text, "thresholds.toml"),
+        Err(_) => feedscope_io::thresholds::read(&ctx.file("thresholds.toml", b)),
+    };
+    match parsed {
         Ok(m) => {
             for (k, t) in &m {
                 for v in [t.upper, t.lower].into_iter().flatten() {

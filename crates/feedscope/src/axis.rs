@@ -316,18 +316,23 @@ impl AxisParams {
             ("travel_min_mm", self.travel_min_mm),
             ("travel_max_mm", self.travel_max_mm),
         ] {
-            if let Some(v) = v.filter(|v| v.abs() > 1e5) {
+            // NaN is refused too: a lone travel bound let it through.
+            if let Some(v) = v.filter(|v| !v.is_finite() || v.abs() > 1e5) {
                 return Err(bad(key, v, "must lie within ±100000 mm (100 m)"));
             }
         }
         if let Some(v) = self.rapid_rate_mm_min {
             at_most("rapid_rate_mm_min", v, 1e6, "must be at most 1e6 mm/min")?;
         }
+        // The geometry of Eq. 7 is bounded too: a ball count of 1e308 made the nut's refeed
+        // order infinite.
         if let Some(v) = self.screw_diameter_mm {
             positive("screw_diameter_mm", v)?;
+            at_most("screw_diameter_mm", v, 1000.0, "must be at most 1000 mm")?;
         }
         if let Some(v) = self.screw_ball_diameter_mm {
             positive("screw_ball_diameter_mm", v)?;
+            at_most("screw_ball_diameter_mm", v, 200.0, "must be at most 200 mm")?;
             if let Some(d) = self.screw_diameter_mm {
                 if v >= d {
                     return Err(bad(
@@ -345,12 +350,20 @@ impl AxisParams {
         }
         if let Some(v) = self.screw_balls_per_turn {
             positive("screw_balls_per_turn", v)?;
+            at_most("screw_balls_per_turn", v, 1000.0, "must be at most 1000")?;
         }
         if let Some(v) = self.guide_ball_diameter_mm {
             positive("guide_ball_diameter_mm", v)?;
+            at_most("guide_ball_diameter_mm", v, 200.0, "must be at most 200 mm")?;
         }
         if let Some(v) = self.guide_balls_per_raceway {
             positive("guide_balls_per_raceway", v)?;
+            at_most(
+                "guide_balls_per_raceway",
+                v,
+                10_000.0,
+                "must be at most 10000",
+            )?;
         }
         if let (Some(lo), Some(hi)) = (self.travel_min_mm, self.travel_max_mm) {
             if !(lo.is_finite() && hi.is_finite() && hi > lo) {
@@ -366,6 +379,12 @@ impl AxisParams {
         }
         for d in &self.declared_orders {
             positive("declared_order.order", d.order)?;
+            at_most(
+                "declared_order.order",
+                d.order,
+                1e4,
+                "must be at most 1e4 cycles per lead",
+            )?;
         }
         for (name, t) in &self.thresholds {
             if crate::history::Indicator::parse(name).is_none() {

@@ -168,3 +168,32 @@ fn a_drive_whose_masses_make_no_positive_definite_matrix_is_bad_input() {
         &["screw.density_kg_m3"],
     );
 }
+
+#[test]
+fn a_preload_fraction_of_1e300_is_refused_naming_the_key() {
+    // Found by the `drive` target: an unbounded key overflowed the stiffness matrix, whose NaN
+    // eigenvalues were reported as natural frequencies of 0.0 Hz.
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "drive.toml", b"[nut]\npreload_fraction = 1e300\n");
+    expect_bad_input(
+        d.path(),
+        &["dynamics", "--config", "drive.toml", "--out", "o"],
+        &["nut.preload_fraction", "1e300"],
+    );
+}
+
+#[test]
+fn a_subnormal_feed_in_a_stribeck_table_is_refused_naming_its_line() {
+    // Found by the `stribeck_table` target: 1e-320 mm/min became 0 m/s and was accepted.
+    let d = tempfile::tempdir().unwrap();
+    write(
+        d.path(),
+        "t.csv",
+        b"feed_mm_min,force_n\n600,250\n-600,-245\n1e-320,262\n-1200,-260\n",
+    );
+    expect_bad_input(
+        d.path(),
+        &["fit-stribeck", "t.csv", "--out", "out"],
+        &["t.csv:4:", "1e-320"],
+    );
+}
