@@ -330,8 +330,6 @@ struct BlockParser {
     bytes_seen: u64,
     /// Whether the channels were reserved for the whole file.
     reserved: bool,
-    /// The 1-based line of a last data line left out for want of a line end.
-    unterminated_last_line: Option<u64>,
 }
 
 impl BlockParser {
@@ -358,7 +356,6 @@ impl BlockParser {
             bom_checked: false,
             bytes_seen: 0,
             reserved: false,
-            unterminated_last_line: None,
         }
     }
 
@@ -404,37 +401,11 @@ impl BlockParser {
         let Some(header) = self.header.clone() else {
             return Ok(end);
         };
-        // A last data line without a line end may have been cut while the file was written (a
-        // logger stopped mid-number: `1.23` of `1.2345`). It is left out and reported
-        // ([`ReadReport::unterminated_last_line`]), never read as a shorter number.
-        let mut data_end = end;
-        let mut cut_tail = false;
-        if eof && end > off && buf[end - 1] != term {
-            let tail_start = memchr::memrchr(term, &buf[off..end]).map_or(off, |k| off + k + 1);
-            let tail = trim_line(&buf[tail_start..end]);
-            if !tail.is_empty() && tail[0] != b'#' {
-                data_end = tail_start;
-                cut_tail = true;
-            }
+        if off >= end {
+            return Ok(end);
         }
-        if off < data_end {
-            self.parse_body(&buf[off..data_end], term, &header)?;
-        }
-        if cut_tail {
-            self.lines += 1;
-            self.unterminated_last_line = Some(self.lines);
-        }
-        self.bytes_seen += end as u64;
-        if !self.reserved && !eof {
-            self.reserve_for_file();
-        }
-        Ok(end)
-    }
-
-    /// Parse whole lines (`body` ends at a line end or at the end of the data) in pieces, in
-    /// parallel when it is large.
-    fn parse_body(&mut self, body: &[u8], term: u8, header: &Header) -> Result<(), TraceError> {
-        // Cut the body into pieces at line ends and parse them in parallel.
+        // Cut [off, end) into pieces at line ends and parse them in parallel.
+        let body = &buf[off..end];
         let n = if body.len() < (1 << 20) {
             1
         } else {
@@ -455,19 +426,23 @@ impl BlockParser {
         cuts.push(body.len());
         let pieces: Vec<&[u8]> = cuts.windows(2).map(|w| &body[w[0]..w[1]]).collect();
         let results: Vec<Result<Piece, (u64, TraceError)>> = if pieces.len() == 1 {
-            vec![parse_piece(pieces[0], term, header, &self.name)]
+            vec![parse_piece(pieces[0], term, &header, &self.name)]
         } else {
             use rayon::prelude::*;
             pieces
                 .par_iter()
-                .map(|p| parse_piece(p, term, header, &self.name))
+                .map(|p| parse_piece(p, term, &header, &self.name))
                 .collect()
         };
         for r in results {
             let piece = r.map_err(|(local, e)| relocate(e, self.lines + local))?;
             self.append(piece)?;
         }
-        Ok(())
+        self.bytes_seen += end as u64;
+        if !self.reserved && !eof {
+            self.reserve_for_file();
+        }
+        Ok(end)
     }
 
     /// Reserve every channel for the whole file at the sample density seen so far, so that
@@ -688,7 +663,6 @@ impl BlockParser {
             ignored_channels: self.ignored_names,
             lines: self.lines,
             layout: Some(layout),
-            unterminated_last_line: self.unterminated_last_line,
             ..ReadReport::default()
         };
         Ok((
@@ -1239,32 +1213,6 @@ mod tests {
             parse("time_ms,position_mm,torque_nm\r\n0,0,1\r\n1,1,2\r\n2,2,3\r\n3,3,4\r\n").unwrap();
         assert_eq!(t.effort_kind, EffortKind::TorqueNm);
         assert!((t.position_m.time_s[3] - 0.003).abs() < 1e-15);
-    }
-
-    #[test]
-    fn a_last_line_cut_mid_number_is_left_out_and_reported() {
-        let mut whole = String::from("time_s,position_mm,current_a\n");
-        for k in 0..10 {
-            whole.push_str(&format!("{k},{k},1.2345\n"));
-        }
-        // Cut in the last current: `1.23` would read as a number 0.0045 A short.
-        let cut = &whole[..whole.len() - 3];
-        assert!(cut.ends_with(",1.23"));
-        let (t, r) = parse(cut).unwrap();
-        assert_eq!(t.position_m.len(), 9);
-        // The last sample kept is whole (parsing `1.2345` is exact to 1 ulp).
-        assert!((t.effort.value[8] - 1.2345).abs() < 1e-15);
-        assert_eq!(r.unterminated_last_line, Some(11));
-        assert_eq!(r.lines, 11);
-        let w = r.cut_line_warning().unwrap();
-        assert!(w.contains("line 11") && w.contains("left out"), "{w}");
-        assert_eq!(r.warnings(), [w]);
-        // The whole file, and one whose last line is a comment, lose nothing.
-        let (t, r) = parse(&whole).unwrap();
-        assert_eq!((t.position_m.len(), r.unterminated_last_line), (10, None));
-        let (t, r) = parse(&format!("{whole}# end")).unwrap();
-        assert_eq!((t.position_m.len(), r.unterminated_last_line), (10, None));
-        assert!(r.warnings().is_empty());
     }
 
     #[test]

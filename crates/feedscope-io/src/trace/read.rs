@@ -318,10 +318,6 @@ pub struct ReadReport {
     /// The speed limit the position was screened with (m/s); `None` when it was not screened
     /// (a report made by hand).
     pub max_axis_speed_m_s: Option<f64>,
-    /// The 1-based line of a CSV file's last data line when the file does not end with a line
-    /// end: it may have been cut while the file was written (a number cut short still reads
-    /// as a number), so it was left out of the trace. See [`ReadReport::cut_line_warning`].
-    pub unterminated_last_line: Option<u64>,
 }
 
 /// A position sample dropped as a glitch.
@@ -343,26 +339,6 @@ pub struct DroppedSample {
 const SHOWN_DROPPED: usize = 5;
 
 impl ReadReport {
-    /// One sentence for people when the last line was left out for want of a line end
-    /// ([`ReadReport::unterminated_last_line`]); `None` otherwise.
-    pub fn cut_line_warning(&self) -> Option<String> {
-        self.unterminated_last_line.map(|line| {
-            format!(
-                "line {line} (the last) has no line end and may have been cut while the file \
-                 was written; it was left out"
-            )
-        })
-    }
-
-    /// Every warning of the read, one sentence each: [`ReadReport::glitch_warning`] and
-    /// [`ReadReport::cut_line_warning`].
-    pub fn warnings(&self) -> Vec<String> {
-        self.glitch_warning()
-            .into_iter()
-            .chain(self.cut_line_warning())
-            .collect()
-    }
-
     /// One sentence for people when position samples were dropped as glitches: the count, the
     /// limit, and the time (and line or row) of the first few. `None` when nothing was dropped.
     pub fn glitch_warning(&self) -> Option<String> {
