@@ -266,8 +266,8 @@ pub struct IntervalRow {
 pub struct ComponentRow {
     /// `forward` or `backward`.
     pub direction: String,
-    /// `all` or segment number.
-    pub segment: String,
+    /// The whole stroke (`all`) or a segment number.
+    pub segment: feedscope::order::Segment,
     /// Segment centre (mm).
     pub position_mm: f64,
     /// Order (cycles per lead).
@@ -277,7 +277,7 @@ pub struct ComponentRow {
     /// Local noise floor (N).
     pub floor_n: f64,
     /// Classified cause.
-    pub cause: String,
+    pub cause: feedscope::order::Cause,
     /// Below the highest trusted order.
     pub trusted: bool,
 }

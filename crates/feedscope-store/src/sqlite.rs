@@ -25,10 +25,26 @@ impl From<rusqlite::Error> for BackendError {
         let kind = match e.sqlite_error_code() {
             Some(rusqlite::ErrorCode::NotADatabase) => BackendErrorKind::NotADatabase,
             Some(rusqlite::ErrorCode::DatabaseCorrupt) => BackendErrorKind::Corrupt,
+            // A stored value that does not read as its type (a label no version wrote).
+            None if matches!(e, rusqlite::Error::FromSqlConversionFailure(..)) => {
+                BackendErrorKind::Corrupt
+            }
             _ => BackendErrorKind::Other,
         };
         BackendError::new(kind, e)
     }
+}
+
+/// Column `col` of a row as a typed label (segment, cause) written as text.
+fn label<T>(r: &rusqlite::Row<'_>, col: usize) -> rusqlite::Result<T>
+where
+    T: std::str::FromStr,
+    T::Err: std::error::Error + Send + Sync + 'static,
+{
+    let text: String = r.get(col)?;
+    text.parse().map_err(|e| {
+        rusqlite::Error::FromSqlConversionFailure(col, rusqlite::types::Type::Text, Box::new(e))
+    })
 }
 
 impl From<rusqlite::Error> for StoreError {
@@ -386,12 +402,12 @@ impl Store for SqliteStore {
                 st.execute(params![
                     id,
                     c.direction,
-                    c.segment,
+                    c.segment.to_string(),
                     c.position_mm,
                     c.order,
                     c.amplitude_n,
                     c.floor_n,
-                    c.cause,
+                    c.cause.to_string(),
                     i64::from(c.trusted)
                 ])?;
             }
@@ -491,12 +507,12 @@ impl Store for SqliteStore {
             .query_map([id], |r| {
                 Ok(ComponentRow {
                     direction: r.get(0)?,
-                    segment: r.get(1)?,
+                    segment: label(r, 1)?,
                     position_mm: r.get(2)?,
                     order: r.get(3)?,
                     amplitude_n: r.get(4)?,
                     floor_n: r.get(5)?,
-                    cause: r.get(6)?,
+                    cause: label(r, 6)?,
                     trusted: r.get::<_, i64>(7)? != 0,
                 })
             })?
@@ -652,12 +668,12 @@ mod tests {
             }],
             components: vec![ComponentRow {
                 direction: "backward".into(),
-                segment: "all".into(),
+                segment: feedscope::order::Segment::Whole,
                 position_mm: 200.0,
                 order: 1.0,
                 amplitude_n: 5.5,
                 floor_n: 0.5,
-                cause: "shaft 1x".into(),
+                cause: feedscope::order::Cause::Shaft(1),
                 trusted: true,
             }],
             indicators: vec![
@@ -714,7 +730,7 @@ mod tests {
         assert_eq!(d.intervals.len(), 1);
         assert_eq!(d.intervals[0].samples, 800);
         assert_eq!(d.components.len(), 1);
-        assert_eq!(d.components[0].cause, "shaft 1x");
+        assert_eq!(d.components[0].cause, feedscope::order::Cause::Shaft(1));
         assert!(d.components[0].trusted);
         // indicators by name
         let names: Vec<_> = d.indicators.iter().map(|i| i.name.as_str()).collect();

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use feedscope::axis::AxisParams;
 use feedscope::estimate::{Direction, StrokeFriction};
-use feedscope::order::SegmentSpec;
+use feedscope::order::{Cause, Segment, SegmentSpec};
 use feedscope::profile::{AnalysisParams, StrokeAnalysis};
 use feedscope::study::{
     analyze_strokes, analyze_trace, AnalyzeStudy, AnalyzeStudyParams, StudyError,
@@ -361,7 +361,7 @@ fn print_summary(
             .fluctuation
             .components
             .iter()
-            .filter(|c| c.segment == "all")
+            .filter(|c| c.segment.is_whole())
         {
             outln!(
                 "  {:>8.3}  {:>12.2}  {}{}",
@@ -497,10 +497,10 @@ fn plots(
         for sp in fl
             .spectra
             .iter()
-            .filter(|sp| sp.segment == "all" || sp.segment == segment.to_string())
+            .filter(|sp| sp.segment.is_whole() || sp.segment == Segment::Part(segment))
         {
             series.push(Series {
-                name: if sp.segment == "all" {
+                name: if sp.segment.is_whole() {
                     "whole stroke".into()
                 } else {
                     format!(
@@ -527,8 +527,8 @@ fn plots(
         ));
         // 4. Amplitude of each significant component along the travel (paper Fig. 9d).
         let mut by_cause: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-        for c in fl.components.iter().filter(|c| c.segment != "all") {
-            let label = if c.cause == "unexplained" {
+        for c in fl.components.iter().filter(|c| !c.segment.is_whole()) {
+            let label = if c.cause == Cause::Unexplained {
                 continue;
             } else {
                 format!("{} ({:.2})", c.cause, c.kinematic_order.unwrap_or(c.order))

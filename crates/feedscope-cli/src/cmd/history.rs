@@ -452,10 +452,10 @@ fn show(db: &Path, a: &ShowArgs) -> Result<()> {
                     .map_or(String::new(), |s| format!(" ± {}", num(s)));
                 writeln!(w, "    {:<40} {}{se} {}", i.name, num(i.value), i.unit)?;
             }
-            let n = d.components.iter().filter(|c| c.segment == "all").count();
+            let n = d.components.iter().filter(|c| c.segment.is_whole()).count();
             if n > 0 {
                 writeln!(w, "  {n} significant components over whole strokes:")?;
-                for c in d.components.iter().filter(|c| c.segment == "all") {
+                for c in d.components.iter().filter(|c| c.segment.is_whole()) {
                     writeln!(
                         w,
                         "    {:<9} order {:>7.3}  {:>7.2} N  {}",

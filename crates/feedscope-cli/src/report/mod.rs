@@ -593,7 +593,7 @@ pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Resul
                 None => format!(
                     "{} intervals, {} components",
                     d.intervals.len(),
-                    d.components.iter().filter(|c| c.segment == "all").count()
+                    d.components.iter().filter(|c| c.segment.is_whole()).count()
                 ),
             },
         })
@@ -670,7 +670,7 @@ pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Resul
             .map(|d| {
                 d.components
                     .iter()
-                    .filter(|c| c.segment == "all")
+                    .filter(|c| c.segment.is_whole())
                     .cloned()
                     .collect()
             })

@@ -1,5 +1,6 @@
 //! Diagnosis in words: which indicators moved and what the papers associate with them.
 use super::{Indicator, IndicatorTrend, Status};
+use crate::order::Cause;
 
 /// How an indicator moved: +1 up, −1 down, 0 not at all (status `Ok`).
 fn moved(t: &IndicatorTrend) -> i32 {
@@ -98,8 +99,13 @@ pub fn diagnose(trends: &[IndicatorTrend]) -> Vec<String> {
     let refeed_moved: Vec<&IndicatorTrend> = trends
         .iter()
         .filter(|t| {
-            matches!(&t.indicator, Indicator::Component { cause, .. } if cause.contains("refeed"))
-                && moved(t) != 0
+            matches!(
+                &t.indicator,
+                Indicator::Component {
+                    cause: Cause::NutRefeed(_) | Cause::GuideRefeed(_),
+                    ..
+                }
+            ) && moved(t) != 0
         })
         .collect();
     if !means.is_empty() {
@@ -150,8 +156,13 @@ pub fn diagnose(trends: &[IndicatorTrend]) -> Vec<String> {
     let shaft: Vec<String> = trends
         .iter()
         .filter(|t| {
-            matches!(&t.indicator, Indicator::Component { cause, .. } if cause.contains("shaft"))
-                && moved(t) > 0
+            matches!(
+                &t.indicator,
+                Indicator::Component {
+                    cause: Cause::Shaft(_),
+                    ..
+                }
+            ) && moved(t) > 0
         })
         .map(|t| format!("{} {}", t.indicator.label(), pct(t)))
         .collect();

@@ -117,8 +117,8 @@ pub enum Indicator {
     Component {
         /// Stroke direction.
         direction: Direction,
-        /// Kinematic cause as classified (`shaft 1x`, `nut ball refeed 1x`, ...).
-        cause: String,
+        /// Kinematic cause as classified (written `shaft 1x`, `nut ball refeed 1x`, ...).
+        cause: crate::order::Cause,
     },
 }
 
@@ -170,7 +170,7 @@ impl Indicator {
                     }
                     "amplitude_n" => Indicator::Component {
                         direction: d,
-                        cause: rest.to_string(),
+                        cause: rest.parse().ok()?,
                     },
                     _ => return None,
                 }

@@ -161,7 +161,7 @@ pub fn stroke_test(
     let mut bins: BTreeMap<(u8, i64), Bin> = BTreeMap::new();
     let mut components = Vec::new();
     // (direction, cause) → amplitudes of each stroke (max over its components of that cause)
-    let mut amp: BTreeMap<(u8, String), Vec<f64>> = BTreeMap::new();
+    let mut amp: BTreeMap<(u8, crate::order::Cause), Vec<f64>> = BTreeMap::new();
     let mut curves = Curves {
         profiles: vec![],
         heatmaps: vec![],
@@ -193,17 +193,13 @@ pub fn stroke_test(
             e.raw_samples += raw_per_point;
             e.quantum_n = e.quantum_n.max(s.summary.effort_quantum_n);
         }
-        let mut best: BTreeMap<String, f64> = BTreeMap::new();
+        let mut best: BTreeMap<crate::order::Cause, f64> = BTreeMap::new();
         for c in &a.fluctuation.components {
             components.push(StrokeComponent {
                 direction: d,
                 component: c.clone(),
             });
-            if c.segment == "all"
-                && c.trusted
-                && c.cause != "unexplained"
-                && c.cause != crate::order::UNRESOLVED
-            {
+            if c.segment.is_whole() && c.trusted && c.cause.is_kinematic() {
                 let e = best.entry(c.cause.clone()).or_insert(0.0);
                 *e = e.max(c.amplitude_n);
             }
