@@ -210,7 +210,7 @@ pub fn db_path(flag: Option<&Path>) -> PathBuf {
 
 /// Open the store; a foreign or damaged file is bad input (exit 2).
 pub fn open_store(path: &Path) -> Result<SqliteStore> {
-    SqliteStore::open(path).map_err(|e| store_err(e, path))
+    SqliteStore::open_with(path, &super::series::store_options()?).map_err(|e| store_err(e, path))
 }
 
 fn store_err(e: StoreError, path: &Path) -> anyhow::Error {
