@@ -6,6 +6,9 @@ use serde::{Deserialize, Serialize};
 use super::Cause;
 use crate::axis::AxisParams;
 
+/// The cause of harmonic h of one refeed mechanism.
+type Harmonic = fn(u8) -> Cause;
+
 /// A kinematic order of the drive and its cause.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct KinematicOrder {
@@ -45,7 +48,7 @@ pub fn kinematic_orders(axis: &AxisParams) -> Vec<KinematicOrder> {
             cause: Cause::Shaft(h),
         })
         .collect();
-    let refeeds: [(Option<f64>, fn(u8) -> Cause); 2] = [
+    let refeeds: [(Option<f64>, Harmonic); 2] = [
         (axis.nut_refeed_order(), Cause::NutRefeed),
         (axis.guide_refeed_order(), Cause::GuideRefeed),
     ];

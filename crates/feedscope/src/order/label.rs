@@ -8,6 +8,9 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
+/// The cause of harmonic h of one mechanism.
+type Harmonic = fn(u8) -> Cause;
+
 /// Which part of a stroke a spectrum or component covers.
 ///
 /// Written as `all` for the whole stroke and `1`, `2`, ... for the segments in order of
@@ -147,7 +150,7 @@ impl FromStr for Cause {
             }
             digits.parse::<u8>().ok().filter(|h| *h >= 1)
         };
-        let kinds: [(&str, fn(u8) -> Cause); 3] = [
+        let kinds: [(&str, Harmonic); 3] = [
             ("shaft ", Cause::Shaft),
             ("nut ball refeed ", Cause::NutRefeed),
             ("guide ball refeed ", Cause::GuideRefeed),
