@@ -937,6 +937,8 @@ pub fn estimate_stroke(
     let mut j0 = 0;
     while j0 < count {
         let len = BLOCK.min(count - j0);
+        // One index into six columns (and j beside it): no single iterator to enumerate.
+        #[allow(clippy::needless_range_loop)]
         for i in 0..len {
             let j = j0 + i;
             let zg = (k_first as f64 + s * j as f64) * step;
