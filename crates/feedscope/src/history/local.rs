@@ -947,7 +947,11 @@ mod tests {
         assert!(d.first_flag.is_some());
         // 24 N, give or take the level scatter of test 8 and of the baseline mean:
         // 0.3 % of ~300 N·√(1 + 1/2) ≈ 1.1 N, so 4 N is 3.6 σ
-        assert!((d.tests[7].level_n - 24.0).abs() < 4.0, "{}", d.tests[7].level_n);
+        assert!(
+            (d.tests[7].level_n - 24.0).abs() < 4.0,
+            "{}",
+            d.tests[7].level_n
+        );
     }
 
     #[test]

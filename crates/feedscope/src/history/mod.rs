@@ -238,8 +238,9 @@ pub struct TrendParams {
     pub cusum_h: f64,
     /// Tests in the recent-slope fit. Default 6.
     pub slope_window: usize,
-    /// Raise σ to the RMS standard error of the points that set the baseline when that is
-    /// larger (a scatter below the measurement's own uncertainty is luck). Default `false`.
+    /// Raise σ to √(SE² + (`min_relative_std`·μ₀)²), SE the RMS standard error of the points
+    /// that set the baseline, when that is larger (a scatter below the measurement's own
+    /// uncertainty plus the quantity's known relative scatter is luck). Default `false`.
     #[serde(default)]
     pub std_error_floor: bool,
 }
@@ -369,9 +370,12 @@ pub fn assess(
         };
         let ses: Vec<f64> = set.iter().filter_map(|p| p.std_error).collect();
         if !ses.is_empty() {
+            // Test-to-test scatter = the relative scatter of the quantity ⊕ the measurement
+            // error: the two floors add in quadrature.
             let rms = (ses.iter().map(|s| s * s).sum::<f64>() / ses.len() as f64).sqrt();
-            if rms > b.std {
-                b.std = rms;
+            let floor = rms.hypot(params.min_relative_std * b.mean.abs());
+            if floor > b.std {
+                b.std = floor;
                 b.std_floored = true;
             }
         }

@@ -82,8 +82,9 @@ pub fn axis_trends(
 /// tests the store kept (a test whose strokes the data verdict withheld from a profile has
 /// none: they do not reach the comparison).
 ///
-/// Component amplitudes get σ ≥ [`TrendStudyParams::component_min_relative_std`]·μ₀ and
-/// ≥ their own standard errors ([`TrendParams::std_error_floor`]).
+/// Component amplitudes get σ ≥ √(SE² + (c·μ₀)²), c =
+/// [`TrendStudyParams::component_min_relative_std`], SE their own standard errors
+/// ([`TrendParams::std_error_floor`]).
 ///
 /// # Errors
 /// [`StudyError::Trend`] when a series cannot be assessed for a reason other than too few

@@ -327,9 +327,10 @@ fn lubrication_story_is_called_lubrication_not_local_wear() {
 
 /// Component amplitudes of an unchanged screw (the twin's scatter: ±4 % between tests, and an
 /// estimation error of 0.15 N on top, which weighs most at low amplitude) over 24 seeded
-/// histories of 10 tests: judged after every test as `history trend` would, no status is
-/// ever `out of limits` (the Shewhart band from their own scatter); drifting signals (EWMA,
-/// CUSUM) are counted and bounded.
+/// histories of 10 tests: judged after every test as `history trend` would, `out of limits`
+/// stays at the nominal rate of a ±3σ band whose σ is the amplitudes' true scatter (0.27 % of
+/// judgements for Gaussian errors; measured: 2 of 720), not the systematic alarms of a 1 %
+/// floor; drifting signals (EWMA, CUSUM) are bounded too.
 #[test]
 fn unchanged_component_amplitudes_stay_in_limits() {
     let amps = [
@@ -382,7 +383,8 @@ fn unchanged_component_amplitudes_stay_in_limits() {
          judgements"
     );
     assert_eq!(judged, 24 * 5 * amps.len());
-    assert_eq!(out_of_limits, 0);
+    // ≤ 0.5 %: twice the nominal 0.27 % of a ±3σ band, the slack for σ's own estimate
+    assert!(out_of_limits * 200 <= judged, "{out_of_limits} of {judged}");
     // EWMA and CUSUM are meant to be sensitive; on unchanged data they may still signal
     // rarely: at most 1 % of the judgements.
     assert!(drifting * 100 <= judged, "{drifting} of {judged}");
