@@ -24,8 +24,65 @@ pub(crate) use out;
 
 use anyhow::{Context, Result};
 
+/// The temporary name of `dest` for the process `pid` with `suffix` (`tmp` or `bak`):
+/// `.NAME.PID.SUFFIX` beside it, hidden, and recognisable as ours by [`remove_stale`].
+fn side_name(dest: &Path, pid: u32, suffix: &str) -> Result<PathBuf> {
+    let name = dest
+        .file_name()
+        .with_context(|| format!("{} is not a file path", dest.display()))?;
+    let mut side = std::ffi::OsString::from(".");
+    side.push(name);
+    side.push(format!(".{pid}.{suffix}"));
+    Ok(dest.with_file_name(side))
+}
+
+/// Whether process `pid` may still be running. Only Linux can tell (by `/proc`); elsewhere
+/// every process counts as alive, so that no temporary file of a running command is removed.
+fn pid_alive(pid: u32) -> bool {
+    if cfg!(target_os = "linux") && Path::new("/proc/self").exists() {
+        Path::new("/proc").join(pid.to_string()).exists()
+    } else {
+        true
+    }
+}
+
+/// Remove what killed runs left beside `dest`: files named exactly `.NAME.PID.tmp` or
+/// `.NAME.PID.bak` (NAME `dest`'s file name) whose process is gone. Anything else, and the
+/// files of live processes, are left alone; failures are ignored (the write goes on).
+fn remove_stale(dest: &Path) {
+    let (Some(name), Some(dir)) = (dest.file_name().and_then(|n| n.to_str()), dest.parent()) else {
+        return;
+    };
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let prefix = format!(".{name}.");
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)) else {
+            continue;
+        };
+        let Some(pid) = rest
+            .strip_suffix(".tmp")
+            .or_else(|| rest.strip_suffix(".bak"))
+            .and_then(|p| p.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if pid != std::process::id() && !pid_alive(pid) {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
 /// A file written under a temporary name and renamed into place on [`AtomicFile::commit`];
 /// dropped without commit, it is removed, so an error never leaves a partial output behind.
+/// Creating it removes the temporary files that killed runs left beside the same output.
 pub struct AtomicFile {
     tmp: PathBuf,
     dest: PathBuf,
@@ -36,13 +93,8 @@ impl AtomicFile {
     /// Start `dest`; its folder is made when missing ([`crate::paths::ensure_parent_dir`]).
     pub fn create(dest: &Path) -> Result<Self> {
         crate::paths::ensure_parent_dir(dest)?;
-        let name = dest
-            .file_name()
-            .with_context(|| format!("{} is not a file path", dest.display()))?;
-        let mut tmp_name = std::ffi::OsString::from(".");
-        tmp_name.push(name);
-        tmp_name.push(format!(".{}.tmp", std::process::id()));
-        let tmp = dest.with_file_name(tmp_name);
+        let tmp = side_name(dest, std::process::id(), "tmp")?;
+        remove_stale(dest);
         let file =
             std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
         Ok(Self {
@@ -56,11 +108,16 @@ impl AtomicFile {
         self.file.as_mut().expect("writer used after commit")
     }
 
+    /// Write out what is buffered; the file stays temporary.
+    fn flush(&mut self) -> Result<()> {
+        self.writer()
+            .flush()
+            .with_context(|| format!("writing {}", self.tmp.display()))
+    }
+
     pub fn commit(mut self) -> Result<()> {
-        let mut w = self.file.take().expect("commit called once");
-        w.flush()
-            .with_context(|| format!("writing {}", self.tmp.display()))?;
-        drop(w);
+        self.flush()?;
+        drop(self.file.take());
         std::fs::rename(&self.tmp, &self.dest)
             .with_context(|| format!("renaming into {}", self.dest.display()))?;
         Ok(())
@@ -82,6 +139,98 @@ pub fn write_atomic(dest: &Path, bytes: &[u8]) -> Result<()> {
         .write_all(bytes)
         .with_context(|| format!("writing {}", dest.display()))?;
     f.commit()
+}
+
+/// The outputs of one command, which appear together or not at all: each is written to its
+/// temporary file, and [`OutputSet::commit`] renames them all into place at the end. A command
+/// that fails before then (the set dropped) leaves the previous outputs as they were and no
+/// temporary file; a rename that fails during the commit puts back the outputs already
+/// replaced, so the folder never holds a mix of old and new files.
+#[derive(Default)]
+pub struct OutputSet {
+    files: Vec<AtomicFile>,
+}
+
+impl OutputSet {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Start one output of the set ([`AtomicFile::create`]); hand it back with
+    /// [`add`](Self::add) when written.
+    pub fn create(&self, dest: &Path) -> Result<AtomicFile> {
+        AtomicFile::create(dest)
+    }
+
+    /// Take a written output into the set (flushed, still under its temporary name).
+    pub fn add(&mut self, mut f: AtomicFile) -> Result<()> {
+        f.flush()?;
+        self.files.push(f);
+        Ok(())
+    }
+
+    /// Write `bytes` as the output `dest` of the set.
+    pub fn write(&mut self, dest: &Path, bytes: &[u8]) -> Result<()> {
+        let mut f = self.create(dest)?;
+        f.writer()
+            .write_all(bytes)
+            .with_context(|| format!("writing {}", dest.display()))?;
+        self.add(f)
+    }
+
+    /// Rename every output into place. Each existing output is first linked (or copied) to
+    /// `.NAME.PID.bak`, so that when a rename fails the ones done are put back.
+    pub fn commit(mut self) -> Result<()> {
+        let mut done: Vec<(PathBuf, Option<PathBuf>)> = Vec::with_capacity(self.files.len());
+        let files = std::mem::take(&mut self.files);
+        let mut result = Ok(());
+        for mut f in files {
+            drop(f.file.take());
+            let step = (|| -> Result<Option<PathBuf>> {
+                let backup = if f.dest.is_file() {
+                    let b = side_name(&f.dest, std::process::id(), "bak")?;
+                    let _ = std::fs::remove_file(&b);
+                    std::fs::hard_link(&f.dest, &b)
+                        .or_else(|_| std::fs::copy(&f.dest, &b).map(drop))
+                        .with_context(|| format!("keeping {} until the end", f.dest.display()))?;
+                    Some(b)
+                } else {
+                    None
+                };
+                if let Err(e) = std::fs::rename(&f.tmp, &f.dest) {
+                    if let Some(b) = &backup {
+                        let _ = std::fs::remove_file(b);
+                    }
+                    return Err(anyhow::Error::new(e)
+                        .context(format!("renaming into {}", f.dest.display())));
+                }
+                Ok(backup)
+            })();
+            match step {
+                Ok(backup) => done.push((f.dest.clone(), backup)),
+                Err(e) => {
+                    let _ = std::fs::remove_file(&f.tmp);
+                    result = Err(e);
+                    break;
+                }
+            }
+        }
+        if result.is_err() {
+            // Put the previous set back: old files from their backups, new ones removed.
+            for (dest, backup) in done.iter().rev() {
+                let _ = match backup {
+                    Some(b) => std::fs::rename(b, dest),
+                    None => std::fs::remove_file(dest),
+                };
+            }
+        } else {
+            for b in done.iter().filter_map(|(_, b)| b.as_ref()) {
+                let _ = std::fs::remove_file(b);
+            }
+        }
+        // The temporary files not reached were removed as the loop's rest dropped.
+        result
+    }
 }
 
 /// Print on stderr what a trace read warns about: position samples dropped as glitches (one
@@ -124,5 +273,89 @@ mod tests {
         f.writer().write_all(b"whole").unwrap();
         f.commit().unwrap();
         assert_eq!(std::fs::read(&dest).unwrap(), b"whole");
+    }
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    /// The pid of a process that has ended.
+    fn dead_pid() -> u32 {
+        let mut c = std::process::Command::new("true").spawn().unwrap();
+        let pid = c.id();
+        c.wait().unwrap();
+        pid
+    }
+
+    #[test]
+    fn stale_temporaries_of_dead_processes_are_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let dead = dead_pid();
+        let keep = [
+            // a live process (init) may still be writing it
+            ".out.csv.1.tmp".to_string(),
+            // not exactly our pattern, or another output's
+            ".out.csv.x1.tmp".into(),
+            "out.csv.123.tmp".into(),
+            format!(".other.csv.{dead}.tmp"),
+        ];
+        let stale = [
+            format!(".out.csv.{dead}.tmp"),
+            format!(".out.csv.{dead}.bak"),
+        ];
+        for n in keep.iter().chain(&stale) {
+            std::fs::write(d.join(n), "x").unwrap();
+        }
+        write_atomic(&d.join("out.csv"), b"new").unwrap();
+        let mut want: Vec<String> = keep.to_vec();
+        if !cfg!(target_os = "linux") {
+            want.extend(stale.iter().cloned());
+        }
+        want.push("out.csv".into());
+        want.sort();
+        assert_eq!(names(d), want);
+    }
+
+    #[test]
+    fn an_output_set_appears_whole_or_not_at_all() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        for n in ["a.csv", "b.csv"] {
+            std::fs::write(d.join(n), "old").unwrap();
+        }
+        // dropped before the commit: old files, no temporary
+        let mut set = OutputSet::new();
+        set.write(&d.join("a.csv"), b"new").unwrap();
+        set.write(&d.join("c.csv"), b"new").unwrap();
+        drop(set);
+        assert_eq!(names(d), ["a.csv", "b.csv"]);
+        // a rename fails half-way (c.csv became a folder meanwhile): a.csv is put back, the
+        // new b.csv removed, nothing temporary left
+        std::fs::remove_file(d.join("b.csv")).unwrap();
+        let mut set = OutputSet::new();
+        set.write(&d.join("a.csv"), b"new").unwrap();
+        set.write(&d.join("b.csv"), b"new").unwrap();
+        set.write(&d.join("c.csv"), b"new").unwrap();
+        set.write(&d.join("e.csv"), b"new").unwrap();
+        std::fs::create_dir(d.join("c.csv")).unwrap();
+        std::fs::write(d.join("c.csv").join("x"), "x").unwrap();
+        let e = set.commit().unwrap_err();
+        assert!(format!("{e:#}").contains("c.csv"), "{e:#}");
+        assert_eq!(names(d), ["a.csv", "c.csv"]);
+        assert_eq!(std::fs::read(d.join("a.csv")).unwrap(), b"old");
+        // and a set that commits replaces all
+        std::fs::remove_dir_all(d.join("c.csv")).unwrap();
+        let mut set = OutputSet::new();
+        set.write(&d.join("a.csv"), b"new").unwrap();
+        set.write(&d.join("b.csv"), b"new").unwrap();
+        set.commit().unwrap();
+        assert_eq!(names(d), ["a.csv", "b.csv"]);
+        assert_eq!(std::fs::read(d.join("a.csv")).unwrap(), b"new");
     }
 }

@@ -7,7 +7,7 @@
 use std::path::Path;
 use std::sync::Once;
 
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 
 static FONT: Once = Once::new();
@@ -384,12 +384,12 @@ pub fn heatmap_svg(map: &Heatmap) -> Result<String> {
     Ok(svg)
 }
 
-/// Write SVG text to `path`.
+/// Write SVG text to `path`, atomically ([`crate::output::write_atomic`]).
 ///
 /// # Errors
 /// I/O errors, with the path in the message.
 pub fn write_svg(path: &Path, svg: &str) -> Result<()> {
-    std::fs::write(path, svg).with_context(|| format!("writing {}", path.display()))
+    crate::output::write_atomic(path, svg.as_bytes())
 }
 
 #[cfg(test)]

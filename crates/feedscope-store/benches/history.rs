@@ -12,6 +12,7 @@ use std::time::Instant;
 use criterion::{criterion_group, criterion_main, Criterion};
 use feedscope::estimate::Direction;
 use feedscope::history::{assess, diagnose, BaselineSpec, Indicator, Threshold, TrendParams};
+use feedscope::order::Cause;
 use feedscope_store::{Identified, IndicatorRow, NewTest, SqliteStore, Store, TestKind};
 
 fn synthetic(k: usize) -> NewTest {
@@ -56,10 +57,10 @@ fn synthetic(k: usize) -> NewTest {
             };
             ind.push(row(i, 300.0 + 3.0 * b as f64 + wobble));
         }
-        for c in ["shaft 1x", "shaft 2x", "nut ball refeed 1x"] {
+        for c in [Cause::Shaft(1), Cause::Shaft(2), Cause::NutRefeed(1)] {
             let i = Indicator::Component {
                 direction: d,
-                cause: c.into(),
+                cause: c,
             };
             ind.push(row(i, 5.0 + wobble));
         }

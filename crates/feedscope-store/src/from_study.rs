@@ -36,7 +36,7 @@ impl From<&StrokeComponent> for ComponentRow {
         let c = &s.component;
         ComponentRow {
             direction: s.direction.as_str().to_string(),
-            segment: c.segment.clone(),
+            segment: c.segment,
             position_mm: c.position_mm,
             order: c.order,
             amplitude_n: c.amplitude_n,

@@ -54,7 +54,7 @@ pub use from_study::content_sha256;
 pub mod sqlite;
 pub mod time;
 
-pub use sqlite::SqliteStore;
+pub use sqlite::{OpenOptions, SqliteStore};
 
 /// Errors of the store.
 #[derive(Debug, thiserror::Error)]
@@ -108,6 +108,22 @@ pub enum StoreError {
         /// Its parent folder, which is missing.
         folder: String,
     },
+    /// Another process held a lock on the database for longer than the busy timeout
+    /// ([`sqlite::OpenOptions::busy_timeout`]); nothing was written.
+    #[error(
+        "{path} is busy: another process holds its write lock (another feedscope adding or \
+         removing a test, or a program with a write transaction open on it); gave up after \
+         waiting {waited_s:.1} s{}",
+        hint.as_ref().map(|h| format!("; {h}")).unwrap_or_default()
+    )]
+    Busy {
+        /// The file.
+        path: String,
+        /// How long it waited (s).
+        waited_s: f64,
+        /// How to wait longer, as the caller put it ([`sqlite::OpenOptions::busy_hint`]).
+        hint: Option<String>,
+    },
     /// The database engine said no (its message unchanged).
     #[error(transparent)]
     Backend(#[from] BackendError),
@@ -126,9 +142,11 @@ impl StoreError {
 
     /// What the error means to a caller: [`ErrorKind::BadInput`] as
     /// [`is_bad_input`](Self::is_bad_input) says; [`ErrorKind::Io`] for file-system errors and
-    /// engine errors of kind [`BackendErrorKind::Other`] (a lock held too long, a full disk).
+    /// engine errors of kind [`BackendErrorKind::Other`] (a full disk) and
+    /// [`StoreError::Busy`] (another process's lock: not the input's fault).
     pub fn kind(&self) -> ErrorKind {
         match self {
+            StoreError::Busy { .. } => ErrorKind::Io,
             StoreError::Backend(e) => match e.kind() {
                 BackendErrorKind::NotADatabase | BackendErrorKind::Corrupt => ErrorKind::BadInput,
                 BackendErrorKind::Other => ErrorKind::Io,
@@ -151,10 +169,12 @@ pub enum BackendErrorKind {
     /// The engine does not recognise the file or database as one of its own
     /// (SQLite: `SQLITE_NOTADB`).
     NotADatabase,
-    /// The engine found the database damaged (SQLite: `SQLITE_CORRUPT`).
+    /// The engine found the database damaged (SQLite: `SQLITE_CORRUPT`), or its content does
+    /// not fit the schema its version promises (a table or column missing, a value of the
+    /// wrong type).
     Corrupt,
-    /// Anything else: a lock held beyond the busy timeout, a full disk, an I/O failure inside
-    /// the engine, a violated constraint.
+    /// Anything else: a full disk, an I/O failure inside the engine, a violated constraint.
+    /// (A lock held beyond the busy timeout is [`StoreError::Busy`].)
     Other,
 }
 
@@ -266,8 +286,8 @@ pub struct IntervalRow {
 pub struct ComponentRow {
     /// `forward` or `backward`.
     pub direction: String,
-    /// `all` or segment number.
-    pub segment: String,
+    /// The whole stroke (`all`) or a segment number.
+    pub segment: feedscope::order::Segment,
     /// Segment centre (mm).
     pub position_mm: f64,
     /// Order (cycles per lead).
@@ -277,7 +297,7 @@ pub struct ComponentRow {
     /// Local noise floor (N).
     pub floor_n: f64,
     /// Classified cause.
-    pub cause: String,
+    pub cause: feedscope::order::Cause,
     /// Below the highest trusted order.
     pub trusted: bool,
 }

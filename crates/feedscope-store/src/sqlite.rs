@@ -5,10 +5,20 @@
 //! `application_id`; both are checked on a read-only connection before the read-write one
 //! is opened. Every `add` is one `BEGIN IMMEDIATE` transaction (so two writers queue on the
 //! busy timeout instead of deadlocking on a lock upgrade).
+//!
+//! Opening takes the write lock only when the schema must be migrated: the version is read
+//! first without a lock (WAL readers never wait for a writer) and read again inside the
+//! migration's transaction, so a reader opens and answers while another process writes.
+//! A writer that finds the lock held waits up to [`OpenOptions::busy_timeout`], tells the
+//! caller once through [`OpenOptions::on_wait`] when the wait is not short, and then fails with
+//! [`StoreError::Busy`].
 use std::collections::BTreeMap;
+use std::fmt;
 use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use feedscope::history::Point;
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension, TransactionBehavior};
@@ -20,15 +30,65 @@ use super::{
 
 /// SQLite's error codes as [`BackendErrorKind`]s: a file SQLite does not recognise or finds
 /// damaged is the user's wrong file; everything else is a failure of the operation.
+///
+/// A file whose content does not fit feedscope's schema although it carries feedscope's
+/// application id and passed the quick check (a table or column missing, a value of the wrong
+/// type in a column) is damaged too: every statement of this backend is fixed and tested
+/// against the schema, so only the file can be wrong.
 impl From<rusqlite::Error> for BackendError {
     fn from(e: rusqlite::Error) -> Self {
         let kind = match e.sqlite_error_code() {
             Some(rusqlite::ErrorCode::NotADatabase) => BackendErrorKind::NotADatabase,
             Some(rusqlite::ErrorCode::DatabaseCorrupt) => BackendErrorKind::Corrupt,
-            _ => BackendErrorKind::Other,
+            Some(rusqlite::ErrorCode::Unknown) if schema_mismatch(&e) => BackendErrorKind::Corrupt,
+            _ => match e {
+                rusqlite::Error::InvalidColumnType(..)
+                | rusqlite::Error::FromSqlConversionFailure(..)
+                | rusqlite::Error::IntegralValueOutOfRange(..)
+                | rusqlite::Error::Utf8Error(..) => BackendErrorKind::Corrupt,
+                _ => BackendErrorKind::Other,
+            },
         };
         BackendError::new(kind, e)
     }
+}
+
+/// Column `col` of a row as a typed label (segment, cause) written as text.
+fn label<T>(r: &rusqlite::Row<'_>, col: usize) -> rusqlite::Result<T>
+where
+    T: std::str::FromStr,
+    T::Err: std::error::Error + Send + Sync + 'static,
+{
+    let text: String = r.get(col)?;
+    text.parse().map_err(|e| {
+        rusqlite::Error::FromSqlConversionFailure(col, rusqlite::types::Type::Text, Box::new(e))
+    })
+}
+
+/// `SQLITE_ERROR` saying that a table or column of the schema is not there.
+fn schema_mismatch(e: &rusqlite::Error) -> bool {
+    match e {
+        rusqlite::Error::SqliteFailure(_, Some(msg)) => {
+            msg.starts_with("no such table") || msg.starts_with("no such column")
+        }
+        _ => false,
+    }
+}
+
+/// `SQLITE_BUSY` or `SQLITE_LOCKED`: another connection holds a lock we need.
+fn is_busy(e: &StoreError) -> bool {
+    let StoreError::Backend(b) = e else {
+        return false;
+    };
+    b.get_ref()
+        .downcast_ref::<rusqlite::Error>()
+        .and_then(rusqlite::Error::sqlite_error_code)
+        .is_some_and(|c| {
+            matches!(
+                c,
+                rusqlite::ErrorCode::DatabaseBusy | rusqlite::ErrorCode::DatabaseLocked
+            )
+        })
 }
 
 impl From<rusqlite::Error> for StoreError {
@@ -128,8 +188,132 @@ CREATE TABLE curves (
 /// Newest schema version this build writes.
 pub const SCHEMA_VERSION: i64 = MIGRATIONS.len() as i64;
 
-/// Busy timeout: how long a writer waits for another (ms).
-const BUSY_TIMEOUT_MS: u64 = 30_000;
+/// A wait for the lock shorter than this is not reported through [`OpenOptions::on_wait`]:
+/// two writers routinely queue for a few milliseconds.
+const QUIET_WAIT: Duration = Duration::from_millis(500);
+
+/// Called once per wait for another process's lock, with the database and the longest time
+/// the wait will last.
+pub type OnWait = dyn Fn(&Path, Duration) + Send + Sync;
+
+/// How [`SqliteStore::open_with`] waits for another process that holds the database's write
+/// lock.
+///
+/// ```
+/// use std::time::Duration;
+/// use feedscope_store::sqlite::OpenOptions;
+///
+/// let opts = OpenOptions::default()
+///     .busy_timeout(Duration::from_secs(5))
+///     .on_wait(|path, up_to| eprintln!("{} is busy; waiting up to {up_to:?}", path.display()))
+///     .busy_hint("set MY_TIMEOUT to wait longer");
+/// assert_eq!(opts.timeout(), Duration::from_secs(5));
+/// ```
+#[derive(Clone)]
+pub struct OpenOptions {
+    busy_timeout: Duration,
+    on_wait: Option<Arc<OnWait>>,
+    busy_hint: Option<String>,
+}
+
+impl Default for OpenOptions {
+    /// Wait up to 30 s, silently, with no hint.
+    fn default() -> Self {
+        Self {
+            busy_timeout: Duration::from_secs(30),
+            on_wait: None,
+            busy_hint: None,
+        }
+    }
+}
+
+impl fmt::Debug for OpenOptions {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("OpenOptions")
+            .field("busy_timeout", &self.busy_timeout)
+            .field("on_wait", &self.on_wait.as_ref().map(|_| "Fn"))
+            .field("busy_hint", &self.busy_hint)
+            .finish()
+    }
+}
+
+impl OpenOptions {
+    /// How long an operation waits for another process's lock before [`StoreError::Busy`]
+    /// (default 30 s; zero fails at once).
+    #[must_use]
+    pub fn busy_timeout(mut self, timeout: Duration) -> Self {
+        self.busy_timeout = timeout;
+        self
+    }
+
+    /// Called once when a wait for the lock lasts longer than half a second, with the
+    /// database path and the busy timeout; e.g. to tell the user why nothing happens.
+    #[must_use]
+    pub fn on_wait(mut self, f: impl Fn(&Path, Duration) + Send + Sync + 'static) -> Self {
+        self.on_wait = Some(Arc::new(f));
+        self
+    }
+
+    /// Advice appended to the message of [`StoreError::Busy`]: how the user waits longer.
+    #[must_use]
+    pub fn busy_hint(mut self, hint: impl Into<String>) -> Self {
+        self.busy_hint = Some(hint.into());
+        self
+    }
+
+    /// The busy timeout in force.
+    pub fn timeout(&self) -> Duration {
+        self.busy_timeout
+    }
+}
+
+/// Install the busy handler of `opts` on `conn`: sleep and retry until the timeout, report a
+/// wait longer than [`QUIET_WAIT`] once. Returns where the handler records how long the last
+/// wait lasted (ms), for [`StoreError::Busy`].
+fn install_busy_handler(
+    conn: &mut Connection,
+    path: &Path,
+    opts: &OpenOptions,
+) -> Result<Arc<AtomicU64>, StoreError> {
+    let waited_ms = Arc::new(AtomicU64::new(0));
+    let record = Arc::clone(&waited_ms);
+    let timeout = opts.busy_timeout;
+    let on_wait = opts.on_wait.clone();
+    let path = path.to_path_buf();
+    let mut start = Instant::now();
+    let mut told = false;
+    conn.busy_handler(Some(move |count: i32| -> bool {
+        // `count` is 0 at the first retry of each new wait.
+        if count == 0 {
+            start = Instant::now();
+            told = false;
+        }
+        let waited = start.elapsed();
+        record.store(
+            u64::try_from(waited.as_millis()).unwrap_or(u64::MAX),
+            Ordering::Relaxed,
+        );
+        if waited >= timeout {
+            return false;
+        }
+        if !told && waited >= QUIET_WAIT {
+            told = true;
+            if let Some(f) = &on_wait {
+                f(&path, timeout);
+            }
+        }
+        // Short sleeps first (a queued writer usually gets the lock within milliseconds),
+        // then 50 ms: the delay between the lock's release and our retry stays small.
+        let step = Duration::from_millis(match count {
+            0..=4 => 2,
+            5..=9 => 10,
+            _ => 50,
+        });
+        std::thread::sleep(step.min(timeout - waited));
+        true
+    }))?;
+    Ok(waited_ms)
+}
 
 /// A feedscope database in one SQLite file.
 ///
@@ -139,10 +323,12 @@ const BUSY_TIMEOUT_MS: u64 = 30_000;
 pub struct SqliteStore {
     conn: Connection,
     path: PathBuf,
+    busy_hint: Option<String>,
+    waited_ms: Arc<AtomicU64>,
 }
 
 /// Look at an existing file without writing to it.
-fn probe(path: &Path) -> Result<(), StoreError> {
+fn probe(path: &Path, opts: &OpenOptions) -> Result<(), StoreError> {
     let shown = path.display().to_string();
     let len = match std::fs::metadata(path) {
         Ok(m) => m.len(),
@@ -168,11 +354,11 @@ fn probe(path: &Path) -> Result<(), StoreError> {
     if f.read_exact(&mut head).is_err() || &head != b"SQLite format 3\0" {
         return Err(StoreError::NotADatabase { path: shown });
     }
-    let c = Connection::open_with_flags(
+    let mut c = Connection::open_with_flags(
         path,
         OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
     )?;
-    c.busy_timeout(Duration::from_millis(BUSY_TIMEOUT_MS))?;
+    install_busy_handler(&mut c, path, opts)?;
     let app: i64 = c.query_row("PRAGMA application_id", [], |r| r.get(0))?;
     let version: i64 = c.query_row("PRAGMA user_version", [], |r| r.get(0))?;
     let tables: i64 = c.query_row(
@@ -194,6 +380,14 @@ fn probe(path: &Path) -> Result<(), StoreError> {
             supported: SCHEMA_VERSION,
         });
     }
+    // The application id and the version are set in the same transaction: one without the
+    // other is a damaged header, and migrating would only fail on the existing tables.
+    if app == APPLICATION_ID && version == 0 {
+        return Err(StoreError::Corrupt {
+            path: shown,
+            detail: "damaged header: feedscope's application id with schema version 0".into(),
+        });
+    }
     // Damaged pages show here, before anything is written.
     let detail: String = c.query_row("PRAGMA quick_check(1)", [], |r| r.get(0))?;
     if detail != "ok" {
@@ -212,26 +406,48 @@ impl SqliteStore {
     /// A file that is not SQLite, an SQLite file of another application, a newer schema or a
     /// failed quick check: the file is not modified.
     pub fn open(path: &Path) -> Result<Self, StoreError> {
-        probe(path)?;
-        let conn = Connection::open(path)?;
-        conn.busy_timeout(Duration::from_millis(BUSY_TIMEOUT_MS))?;
-        // WAL: readers do not block the writer; NORMAL sync is safe against a killed
-        // process (the WAL is replayed), only an OS crash can lose the last commits.
-        conn.pragma_update(None, "journal_mode", "WAL")?;
-        conn.pragma_update(None, "synchronous", "NORMAL")?;
-        conn.pragma_update(None, "foreign_keys", "ON")?;
+        Self::open_with(path, &OpenOptions::default())
+    }
+
+    /// [`open`](Self::open) with the busy timeout and wait report of `opts`.
+    ///
+    /// # Errors
+    /// As [`open`](Self::open); [`StoreError::Busy`] when the schema must be created or
+    /// migrated and another process holds the write lock beyond the busy timeout.
+    pub fn open_with(path: &Path, opts: &OpenOptions) -> Result<Self, StoreError> {
+        let busy = |e: StoreError| busy_error(e, path, opts.busy_hint.as_deref(), opts.timeout());
+        probe(path, opts).map_err(busy)?;
+        let mut conn = Connection::open(path)?;
+        let waited_ms = install_busy_handler(&mut conn, path, opts)?;
         let mut s = Self {
             conn,
             path: path.to_path_buf(),
+            busy_hint: opts.busy_hint.clone(),
+            waited_ms,
         };
-        s.migrate()?;
+        s.setup().map_err(|e| s.busy(e))?;
         Ok(s)
     }
 
+    fn setup(&mut self) -> Result<(), StoreError> {
+        // WAL: readers do not block the writer; NORMAL sync is safe against a killed
+        // process (the WAL is replayed), only an OS crash can lose the last commits. On a file
+        // already in WAL mode (every feedscope database but a new one) this takes no lock.
+        self.conn.pragma_update(None, "journal_mode", "WAL")?;
+        self.conn.pragma_update(None, "synchronous", "NORMAL")?;
+        self.conn.pragma_update(None, "foreign_keys", "ON")?;
+        self.migrate()
+    }
+
     fn migrate(&mut self) -> Result<(), StoreError> {
+        // Without a lock first: a current schema (every open but the first) needs no write.
+        if self.schema_version()? == SCHEMA_VERSION {
+            return Ok(());
+        }
         let tx = self
             .conn
             .transaction_with_behavior(TransactionBehavior::Immediate)?;
+        // Again under the lock: another process may have migrated meanwhile.
         let version: i64 = tx.query_row("PRAGMA user_version", [], |r| r.get(0))?;
         if version > SCHEMA_VERSION {
             return Err(StoreError::NewerSchema {
@@ -240,8 +456,19 @@ impl SqliteStore {
                 supported: SCHEMA_VERSION,
             });
         }
-        for sql in &MIGRATIONS[version as usize..] {
-            tx.execute_batch(sql)?;
+        for (k, sql) in MIGRATIONS.iter().enumerate().skip(version as usize) {
+            tx.execute_batch(sql).map_err(|e| {
+                let e = StoreError::from(e);
+                if e.is_bad_input() || is_busy(&e) {
+                    return e;
+                }
+                // The tables of this version are not as the migration expects: the file's
+                // version number or its schema was changed by something else.
+                StoreError::Corrupt {
+                    path: self.path.display().to_string(),
+                    detail: format!("migration {k} -> {} failed: {e}", k + 1),
+                }
+            })?;
         }
         if version < SCHEMA_VERSION {
             tx.pragma_update(None, "user_version", SCHEMA_VERSION)?;
@@ -251,11 +478,30 @@ impl SqliteStore {
         Ok(())
     }
 
+    /// An engine error that is another process's lock as [`StoreError::Busy`].
+    fn busy(&self, e: StoreError) -> StoreError {
+        let waited = Duration::from_millis(self.waited_ms.load(Ordering::Relaxed));
+        busy_error(e, &self.path, self.busy_hint.as_deref(), waited)
+    }
+
     /// Schema version of the open file.
     pub fn schema_version(&self) -> Result<i64, StoreError> {
         Ok(self
             .conn
             .query_row("PRAGMA user_version", [], |r| r.get(0))?)
+    }
+}
+
+/// `e` as [`StoreError::Busy`] when it is a lock held by another connection, else unchanged.
+fn busy_error(e: StoreError, path: &Path, hint: Option<&str>, waited: Duration) -> StoreError {
+    if is_busy(&e) {
+        StoreError::Busy {
+            path: path.display().to_string(),
+            waited_s: waited.as_secs_f64(),
+            hint: hint.map(str::to_string),
+        }
+    } else {
+        e
     }
 }
 
@@ -279,8 +525,8 @@ fn test_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<TestRow> {
     })
 }
 
-impl Store for SqliteStore {
-    fn add(&mut self, t: &NewTest) -> Result<AddOutcome, StoreError> {
+impl SqliteStore {
+    fn add_tx(&mut self, t: &NewTest) -> Result<AddOutcome, StoreError> {
         let tx = self
             .conn
             .transaction_with_behavior(TransactionBehavior::Immediate)?;
@@ -386,12 +632,12 @@ impl Store for SqliteStore {
                 st.execute(params![
                     id,
                     c.direction,
-                    c.segment,
+                    c.segment.to_string(),
                     c.position_mm,
                     c.order,
                     c.amplitude_n,
                     c.floor_n,
-                    c.cause,
+                    c.cause.to_string(),
                     i64::from(c.trusted)
                 ])?;
             }
@@ -413,6 +659,37 @@ impl Store for SqliteStore {
         }
         tx.commit()?;
         Ok(AddOutcome::Added(id))
+    }
+
+    fn remove_tx(&mut self, id: i64) -> Result<bool, StoreError> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)?;
+        let n = tx.execute("DELETE FROM tests WHERE id = ?1", [id])?;
+        tx.commit()?;
+        Ok(n > 0)
+    }
+
+    fn set_reference_tx(&mut self, id: i64) -> Result<(), StoreError> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)?;
+        let axis: Option<i64> = tx
+            .query_row("SELECT axis_id FROM tests WHERE id = ?1", [id], |r| {
+                r.get(0)
+            })
+            .optional()?;
+        let axis = axis.ok_or(StoreError::NoSuchTest(id))?;
+        tx.execute("UPDATE tests SET reference = 0 WHERE axis_id = ?1", [axis])?;
+        tx.execute("UPDATE tests SET reference = 1 WHERE id = ?1", [id])?;
+        tx.commit()?;
+        Ok(())
+    }
+}
+
+impl Store for SqliteStore {
+    fn add(&mut self, t: &NewTest) -> Result<AddOutcome, StoreError> {
+        self.add_tx(t).map_err(|e| self.busy(e))
     }
 
     fn list(&self, f: &Filter) -> Result<Vec<TestRow>, StoreError> {
@@ -491,12 +768,12 @@ impl Store for SqliteStore {
             .query_map([id], |r| {
                 Ok(ComponentRow {
                     direction: r.get(0)?,
-                    segment: r.get(1)?,
+                    segment: label(r, 1)?,
                     position_mm: r.get(2)?,
                     order: r.get(3)?,
                     amplitude_n: r.get(4)?,
                     floor_n: r.get(5)?,
-                    cause: r.get(6)?,
+                    cause: label(r, 6)?,
                     trusted: r.get::<_, i64>(7)? != 0,
                 })
             })?
@@ -524,28 +801,11 @@ impl Store for SqliteStore {
     }
 
     fn remove(&mut self, id: i64) -> Result<bool, StoreError> {
-        let tx = self
-            .conn
-            .transaction_with_behavior(TransactionBehavior::Immediate)?;
-        let n = tx.execute("DELETE FROM tests WHERE id = ?1", [id])?;
-        tx.commit()?;
-        Ok(n > 0)
+        self.remove_tx(id).map_err(|e| self.busy(e))
     }
 
     fn set_reference(&mut self, id: i64) -> Result<(), StoreError> {
-        let tx = self
-            .conn
-            .transaction_with_behavior(TransactionBehavior::Immediate)?;
-        let axis: Option<i64> = tx
-            .query_row("SELECT axis_id FROM tests WHERE id = ?1", [id], |r| {
-                r.get(0)
-            })
-            .optional()?;
-        let axis = axis.ok_or(StoreError::NoSuchTest(id))?;
-        tx.execute("UPDATE tests SET reference = 0 WHERE axis_id = ?1", [axis])?;
-        tx.execute("UPDATE tests SET reference = 1 WHERE id = ?1", [id])?;
-        tx.commit()?;
-        Ok(())
+        self.set_reference_tx(id).map_err(|e| self.busy(e))
     }
 
     fn series(&self, machine: &str, axis: &str) -> Result<BTreeMap<String, Series>, StoreError> {
@@ -652,12 +912,12 @@ mod tests {
             }],
             components: vec![ComponentRow {
                 direction: "backward".into(),
-                segment: "all".into(),
+                segment: feedscope::order::Segment::Whole,
                 position_mm: 200.0,
                 order: 1.0,
                 amplitude_n: 5.5,
                 floor_n: 0.5,
-                cause: "shaft 1x".into(),
+                cause: feedscope::order::Cause::Shaft(1),
                 trusted: true,
             }],
             indicators: vec![
@@ -714,7 +974,7 @@ mod tests {
         assert_eq!(d.intervals.len(), 1);
         assert_eq!(d.intervals[0].samples, 800);
         assert_eq!(d.components.len(), 1);
-        assert_eq!(d.components[0].cause, "shaft 1x");
+        assert_eq!(d.components[0].cause, feedscope::order::Cause::Shaft(1));
         assert!(d.components[0].trusted);
         // indicators by name
         let names: Vec<_> = d.indicators.iter().map(|i| i.name.as_str()).collect();
@@ -917,6 +1177,170 @@ mod tests {
             "{e}"
         );
         assert!(e.is_bad_input());
+    }
+
+    /// Another connection holding the write lock, as `history add` does inside `add`.
+    fn hold_write_lock(path: &Path) -> Connection {
+        let c = Connection::open(path).unwrap();
+        c.execute_batch("BEGIN IMMEDIATE").unwrap();
+        c
+    }
+
+    /// A reader opens and lists while another process holds the write lock: opening a
+    /// current schema takes no lock (it used to run the migration in `BEGIN IMMEDIATE`).
+    #[test]
+    fn readers_do_not_wait_for_a_writer() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("h.db");
+        added(
+            open(&dir)
+                .add(&new_test("Z", 2, TestKind::Strokes, 1))
+                .unwrap(),
+        );
+        let lock = hold_write_lock(&path);
+        // no waiting allowed: any lock taken on open or list fails at once
+        let opts = OpenOptions::default().busy_timeout(Duration::ZERO);
+        let s = SqliteStore::open_with(&path, &opts).unwrap();
+        assert_eq!(s.list(&Filter::default()).unwrap().len(), 1);
+        assert_eq!(s.series("m", "Z").unwrap()["fs_n"].len(), 1);
+        s.check().unwrap();
+        drop(lock);
+    }
+
+    /// A writer behind another's lock waits the busy timeout, reports the wait once, and
+    /// fails with `Busy` (not the input's fault) carrying the hint; nothing is written.
+    #[test]
+    fn a_writer_behind_a_lock_waits_then_reports_busy() {
+        use std::sync::atomic::AtomicUsize;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("h.db");
+        drop(open(&dir));
+        let lock = hold_write_lock(&path);
+        let calls = Arc::new(AtomicUsize::new(0));
+        let seen = Arc::clone(&calls);
+        let timeout = Duration::from_millis(900);
+        let opts = OpenOptions::default()
+            .busy_timeout(timeout)
+            .on_wait(move |p, up_to| {
+                assert!(p.ends_with("h.db"));
+                assert_eq!(up_to, timeout);
+                seen.fetch_add(1, Ordering::SeqCst);
+            })
+            .busy_hint("wait longer with X=60");
+        let mut s = SqliteStore::open_with(&path, &opts).unwrap();
+        let e = s.add(&new_test("Z", 2, TestKind::Strokes, 1)).unwrap_err();
+        let StoreError::Busy { waited_s, .. } = &e else {
+            panic!("{e:?}")
+        };
+        // the handler gives up at the first retry past the timeout (sleeps of 50 ms at most)
+        assert!(*waited_s >= 0.9 && *waited_s < 5.0, "{waited_s}");
+        assert_eq!(calls.load(Ordering::SeqCst), 1, "reported once");
+        assert_eq!(e.kind(), feedscope::ErrorKind::Io);
+        let msg = e.to_string();
+        assert!(msg.contains("h.db is busy"), "{msg}");
+        assert!(msg.contains("holds its write lock"), "{msg}");
+        assert!(msg.ends_with("; wait longer with X=60"), "{msg}");
+        drop(lock);
+        // the lock released, the same store writes
+        added(s.add(&new_test("Z", 2, TestKind::Strokes, 1)).unwrap());
+        // a short wait is not reported: the lock is released within the quiet time
+        let lock = hold_write_lock(&path);
+        let release = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(100));
+            drop(lock);
+        });
+        added(s.add(&new_test("Z", 3, TestKind::Strokes, 2)).unwrap());
+        release.join().unwrap();
+        assert_eq!(calls.load(Ordering::SeqCst), 1, "a short wait is quiet");
+    }
+
+    /// A new database cannot be created while another process holds the lock: `Busy` from
+    /// `open_with`, not an engine error.
+    #[test]
+    fn creating_behind_a_lock_is_busy() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("h.db");
+        // an empty WAL database with no schema yet, locked
+        {
+            let c = Connection::open(&path).unwrap();
+            c.pragma_update(None, "journal_mode", "WAL").unwrap();
+        }
+        let lock = hold_write_lock(&path);
+        let opts = OpenOptions::default().busy_timeout(Duration::from_millis(50));
+        let e = SqliteStore::open_with(&path, &opts).err().expect("busy");
+        assert!(matches!(e, StoreError::Busy { hint: None, .. }), "{e:?}");
+        drop(lock);
+        SqliteStore::open_with(&path, &opts).unwrap();
+    }
+
+    /// Four writers in threads, each with its own connection: every test lands once.
+    #[test]
+    fn concurrent_writers_lose_and_duplicate_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("h.db");
+        drop(open(&dir));
+        // Writer w stores contents 10w..10w+9, and also offers contents 0..9 (writer 0's):
+        // each content must be stored exactly once, whoever comes first.
+        let writers: Vec<_> = (0..4u8)
+            .map(|w| {
+                let path = path.clone();
+                std::thread::spawn(move || {
+                    let mut s = SqliteStore::open(&path).unwrap();
+                    let mut stored = 0;
+                    for k in 0..10u8 {
+                        let day = 1 + u32::from(k);
+                        for content in [w * 10 + k, k] {
+                            let t = new_test("Z", day, TestKind::Strokes, content);
+                            if let AddOutcome::Added(_) = s.add(&t).unwrap() {
+                                stored += 1;
+                            }
+                        }
+                    }
+                    stored
+                })
+            })
+            .collect();
+        let stored: usize = writers.into_iter().map(|w| w.join().unwrap()).sum();
+        assert_eq!(stored, 40, "each content reported stored once");
+        let s = open(&dir);
+        let rows = s.list(&Filter::default()).unwrap();
+        let mut shas: Vec<&str> = rows.iter().map(|r| r.content_sha256.as_str()).collect();
+        assert_eq!(shas.len(), 40);
+        shas.sort_unstable();
+        shas.dedup();
+        assert_eq!(shas.len(), 40, "no duplicates");
+        s.check().unwrap();
+    }
+
+    /// Damage that the quick check does not see is still the user's wrong file (exit code 2):
+    /// a header whose version was reset, a table missing, a value of the wrong type.
+    #[test]
+    fn damage_past_the_quick_check_is_bad_input() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("h.db");
+        let id = added(
+            open(&dir)
+                .add(&new_test("Z", 2, TestKind::Triangle, 1))
+                .unwrap(),
+        );
+        let raw = || Connection::open(&path).unwrap();
+        // a value of the wrong type in a REAL column
+        raw()
+            .execute("UPDATE tests SET time_s = 'yesterday'", [])
+            .unwrap();
+        let e = open(&dir).list(&Filter::default()).unwrap_err();
+        assert!(e.is_bad_input(), "{e:?}");
+        // a table missing
+        raw().execute_batch("DROP TABLE curves").unwrap();
+        let e = open(&dir).curves(id).unwrap_err();
+        assert!(e.is_bad_input(), "{e:?}");
+        // the schema version reset: refused before anything is written
+        raw().pragma_update(None, "user_version", 0).unwrap();
+        let before = std::fs::read(&path).unwrap();
+        let e = SqliteStore::open(&path).err().expect("refused");
+        assert!(matches!(e, StoreError::Corrupt { .. }), "{e:?}");
+        assert!(e.is_bad_input());
+        assert_eq!(std::fs::read(&path).unwrap(), before);
     }
 
     #[test]

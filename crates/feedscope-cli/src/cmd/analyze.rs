@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use feedscope::axis::AxisParams;
 use feedscope::estimate::{Direction, StrokeFriction};
-use feedscope::order::SegmentSpec;
+use feedscope::order::{Cause, Segment, SegmentSpec};
 use feedscope::profile::{AnalysisParams, StrokeAnalysis};
 use feedscope::study::{
     analyze_strokes, analyze_trace, AnalyzeStudy, AnalyzeStudyParams, StudyError,
@@ -18,7 +18,7 @@ use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use serde::Serialize;
 
 use super::BadInput;
-use crate::output::{write_atomic, AtomicFile};
+use crate::output::OutputSet;
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
 
 /// Analyse friction along the travel (paper 000, section 4.1).
@@ -249,8 +249,11 @@ pub fn run(args: Args) -> Result<()> {
     let json = serde_json::to_string_pretty(&report)?;
     let svgs = plots(strokes, analyses, singles, args.segment)?;
 
-    let mut fcsv = AtomicFile::create(&args.out.join("friction.csv"))?;
+    // All or nothing: the files replace the previous run's together at the end.
+    let mut outputs = OutputSet::new();
+    let mut fcsv = outputs.create(&args.out.join("friction.csv"))?;
     friction_csv::write_analyzed(fcsv.writer(), strokes, analyses)?;
+    outputs.add(fcsv)?;
     let mut comp = String::from(
         "stroke,direction,segment,start_mm,end_mm,order,amplitude_n,floor_n,cause,trusted\n",
     );
@@ -287,13 +290,13 @@ pub fn run(args: Args) -> Result<()> {
             f(r.backward_std_n)
         ));
     }
-    fcsv.commit()?;
-    write_atomic(&args.out.join("analysis.json"), json.as_bytes())?;
-    write_atomic(&args.out.join("components.csv"), comp.as_bytes())?;
-    write_atomic(&args.out.join("order_scan.csv"), scan.as_bytes())?;
+    outputs.write(&args.out.join("analysis.json"), json.as_bytes())?;
+    outputs.write(&args.out.join("components.csv"), comp.as_bytes())?;
+    outputs.write(&args.out.join("order_scan.csv"), scan.as_bytes())?;
     for (name, svg) in &svgs {
-        write_atomic(&args.out.join(name), svg.as_bytes())?;
+        outputs.write(&args.out.join(name), svg.as_bytes())?;
     }
+    outputs.commit()?;
 
     match args.format {
         super::estimate::Format::Json => outln!("{json}"),
@@ -361,7 +364,7 @@ fn print_summary(
             .fluctuation
             .components
             .iter()
-            .filter(|c| c.segment == "all")
+            .filter(|c| c.segment.is_whole())
         {
             outln!(
                 "  {:>8.3}  {:>12.2}  {}{}",
@@ -497,10 +500,10 @@ fn plots(
         for sp in fl
             .spectra
             .iter()
-            .filter(|sp| sp.segment == "all" || sp.segment == segment.to_string())
+            .filter(|sp| sp.segment.is_whole() || sp.segment == Segment::Part(segment))
         {
             series.push(Series {
-                name: if sp.segment == "all" {
+                name: if sp.segment.is_whole() {
                     "whole stroke".into()
                 } else {
                     format!(
@@ -527,8 +530,8 @@ fn plots(
         ));
         // 4. Amplitude of each significant component along the travel (paper Fig. 9d).
         let mut by_cause: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-        for c in fl.components.iter().filter(|c| c.segment != "all") {
-            let label = if c.cause == "unexplained" {
+        for c in fl.components.iter().filter(|c| !c.segment.is_whole()) {
+            let label = if c.cause == Cause::Unexplained {
                 continue;
             } else {
                 format!("{} ({:.2})", c.cause, c.kinematic_order.unwrap_or(c.order))

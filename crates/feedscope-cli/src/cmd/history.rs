@@ -54,6 +54,11 @@ pub enum HistoryCommand {
     /// Remove a test and its results (asks for confirmation unless --yes).
     Remove(RemoveArgs),
     /// Trend every indicator of an axis: baseline, limits, EWMA, CUSUM, projections, diagnosis.
+    ///
+    /// The stroke tests' friction is also compared with its baseline (the first 2 stroke
+    /// tests, or the reference test) position by position along the travel: a local change
+    /// beyond 6× the baseline's scatter is flagged with its position range, height and width
+    /// (local wear), a change of the whole travel apart from it (see docs/history.md).
     Trend(TrendArgs),
     /// Mark a test as the reference (baseline) of its axis; trends then compare with it.
     Reference(ShowArgs),
@@ -210,7 +215,7 @@ pub fn db_path(flag: Option<&Path>) -> PathBuf {
 
 /// Open the store; a foreign or damaged file is bad input (exit 2).
 pub fn open_store(path: &Path) -> Result<SqliteStore> {
-    SqliteStore::open(path).map_err(|e| store_err(e, path))
+    SqliteStore::open_with(path, &super::series::store_options()?).map_err(|e| store_err(e, path))
 }
 
 fn store_err(e: StoreError, path: &Path) -> anyhow::Error {
@@ -452,10 +457,10 @@ fn show(db: &Path, a: &ShowArgs) -> Result<()> {
                     .map_or(String::new(), |s| format!(" ± {}", num(s)));
                 writeln!(w, "    {:<40} {}{se} {}", i.name, num(i.value), i.unit)?;
             }
-            let n = d.components.iter().filter(|c| c.segment == "all").count();
+            let n = d.components.iter().filter(|c| c.segment.is_whole()).count();
             if n > 0 {
                 writeln!(w, "  {n} significant components over whole strokes:")?;
-                for c in d.components.iter().filter(|c| c.segment == "all") {
+                for c in d.components.iter().filter(|c| c.segment.is_whole()) {
                     writeln!(
                         w,
                         "    {:<9} order {:>7.3}  {:>7.2} N  {}",
@@ -588,6 +593,8 @@ pub struct AxisTrends {
     pub trends: Vec<IndicatorTrend>,
     /// Indicators with too few tests for a baseline.
     pub skipped: Vec<String>,
+    /// The stroke tests' friction compared with their baseline position by position.
+    pub profiles: Option<feedscope::history::ProfileChanges>,
     /// Diagnosis sentences.
     pub diagnosis: Vec<String>,
 }
@@ -634,12 +641,15 @@ pub fn axis_trends(
     }
     let reference = tests.iter().find(|t| t.reference).map(|t| t.id);
     let series = store.series(machine, axis)?;
-    let study = feedscope::study::axis_trends(
+    let profiles = stroke_profiles(store, &tests)?;
+    let study = feedscope::study::axis_study(
         &series,
         reference,
+        &profiles,
         &TrendStudyParams {
             baseline_tests,
             thresholds: thresholds.clone(),
+            ..TrendStudyParams::default()
         },
     )?;
     Ok(AxisTrends {
@@ -648,8 +658,34 @@ pub fn axis_trends(
         tests,
         trends: study.trends,
         skipped: study.skipped,
+        profiles: study.profiles,
         diagnosis: study.diagnosis,
     })
+}
+
+/// The position-grid friction profiles of the stroke tests, in time order, from their stored
+/// curves; tests stored before the grid existed have none and are left out.
+fn stroke_profiles(
+    store: &dyn Store,
+    tests: &[feedscope_store::TestRow],
+) -> Result<Vec<feedscope::history::ProfileTest>> {
+    let mut out = Vec::new();
+    for t in tests.iter().filter(|t| t.kind == "strokes") {
+        let Some(json) = store.curves(t.id)? else {
+            continue;
+        };
+        let c: feedscope::study::Curves = serde_json::from_str(&json)
+            .with_context(|| format!("reading the stored curves of test {}", t.id))?;
+        if c.grid.is_empty() {
+            continue;
+        }
+        out.push(feedscope::history::ProfileTest {
+            test_id: t.id,
+            time_s: t.time_s,
+            profiles: c.grid,
+        });
+    }
+    Ok(out)
 }
 
 fn trend(db: &Path, a: &TrendArgs) -> Result<bool> {
@@ -692,6 +728,9 @@ fn trend(db: &Path, a: &TrendArgs) -> Result<bool> {
                     t.skipped.join(", ")
                 )?;
             }
+            if let Some(p) = &t.profiles {
+                write_profile_changes(&mut w, p)?;
+            }
             writeln!(w, "\ndiagnosis:")?;
             for s in &t.diagnosis {
                 writeln!(w, "  - {s}")?;
@@ -699,6 +738,83 @@ fn trend(db: &Path, a: &TrendArgs) -> Result<bool> {
         }
     }
     Ok(warn)
+}
+
+/// The position-resolved comparison as text: per direction its baseline and limit, then per
+/// compared test its whole-travel change and flagged ranges.
+fn write_profile_changes(w: &mut impl Write, p: &feedscope::history::ProfileChanges) -> Result<()> {
+    writeln!(w, "\nfriction along the travel (position by position):")?;
+    for d in &p.directions {
+        let mut lim: Vec<f64> = d.limit_n.clone();
+        lim.sort_by(f64::total_cmp);
+        writeln!(
+            w,
+            "  {}: baseline tests {:?}{}, {:.0}-{:.0} mm compared, limit ±{} N (median over \
+             the travel), whole-travel limit ±{:.1} %",
+            d.direction.as_str(),
+            d.baseline_ids,
+            d.reference_id
+                .map_or(String::new(), |r| format!(", reference test {r}")),
+            d.position_mm.first().copied().unwrap_or(f64::NAN),
+            d.position_mm.last().copied().unwrap_or(f64::NAN),
+            num(lim[lim.len() / 2]),
+            100.0
+                * p.params.level_k
+                * d.level_sigma
+                * (1.0
+                    + 1.0
+                        / if d.reference_id.is_some() {
+                            1.0
+                        } else {
+                            d.baseline_ids.len() as f64
+                        })
+                .sqrt()
+        )?;
+        for t in d.tests.iter().filter(|t| !t.in_baseline) {
+            let ranges: Vec<String> = t
+                .ranges
+                .iter()
+                .map(|r| {
+                    format!(
+                        "{:.0}-{:.0} mm peak {:.0} mm {:+.1} N ({:+.1} %) {}",
+                        r.start_mm,
+                        r.end_mm,
+                        r.peak_mm,
+                        r.height_n,
+                        r.height_percent,
+                        match r.extent {
+                            feedscope::history::Extent::Local => "local",
+                            feedscope::history::Extent::WholeTravel => "whole travel",
+                        }
+                    )
+                })
+                .collect();
+            writeln!(
+                w,
+                "    test {:>4}: level {:+.1} N ({:+.2} %){}; {}",
+                t.test_id,
+                t.level_n,
+                t.level_percent,
+                if t.level_flagged { " FLAGGED" } else { "" },
+                if ranges.is_empty() {
+                    "no position flagged".to_string()
+                } else {
+                    ranges.join(", ")
+                }
+            )?;
+        }
+    }
+    for (dir, n) in &p.not_compared {
+        writeln!(
+            w,
+            "  {}: {n} stroke test(s), not compared yet",
+            dir.as_str()
+        )?;
+    }
+    for (id, why) in &p.skipped {
+        writeln!(w, "  test {id} left out: {why}")?;
+    }
+    Ok(())
 }
 
 pub fn run(args: Args) -> Result<()> {

@@ -19,7 +19,7 @@ use serde::Serialize;
 
 use super::estimate::Format;
 use super::BadInput;
-use crate::output::{bar, write_atomic, AtomicFile};
+use crate::output::{bar, AtomicFile, OutputSet};
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
 
 /// Friction map over position and feed from a test set (paper 000 Section 4.2).
@@ -239,17 +239,19 @@ pub fn run(args: Args) -> Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let out = &args.out;
-    write_atomic(
+    // All or nothing: the files replace the previous run's together at the end.
+    let mut outputs = OutputSet::new();
+    outputs.write(
         &out.join("stribeck.json"),
         serde_json::to_string_pretty(&stribeck_report(at_positions, spans))?.as_bytes(),
     )?;
-    write_profile_csv(&out.join("stribeck_profile.csv"), profiles)?;
-    write_compensation(out, &study, args.extrapolate)?;
-    write_ppocm_csv(&out.join("ppocm.csv"), map)?;
-    write_repeatability_csv(&out.join("repeatability.csv"), map)?;
-    write_runs_csv(&out.join("runs.csv"), &est)?;
+    write_profile_csv(&mut outputs, &out.join("stribeck_profile.csv"), profiles)?;
+    write_compensation(&mut outputs, out, &study, args.extrapolate)?;
+    write_ppocm_csv(&mut outputs, &out.join("ppocm.csv"), map)?;
+    write_repeatability_csv(&mut outputs, &out.join("repeatability.csv"), map)?;
+    write_runs_csv(&mut outputs, &out.join("runs.csv"), &est)?;
     let summary = map_summary(&set, &est, map, spans);
-    write_atomic(
+    outputs.write(
         &out.join("map.json"),
         serde_json::to_string_pretty(&MapJson {
             summary: &summary,
@@ -257,7 +259,8 @@ pub fn run(args: Args) -> Result<()> {
         })?
         .as_bytes(),
     )?;
-    write_plots(out, &study, &args)?;
+    write_plots(&mut outputs, out, &study, &args)?;
+    outputs.commit()?;
 
     print_models(at_positions);
     let stdout = std::io::stdout();
@@ -497,7 +500,7 @@ fn opt(x: Option<f64>) -> String {
     x.map_or_else(String::new, |v| format!("{v:.6}"))
 }
 
-fn write_profile_csv(path: &Path, profiles: &[StribeckProfile]) -> Result<()> {
+fn write_profile_csv(set: &mut OutputSet, path: &Path, profiles: &[StribeckProfile]) -> Result<()> {
     let mut f = csv_file(path)?;
     let w = f.writer();
     writeln!(w, "# Stribeck fit (paper 000 Eq. 9, delta = 2) at every map grid position; forces in N, vs in mm/min, sigma in N*s/m; *_se = standard error")?;
@@ -547,10 +550,15 @@ fn write_profile_csv(path: &Path, profiles: &[StribeckProfile]) -> Result<()> {
             )?;
         }
     }
-    f.commit()
+    set.add(f)
 }
 
-fn write_compensation(out: &Path, study: &MapStudy, extrapolate: bool) -> Result<()> {
+fn write_compensation(
+    set: &mut OutputSet,
+    out: &Path,
+    study: &MapStudy,
+    extrapolate: bool,
+) -> Result<()> {
     let map = &study.map;
     let table = CompensationTable::new(map, extrapolate, |d| {
         let (grid, feeds) = study
@@ -563,12 +571,12 @@ fn write_compensation(out: &Path, study: &MapStudy, extrapolate: bool) -> Result
     for d in &map.directions {
         let mut wide = csv_file(&out.join(format!("compensation_{}.csv", dir_name(d.direction))))?;
         table.write_matrix(wide.writer(), d.direction)?;
-        wide.commit()?;
+        set.add(wide)?;
     }
-    long.commit()
+    set.add(long)
 }
 
-fn write_ppocm_csv(path: &Path, map: &FrictionMap) -> Result<()> {
+fn write_ppocm_csv(set: &mut OutputSet, path: &Path, map: &FrictionMap) -> Result<()> {
     let mut f = csv_file(path)?;
     let w = f.writer();
     writeln!(w, "# PPOCM: mean Legendre coefficients (N) of the repeats' IAFV per feed; in interval [start_mm, end_mm], F = sum_k coefficient_n * P_k(t), t = 2*(z - start_mm)/(end_mm - start_mm) - 1")?;
@@ -596,10 +604,10 @@ fn write_ppocm_csv(path: &Path, map: &FrictionMap) -> Result<()> {
             }
         }
     }
-    f.commit()
+    set.add(f)
 }
 
-fn write_repeatability_csv(path: &Path, map: &FrictionMap) -> Result<()> {
+fn write_repeatability_csv(set: &mut OutputSet, path: &Path, map: &FrictionMap) -> Result<()> {
     let mut f = csv_file(path)?;
     let w = f.writer();
     writeln!(w, "# repeatability per interval: std_n = RMS over the interval of the pointwise sample std of the repeats' IAFV (N); max_spread_n = largest pointwise max - min (N); mean_n = mean of the PPOCM (N, signed)")?;
@@ -626,10 +634,14 @@ fn write_repeatability_csv(path: &Path, map: &FrictionMap) -> Result<()> {
             }
         }
     }
-    f.commit()
+    set.add(f)
 }
 
-fn write_runs_csv(path: &Path, est: &feedscope::map::SetEstimate) -> Result<()> {
+fn write_runs_csv(
+    set: &mut OutputSet,
+    path: &Path,
+    est: &feedscope::map::SetEstimate,
+) -> Result<()> {
     let mut f = csv_file(path)?;
     let w = f.writer();
     writeln!(w, "file,feed_mm_min,repeat,status,strokes,message")?;
@@ -655,7 +667,7 @@ fn write_runs_csv(path: &Path, est: &feedscope::map::SetEstimate) -> Result<()> 
             clean(&r.error)
         )?;
     }
-    f.commit()
+    set.add(f)
 }
 
 // ---------- summary ----------
@@ -837,7 +849,7 @@ fn log_feeds(lo: f64, hi: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
-fn write_plots(out: &Path, study: &MapStudy, args: &Args) -> Result<()> {
+fn write_plots(set: &mut OutputSet, out: &Path, study: &MapStudy, args: &Args) -> Result<()> {
     let (map, at) = (&study.map, &study.at_positions);
     // Friction vs feed at the chosen positions: PPOCM points, Stribeck fit, map section (Fig. 14).
     let mut titles = Vec::new();
@@ -905,9 +917,9 @@ fn write_plots(out: &Path, study: &MapStudy, args: &Args) -> Result<()> {
             });
         }
     }
-    plot::write_svg(
+    set.write(
         &out.join("friction_vs_feed.svg"),
-        &plot::stacked_svg(&charts)?,
+        plot::stacked_svg(&charts)?.as_bytes(),
     )?;
 
     for (d, zs) in map.directions.iter().zip(&study.grids_mm) {
@@ -928,9 +940,9 @@ fn write_plots(out: &Path, study: &MapStudy, args: &Args) -> Result<()> {
             })
             .collect::<Result<_>>()?;
         let title = format!("friction map F(z, v), {} (signed)", dir_name(d.direction));
-        plot::write_svg(
+        set.write(
             &out.join(format!("map_{}.svg", dir_name(d.direction))),
-            &plot::heatmap_svg(&Heatmap {
+            plot::heatmap_svg(&Heatmap {
                 title: &title,
                 x_label: "position (mm)",
                 y_label: "log10 of feed (feed in mm/min)",
@@ -938,7 +950,8 @@ fn write_plots(out: &Path, study: &MapStudy, args: &Args) -> Result<()> {
                 x: zs.clone(),
                 y: feeds.iter().map(|f| f.log10()).collect(),
                 z,
-            })?,
+            })?
+            .as_bytes(),
         )?;
     }
 
@@ -1023,7 +1036,10 @@ fn write_plots(out: &Path, study: &MapStudy, args: &Args) -> Result<()> {
                 .collect(),
         });
     }
-    plot::write_svg(&out.join("iafv_repeats.svg"), &plot::stacked_svg(&c11)?)?;
-    plot::write_svg(&out.join("mvoiaf.svg"), &plot::stacked_svg(&c12)?)?;
+    set.write(
+        &out.join("iafv_repeats.svg"),
+        plot::stacked_svg(&c11)?.as_bytes(),
+    )?;
+    set.write(&out.join("mvoiaf.svg"), plot::stacked_svg(&c12)?.as_bytes())?;
     Ok(())
 }

@@ -10,7 +10,9 @@ use crate::output::write_atomic;
 ///
 /// Reads the tests of the axis from the history database (see `feedscope history`) and writes
 /// one HTML file with everything inline (SVG plots, no script, no network): the diagnosis and
-/// warnings, the latest friction profile with its IAFV, the spectra heat maps, the Stribeck
+/// warnings, the latest friction profile with its IAFV and the flagged position ranges, a
+/// position × test heat map of the friction change (where is it wearing), the spectra heat
+/// maps, the Stribeck
 /// curves of the triangle tests, a trend chart per indicator with baseline, ±3σ limits, EWMA
 /// and its limits, thresholds and projected crossings, and the tables behind them.
 ///

@@ -1,7 +1,7 @@
 //! The condition report: one self-contained HTML file per axis (plots inline as SVG, no
 //! script, no network), rendered from `report.html` with minijinja.
 use anyhow::{Context, Result};
-use feedscope::history::{Indicator, IndicatorTrend, Status, TrendParams};
+use feedscope::history::{Extent, Indicator, IndicatorTrend, ProfileChanges, Status, TrendParams};
 use feedscope::units::MM_MIN_PER_M_S;
 use feedscope_store::{Identified, Store, TestDetail};
 use serde::Serialize;
@@ -78,6 +78,10 @@ struct Page<'a> {
     /// The data verdict of that test, in words.
     profile_verdict: Option<String>,
     heatmaps: Vec<Chart>,
+    /// Position × test maps of the friction change against the profile baseline.
+    wear_maps: Vec<Chart>,
+    /// How to read them and what the comparison found, in words.
+    wear_notes: Vec<String>,
     stribeck: Option<Chart>,
     params: Vec<Param>,
     params_test: Option<String>,
@@ -306,7 +310,11 @@ fn stribeck_chart(tests: &[TestDetail]) -> Result<Option<Chart>> {
     Ok(Some(Chart { title, svg }))
 }
 
-fn profile_chart(c: &Curves, test: &TestDetail) -> Result<Option<Chart>> {
+fn profile_chart(
+    c: &Curves,
+    test: &TestDetail,
+    changes: Option<&ProfileChanges>,
+) -> Result<Option<Chart>> {
     if c.profiles.is_empty() {
         return Ok(None);
     }
@@ -351,39 +359,199 @@ fn profile_chart(c: &Curves, test: &TestDetail) -> Result<Option<Chart>> {
             title,
             x_label: "position (mm)",
             y_label: "friction F_f (N)",
-            series: vec![
-                Series {
-                    name: "estimated friction".into(),
-                    points: p
-                        .position_mm
-                        .iter()
-                        .zip(&p.friction_n)
-                        .zip(keep)
-                        .filter(|(_, &k)| k)
-                        .map(|((&z, &f), _)| (z, f))
-                        .collect(),
-                    style: Style::Line,
-                },
-                Series {
-                    name: format!(
-                        "IAFV, intervals at {:?} mm",
-                        p.breaks_mm.iter().map(|b| b.round()).collect::<Vec<_>>()
-                    ),
-                    points: p
-                        .position_mm
-                        .iter()
-                        .copied()
-                        .zip(p.iafv_n.iter().copied())
-                        .collect(),
-                    style: Style::Line,
-                },
-            ],
+            series: {
+                let mut v = vec![
+                    Series {
+                        name: "estimated friction".into(),
+                        points: p
+                            .position_mm
+                            .iter()
+                            .zip(&p.friction_n)
+                            .zip(keep)
+                            .filter(|(_, &k)| k)
+                            .map(|((&z, &f), _)| (z, f))
+                            .collect(),
+                        style: Style::Line,
+                    },
+                    Series {
+                        name: format!(
+                            "IAFV, intervals at {:?} mm",
+                            p.breaks_mm.iter().map(|b| b.round()).collect::<Vec<_>>()
+                        ),
+                        points: p
+                            .position_mm
+                            .iter()
+                            .copied()
+                            .zip(p.iafv_n.iter().copied())
+                            .collect(),
+                        style: Style::Line,
+                    },
+                ];
+                v.extend(flagged_series(p, test.test.id, changes));
+                v
+            },
         })
         .collect();
     Ok(Some(Chart {
         title: "Latest friction profile".into(),
         svg: plot::stacked_svg(&charts)?,
     }))
+}
+
+/// The position-resolved comparison on the profile plot of test `id`: its smoothed profile,
+/// the baseline profile and each flagged range as a bar above the curves. Friction is drawn
+/// signed (backward negative), so the magnitudes of the comparison take the direction's sign.
+fn flagged_series(
+    p: &feedscope::study::ProfileCurve,
+    id: i64,
+    changes: Option<&ProfileChanges>,
+) -> Vec<Series> {
+    let Some(d) = changes.and_then(|c| {
+        c.directions
+            .iter()
+            .find(|d| d.direction.as_str() == p.direction)
+    }) else {
+        return vec![];
+    };
+    let Some(t) = d.tests.iter().find(|t| t.test_id == id) else {
+        return vec![];
+    };
+    let sign = if p.direction == "backward" { -1.0 } else { 1.0 };
+    let mut v = vec![
+        Series {
+            name: "baseline profile (smoothed over one lead)".into(),
+            points: d
+                .position_mm
+                .iter()
+                .zip(&d.baseline_n)
+                .map(|(&x, &m)| (x, sign * m))
+                .collect(),
+            style: Style::Dashed,
+        },
+        Series {
+            name: "this test (smoothed over one lead)".into(),
+            points: d
+                .position_mm
+                .iter()
+                .zip(&d.baseline_n)
+                .zip(&t.change_n)
+                .filter_map(|((&x, &m), c)| c.map(|c| (x, sign * (m + c))))
+                .collect(),
+            style: Style::Line,
+        },
+    ];
+    let top = d
+        .baseline_n
+        .iter()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    for r in &t.ranges {
+        // Just above the baseline's highest point, clear of the curves.
+        let y = sign * 1.03 * top;
+        v.push(Series {
+            name: format!(
+                "flagged {:.0}-{:.0} mm: {:+.1} N ({:+.1} %) at {:.0} mm, {}",
+                r.start_mm,
+                r.end_mm,
+                r.height_n,
+                r.height_percent,
+                r.peak_mm,
+                match r.extent {
+                    Extent::Local => "local",
+                    Extent::WholeTravel => "whole travel",
+                }
+            ),
+            points: vec![(r.start_mm, y), (r.end_mm.max(r.start_mm + 0.5), y)],
+            style: Style::LineMarkers,
+        });
+    }
+    v
+}
+
+/// One heat map per compared direction: the friction change d(x) = s(x) − m(x) of every
+/// stroke test (rows, time order) along the travel (columns).
+fn wear_maps(c: &ProfileChanges) -> Result<Vec<Chart>> {
+    c.directions
+        .iter()
+        .filter(|d| d.tests.len() >= 2 && d.position_mm.len() >= 2)
+        .map(|d| {
+            let title = format!(
+                "Friction change along the travel, {}: where is it wearing",
+                d.direction.as_str()
+            );
+            let svg = plot::heatmap_svg(&Heatmap {
+                title: &title,
+                x_label: "position (mm)",
+                y_label: "stroke test (in time order)",
+                z_label: "change from baseline (N)",
+                x: d.position_mm.clone(),
+                y: (1..=d.tests.len()).map(|k| k as f64).collect(),
+                z: d.tests
+                    .iter()
+                    .map(|t| t.change_n.iter().map(|x| x.unwrap_or(f64::NAN)).collect())
+                    .collect(),
+            })?;
+            Ok(Chart { title, svg })
+        })
+        .collect()
+}
+
+/// How to read the maps, then per direction which test is which row and what was flagged.
+fn wear_notes(c: &ProfileChanges) -> Vec<String> {
+    let mut out = vec![format!(
+        "Each row is one stroke test, each column a position; the colour is that test's \
+         friction magnitude minus the baseline profile (N, both smoothed over one lead). A \
+         local wear shows as a vertical stripe that grows downwards (later tests); a change of \
+         the whole travel (lubrication) colours whole rows. A position is flagged when its \
+         change, after removing the part common to the whole travel, exceeds {}× the baseline's \
+         own test-to-test scatter there.",
+        c.params.k
+    )];
+    for d in &c.directions {
+        let rows: Vec<String> = d
+            .tests
+            .iter()
+            .enumerate()
+            .map(|(k, t)| {
+                format!(
+                    "row {} = test {}{}",
+                    k + 1,
+                    t.test_id,
+                    if t.in_baseline { " (baseline)" } else { "" }
+                )
+            })
+            .collect();
+        let flagged: Vec<String> = d
+            .tests
+            .iter()
+            .filter(|t| !t.ranges.is_empty())
+            .map(|t| {
+                format!(
+                    "test {}: {}",
+                    t.test_id,
+                    t.ranges
+                        .iter()
+                        .map(|r| format!(
+                            "{:.0}-{:.0} mm ({:+.1} N)",
+                            r.start_mm, r.end_mm, r.height_n
+                        ))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            })
+            .collect();
+        out.push(format!(
+            "{}: {}. Flagged: {}.",
+            d.direction.as_str(),
+            rows.join(", "),
+            if flagged.is_empty() {
+                "nothing".to_string()
+            } else {
+                flagged.join("; ")
+            }
+        ));
+    }
+    out
 }
 
 fn heatmap_charts(c: &Curves) -> Result<Vec<Chart>> {
@@ -505,7 +673,10 @@ pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Resul
         None => None,
     };
     let (profile, heatmaps) = match &curves {
-        Some((c, d)) => (profile_chart(c, d)?, heatmap_charts(c)?),
+        Some((c, d)) => (
+            profile_chart(c, d, t.profiles.as_ref())?,
+            heatmap_charts(c)?,
+        ),
         None => (None, vec![]),
     };
     let latest_ident = details.iter().rev().find(|d| d.identified.is_some());
@@ -593,7 +764,7 @@ pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Resul
                 None => format!(
                     "{} intervals, {} components",
                     d.intervals.len(),
-                    d.components.iter().filter(|c| c.segment == "all").count()
+                    d.components.iter().filter(|c| c.segment.is_whole()).count()
                 ),
             },
         })
@@ -658,6 +829,11 @@ pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Resul
             .map(|v| v.headline()),
         profile: profile.map(&mut chart),
         heatmaps: heatmaps.into_iter().map(&mut chart).collect(),
+        wear_maps: match &t.profiles {
+            Some(p) => wear_maps(p)?.into_iter().map(&mut chart).collect(),
+            None => vec![],
+        },
+        wear_notes: t.profiles.as_ref().map(wear_notes).unwrap_or_default(),
         stribeck: stribeck_chart(&details)?.map(&mut chart),
         params,
         params_test: latest_ident.map(|d| format!("test {} ({})", d.test.id, d.test.time_utc)),
@@ -670,7 +846,7 @@ pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Resul
             .map(|d| {
                 d.components
                     .iter()
-                    .filter(|c| c.segment == "all")
+                    .filter(|c| c.segment.is_whole())
                     .cloned()
                     .collect()
             })

@@ -506,3 +506,118 @@ fn reference_test_is_marked() {
     c.args(["history", "--db", "h.db", "reference", "9"]);
     assert_eq!(run(c).status.code(), Some(2));
 }
+
+/// Issue 11 through the binary: four stroke tests of a short twin (lead 8 mm, 180 kg,
+/// 4 → 92 → 4 mm at 20 mm/min, 40 ms asynchronous polling), a 6 mm-wide friction bump at
+/// 56 mm growing 5 N a test from the third. `history trend` with defaults flags it in test 3
+/// at its position, local, and calls it local wear; the report draws the heat map and the
+/// flagged range.
+#[test]
+fn local_wear_is_flagged_by_trend_and_drawn_by_the_report() {
+    use feedscope::sim::{simulate, Bump, FrictionParams, StrokeConfig};
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let mut base = SimConfig::default();
+    base.axis.lead_mm = 8.0;
+    base.axis.table_mass_kg = 180.0;
+    base.axis.screw_diameter_mm = Some(32.0);
+    base.axis.screw_ball_diameter_mm = Some(4.763);
+    base.axis.screw_balls_per_turn = Some(16.0);
+    base.dynamics.mode = DynamicsMode::Ideal;
+    base.sampling.position.interval_ms = 40.0;
+    base.sampling.position.jitter_ms = 1.0;
+    base.sampling.effort.interval_ms = 40.0;
+    base.sampling.effort.jitter_ms = 1.0;
+    base.sampling.effort.start_offset_ms = 20.0;
+    base.motion.start_mm = 4.0;
+    base.motion.strokes = vec![
+        StrokeConfig {
+            to_mm: 92.0,
+            feed_mm_min: 20.0,
+            dwell_s: 1.0,
+        },
+        StrokeConfig {
+            to_mm: 4.0,
+            feed_mm_min: 20.0,
+            dwell_s: 0.0,
+        },
+    ];
+    std::fs::write(d.join("axis.toml"), toml::to_string(&base.axis).unwrap()).unwrap();
+    for k in 0..4u64 {
+        let mut c = base.clone();
+        c.seed = 40 + k;
+        let mut f = FrictionParams::default_for(&c.axis);
+        // level scatter between tests: ±0.3 %
+        let level = 1.0 + 0.003 * [0.4, -0.7, 1.0, -0.2][k as usize];
+        for l in [&mut f.forward, &mut f.backward] {
+            l.offset_n *= level;
+            l.bumps.push(Bump {
+                center_mm: 56.0,
+                width_mm: 6.0,
+                height_n: 5.0 * k.saturating_sub(1) as f64,
+            });
+        }
+        c.friction = Some(f);
+        let sim = simulate(&c, &mut |_| {}).unwrap();
+        let name = format!("s{k}.csv");
+        let mut file = std::fs::File::create(d.join(&name)).unwrap();
+        write_csv(&sim.trace, &mut file, Layout::Long).unwrap();
+        drop(file);
+        let mut c = feedscope(d);
+        c.args([
+            "history",
+            "--db",
+            "h.db",
+            "add",
+            "--kind",
+            "strokes",
+            "--axis",
+            "axis.toml",
+        ])
+        .arg(&name)
+        .args(["--time", &format!("2026-0{}-01T08:00:00Z", k + 1)]);
+        let o = run(c);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let mut c = feedscope(d);
+    c.args(["history", "--db", "h.db", "trend", "--format", "json"]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let dirs = v["profiles"]["directions"].as_array().unwrap();
+    assert_eq!(dirs.len(), 2, "{}", v["profiles"]);
+    for dir in dirs {
+        let tests = dir["tests"].as_array().unwrap();
+        let first = &tests[dir["first_flag"].as_u64().expect("flagged") as usize];
+        assert_eq!(first["test_id"], 3, "{}", dir["direction"]);
+        let r = &first["ranges"][0];
+        let peak = r["peak_mm"].as_f64().unwrap();
+        assert!((peak - 56.0).abs() <= 8.0, "{r}");
+        assert_eq!(r["extent"], "local");
+        for t in tests {
+            for r in t["ranges"].as_array().unwrap() {
+                let p = r["peak_mm"].as_f64().unwrap();
+                assert!((p - 56.0).abs() <= 8.0, "false range {r}");
+            }
+        }
+    }
+    let diag = v["diagnosis"].to_string();
+    assert!(diag.contains("Local wear"), "{diag}");
+    assert!(!diag.contains("fits lubrication"), "{diag}");
+    // text output names the flagged range
+    let mut c = feedscope(d);
+    c.args(["history", "--db", "h.db", "trend"]);
+    let text = stdout(&run(c));
+    assert!(text.contains("friction along the travel"), "{text}");
+    let mut c = feedscope(d);
+    c.args(["report", "--db", "h.db", "-o", "r.html"]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(d.join("r.html")).unwrap();
+    assert!(html.contains("Where is it wearing"));
+    assert!(html.contains("Friction change along the travel, forward"));
+    assert!(
+        html.contains("flagged "),
+        "the profile plot names the flagged range"
+    );
+}

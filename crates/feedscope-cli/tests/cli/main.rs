@@ -16,4 +16,5 @@ mod program;
 mod real;
 mod report;
 mod simulate;
+mod store_robust;
 mod util;

@@ -929,53 +929,76 @@ pub fn estimate_stroke(
     let mut non_monotone = false;
     let mut t_prev = w_lo;
     let mut sum = 0.0;
-    for j in 0..count {
-        let zg = (k_first as f64 + s * j as f64) * step;
-        let (t, v, a) = match &mut knot_cursor {
-            Some(ks) => {
-                let t = ks.eval(s * zg).clamp(w_lo, w_hi);
-                let (_, v, a) = zs.eval_all(t);
-                (t, v, a)
-            }
-            None => {
-                // Advance to the knot interval whose end lies beyond the target.
-                let k_old = k_int;
-                while k_int + 2 < zz.len() && s * (zz[k_int + 1] - zg) < 0.0 {
-                    k_int += 1;
+    // The six columns are filled a block at a time in arrays on the stack, each block then
+    // appended with one copy per column: six pushes per point re-read and re-stored six
+    // lengths and checked six capacities, a sizeable share of the loop's instructions.
+    const BLOCK: usize = 256;
+    let mut cols = [[0.0f64; BLOCK]; 6];
+    let mut j0 = 0;
+    while j0 < count {
+        let len = BLOCK.min(count - j0);
+        // One index into six columns (and j beside it): no single iterator to enumerate.
+        #[allow(clippy::needless_range_loop)]
+        for i in 0..len {
+            let j = j0 + i;
+            let zg = (k_first as f64 + s * j as f64) * step;
+            let (t, v, a) = match &mut knot_cursor {
+                Some(ks) => {
+                    let t = ks.eval(s * zg).clamp(w_lo, w_hi);
+                    let (_, v, a) = zs.eval_all(t);
+                    (t, v, a)
                 }
-                if k_int != k_old {
-                    piece = zs.piece(k_int);
-                }
-                match newton_in_piece(&piece, zz[k_int + 1], zg) {
-                    Some((u, v, a)) => (piece.x0 + u, v, a),
-                    None => {
-                        // Not monotone here: the safeguarded search over neighbours.
-                        let (t, k, ok) =
-                            invert_in(&zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
-                        non_monotone |= !ok;
-                        let (_, v, a) = zs.eval_in(k, t);
-                        (t, v, a)
+                None => {
+                    // Advance to the knot interval whose end lies beyond the target.
+                    let k_old = k_int;
+                    while k_int + 2 < zz.len() && s * (zz[k_int + 1] - zg) < 0.0 {
+                        k_int += 1;
+                    }
+                    if k_int != k_old {
+                        piece = zs.piece(k_int);
+                    }
+                    match newton_in_piece(&piece, zz[k_int + 1], zg) {
+                        Some((u, v, a)) => (piece.x0 + u, v, a),
+                        None => {
+                            // Not monotone here: the safeguarded search over neighbours.
+                            let (t, k, ok) =
+                                invert_in(&zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
+                            non_monotone |= !ok;
+                            let (_, v, a) = zs.eval_in(k, t);
+                            (t, v, a)
+                        }
                     }
                 }
+            };
+            t_prev = t;
+            let e = ecur.eval(t);
+            let f = force_gain * e - m_eq * a - b_eq * v;
+            if !f.is_finite() {
+                return Err(EstimateError::NonFinite {
+                    stroke: index,
+                    quantity: "friction_n",
+                    position_mm: zg * 1e3,
+                });
             }
-        };
-        t_prev = t;
-        let e = ecur.eval(t);
-        let f = force_gain * e - m_eq * a - b_eq * v;
-        if !f.is_finite() {
-            return Err(EstimateError::NonFinite {
-                stroke: index,
-                quantity: "friction_n",
-                position_mm: zg * 1e3,
-            });
+            sum += f;
+            cols[0][i] = zg;
+            cols[1][i] = t;
+            cols[2][i] = v;
+            cols[3][i] = a;
+            cols[4][i] = e;
+            cols[5][i] = f;
         }
-        sum += f;
-        out.position_m.push(zg);
-        out.time_s.push(t);
-        out.velocity_m_s.push(v);
-        out.accel_m_s2.push(a);
-        out.effort.push(e);
-        out.friction_n.push(f);
+        for (col, dst) in cols.iter().zip([
+            &mut out.position_m,
+            &mut out.time_s,
+            &mut out.velocity_m_s,
+            &mut out.accel_m_s2,
+            &mut out.effort,
+            &mut out.friction_n,
+        ]) {
+            dst.extend_from_slice(&col[..len]);
+        }
+        j0 += len;
     }
     if non_monotone {
         warnings.push(Diagnostic::new(
@@ -1113,8 +1136,12 @@ fn newton_in_piece(p: &crate::spline::Piece, z1: f64, target: f64) -> Option<(f6
         }
         // The chord iteration contracts by ρ per step, so the error left after this step is
         // about |du|·ρ/(1 − ρ): stop as soon as that, or the step itself, is below tolerance.
-        let rho = (du / du_prev).abs();
-        if du.abs() <= tol || (rho < 0.5 && du.abs() * rho <= 0.5 * tol) {
+        // The ratio is formed only when the step alone does not decide: the first step nearly
+        // always does, and the division cost every point.
+        if du.abs() <= tol || {
+            let rho = (du / du_prev).abs();
+            rho < 0.5 && du.abs() * rho <= 0.5 * tol
+        } {
             if !(-tol..=p.h + tol).contains(&u) {
                 return None;
             }

@@ -188,13 +188,33 @@ fn turning_points(z: &[f64], eps: f64) -> Vec<usize> {
     tp
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
+/// `v` as an integer that orders like [`f64::total_cmp`]: selections then compare integers
+/// (one instruction) instead of calling `total_cmp` on every comparison. The same order picks
+/// the same element, so every median and percentile is bit for bit what `total_cmp` gives.
+fn order_key(v: f64) -> i64 {
+    // As `f64::total_cmp`: negative values have their magnitude bits flipped.
+    let b = v.to_bits() as i64;
+    b ^ ((((b >> 63) as u64) >> 1) as i64)
+}
+
+/// The value of an [`order_key`] (the flip leaves the sign bit alone, so it undoes itself).
+fn from_order_key(k: i64) -> f64 {
+    f64::from_bits(order_key(f64::from_bits(k as u64)) as u64)
+}
+
+/// The element of rank `rank` in the `total_cmp` order of the values keyed in `keys`
+/// (reordered).
+fn select_key(keys: &mut [i64], rank: usize) -> f64 {
+    from_order_key(*keys.select_nth_unstable(rank).1)
+}
+
+/// The upper median of the keyed values (NaN when there are none); reorders `keys`.
+fn median_key(keys: &mut [i64]) -> f64 {
+    if keys.is_empty() {
         return f64::NAN;
     }
-    let mid = v.len() / 2;
-    let (_, m, _) = v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
-    *m
+    let mid = keys.len() / 2;
+    select_key(keys, mid)
 }
 
 /// Whether a run of chord speeds holds its feed, rather than only passing through its top
@@ -205,20 +225,20 @@ fn median(v: &mut [f64]) -> f64 {
 /// it (each step within 1 % of monotone), the first and last block lie below 80 % of the peak,
 /// and at most 2 blocks are within 2 % of it. A feed held for a tenth of the run already
 /// makes 2 blocks flat; a modulated feed rises and falls more than once.
-fn holds_a_plateau(speeds: &[f64]) -> bool {
+///
+/// `keys` are the speeds' [`order_key`]s; `scratch` is reused for the blocks.
+fn holds_a_plateau(keys: &[i64], scratch: &mut Vec<i64>) -> bool {
     // Fewer chords than blocks (a short move at a slow sampling rate): one chord a block.
-    let blocks_n = speeds.len().min(20);
+    let blocks_n = keys.len().min(20);
     if blocks_n < 5 {
         return true;
     }
     let blocks: Vec<f64> = (0..blocks_n)
         .map(|b| {
-            let (i, j) = (
-                b * speeds.len() / blocks_n,
-                (b + 1) * speeds.len() / blocks_n,
-            );
-            let mut v = speeds[i..j].to_vec();
-            median(&mut v)
+            let (i, j) = (b * keys.len() / blocks_n, (b + 1) * keys.len() / blocks_n);
+            scratch.clear();
+            scratch.extend_from_slice(&keys[i..j]);
+            median_key(scratch)
         })
         .collect();
     let (peak_at, peak) =
@@ -257,6 +277,8 @@ pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
     let tp = turning_points(z, eps);
     let mut moves: Vec<MoveSpan> = Vec::new();
     let mut speeds = Vec::new();
+    // The speeds' order keys, and a copy of them for selections (see `order_key`).
+    let (mut keys, mut sel) = (Vec::new(), Vec::new());
     for w in tp.windows(2) {
         let (i0, i1) = (w[0], w[1]);
         if i1 <= i0 || (z[i1] - z[i0]).abs() <= eps {
@@ -296,18 +318,24 @@ pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
         let chord = |k: usize| s * (z[k + w] - z[k]) / (t[k + w] - t[k]);
         speeds.clear();
         speeds.extend((i0..=i1 - w).map(chord));
-        let mut sorted = speeds.clone();
-        let rank = ((sorted.len() - 1) as f64 * 0.95).round() as usize;
-        let p95 = *sorted.select_nth_unstable_by(rank, |a, b| a.total_cmp(b)).1;
+        keys.clear();
+        keys.extend(speeds.iter().map(|&v| order_key(v)));
+        sel.clear();
+        sel.extend_from_slice(&keys);
+        let rank = ((sel.len() - 1) as f64 * 0.95).round() as usize;
+        let p95 = select_key(&mut sel, rank);
         if p95.is_nan() || p95 <= 0.0 {
             continue;
         }
-        let mut fast: Vec<f64> = speeds
-            .iter()
-            .copied()
-            .filter(|v| *v >= 0.25 * p95)
-            .collect();
-        let plateau = median(&mut fast);
+        sel.clear();
+        sel.extend(
+            speeds
+                .iter()
+                .zip(&keys)
+                .filter(|(v, _)| **v >= 0.25 * p95)
+                .map(|(_, &k)| k),
+        );
+        let plateau = median_key(&mut sel);
         this.plateau_speed_m_s = plateau;
         this.top_speed_m_s = p95;
         let threshold = params.steady_fraction * plateau;
@@ -323,7 +351,7 @@ pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
                 c += 1;
             }
             let c1 = c - 1; // last steady chord
-            if !holds_a_plateau(&speeds[c0..=c1]) {
+            if !holds_a_plateau(&keys[c0..=c1], &mut sel) {
                 continue;
             }
             // Chord c joins knots i0+c and i0+c+w. A steady chord may straddle the start (or
@@ -465,6 +493,42 @@ mod tests {
         assert_eq!(s.len(), 1, "{s:?}");
         assert!((s[0].plateau_speed_m_s * 60e3 - 10.0).abs() < 0.2);
         assert!(c.time_s[s[0].first] < 1.2 && c.time_s[s[0].last] > 199.0);
+    }
+
+    #[test]
+    fn order_keys_select_as_total_cmp() {
+        // Signed zeros, infinities, NaNs of both signs, subnormals, repeats and ordinary values:
+        // every rank selected through the keys is bit for bit the `total_cmp` selection.
+        let special = [
+            0.0,
+            -0.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            -f64::NAN,
+            f64::MIN_POSITIVE / 4.0,
+            -f64::MIN_POSITIVE / 4.0,
+            f64::MAX,
+            f64::MIN,
+            1.5,
+            1.5,
+            -2.25,
+        ];
+        let mut v: Vec<f64> = special.to_vec();
+        v.extend((0..200).map(|k| ((k as f64 * 12.9898).sin() * 43758.5453).fract() - 0.5));
+        for rank in 0..v.len() {
+            let mut want = v.clone();
+            let w = *want.select_nth_unstable_by(rank, f64::total_cmp).1;
+            let mut keys: Vec<i64> = v.iter().map(|&x| order_key(x)).collect();
+            assert_eq!(
+                select_key(&mut keys, rank).to_bits(),
+                w.to_bits(),
+                "rank {rank}"
+            );
+        }
+        for &x in &v {
+            assert_eq!(from_order_key(order_key(x)).to_bits(), x.to_bits());
+        }
     }
 
     #[test]

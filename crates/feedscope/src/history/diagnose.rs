@@ -1,5 +1,7 @@
 //! Diagnosis in words: which indicators moved and what the papers associate with them.
+use super::local::{describe_baseline, DirectionChanges, Extent, ProfileChanges};
 use super::{Indicator, IndicatorTrend, Status};
+use crate::order::Cause;
 
 /// How an indicator moved: +1 up, −1 down, 0 not at all (status `Ok`).
 fn moved(t: &IndicatorTrend) -> i32 {
@@ -41,6 +43,32 @@ fn pct(t: &IndicatorTrend) -> String {
 ///   narrow baseline band but within its own uncertainty is measurement scatter, not news.
 /// - Then every indicator with a projected threshold crossing.
 pub fn diagnose(trends: &[IndicatorTrend]) -> Vec<String> {
+    diagnose_with_profiles(trends, None)
+}
+
+/// [`diagnose`], with the position-resolved comparison of the stroke tests
+/// ([`super::profile_changes`]) in place of the interval means' "risen locally / in most
+/// intervals" rule wherever it compared a test:
+///
+/// - a flagged local range in the latest test: local wear, with direction, position range,
+///   peak, height (N, %), width and the test that first showed it; paper 000 attributes
+///   position-dependent friction to non-uniform pitch error (wear where the machine works
+///   most) and to misalignment of guides and screw;
+/// - a flagged change of the profile's shape over most of the travel: not a local defect;
+/// - a flagged rise of the whole-travel level: with F_s and σ up, degrading lubrication (not
+///   local wear); without triangle tests, lubrication or preload/seal drag (what tells them
+///   apart); a fall: evidence of a loss of preload;
+/// - nothing flagged: the profiles stay within their limits at every position;
+/// - a direction not yet compared: what its tests allow to know ([`describe_baseline`]).
+pub fn diagnose_with_profiles(
+    trends: &[IndicatorTrend],
+    profiles: Option<&ProfileChanges>,
+) -> Vec<String> {
+    let compared = profiles.is_some_and(|p| {
+        p.directions
+            .iter()
+            .any(|d| d.tests.iter().any(|t| !t.in_baseline))
+    });
     let mut out = Vec::new();
     let fs = find(trends, &Indicator::StaticFriction);
     let sg = find(trends, &Indicator::Viscous);
@@ -98,8 +126,13 @@ pub fn diagnose(trends: &[IndicatorTrend]) -> Vec<String> {
     let refeed_moved: Vec<&IndicatorTrend> = trends
         .iter()
         .filter(|t| {
-            matches!(&t.indicator, Indicator::Component { cause, .. } if cause.contains("refeed"))
-                && moved(t) != 0
+            matches!(
+                &t.indicator,
+                Indicator::Component {
+                    cause: Cause::NutRefeed(_) | Cause::GuideRefeed(_),
+                    ..
+                }
+            ) && moved(t) != 0
         })
         .collect();
     if !means.is_empty() {
@@ -125,6 +158,8 @@ pub fn diagnose(trends: &[IndicatorTrend]) -> Vec<String> {
                 ));
             }
             out.push(s);
+        } else if compared {
+            // The position-resolved comparison below says where and how wide.
         } else if !rising.is_empty() && 3 * rising.len() <= means.len() {
             let where_: Vec<String> = rising
                 .iter()
@@ -147,11 +182,23 @@ pub fn diagnose(trends: &[IndicatorTrend]) -> Vec<String> {
             ));
         }
     }
+    if let Some(p) = profiles {
+        out.extend(profile_sentences(
+            p,
+            up(fs) && up(sg),
+            fs.is_some() || sg.is_some(),
+        ));
+    }
     let shaft: Vec<String> = trends
         .iter()
         .filter(|t| {
-            matches!(&t.indicator, Indicator::Component { cause, .. } if cause.contains("shaft"))
-                && moved(t) > 0
+            matches!(
+                &t.indicator,
+                Indicator::Component {
+                    cause: Cause::Shaft(_),
+                    ..
+                }
+            ) && moved(t) > 0
         })
         .map(|t| format!("{} {}", t.indicator.label(), pct(t)))
         .collect();
@@ -198,6 +245,153 @@ pub fn diagnose(trends: &[IndicatorTrend]) -> Vec<String> {
         );
     }
     out
+}
+
+/// The sentences of the position-resolved comparison; `lubrication` when F_s and σ have both
+/// risen, `identified` when triangle tests exist at all.
+fn profile_sentences(p: &ProfileChanges, lubrication: bool, identified: bool) -> Vec<String> {
+    let mut out = Vec::new();
+    let k = p.params.k;
+    if p.tests == 0 {
+        return out;
+    }
+    for (dir, n) in &p.not_compared {
+        out.push(format!(
+            "Friction along the travel ({}): {}",
+            dir.as_str(),
+            describe_baseline(*n, &p.params)
+        ));
+    }
+    let mut quiet = Vec::new();
+    for d in &p.directions {
+        let dir = d.direction.as_str();
+        let Some(last) = d.tests.last() else { continue };
+        if last.in_baseline {
+            out.push(format!(
+                "Friction along the travel ({dir}): {}",
+                describe_baseline(d.tests.len(), &p.params)
+            ));
+            continue;
+        }
+        let first = |pred: &dyn Fn(&super::TestChange) -> bool| {
+            d.tests
+                .iter()
+                .find(|t| !t.in_baseline && pred(t))
+                .map(|t| t.test_id)
+        };
+        for r in &last.ranges {
+            let since = first(&|t| {
+                t.ranges.iter().any(|q| {
+                    q.start_mm <= r.end_mm + d.lead_mm && q.end_mm >= r.start_mm - d.lead_mm
+                })
+            })
+            .unwrap_or(last.test_id);
+            let verb = if r.height_n >= 0.0 { "risen" } else { "fallen" };
+            match r.extent {
+                Extent::Local => {
+                    out.push(format!(
+                    "Local wear, {dir}: the friction has {verb} by {:+.1} N ({:+.1} %) at {:.0} \
+                     mm (flagged {:.0}-{:.0} mm, about {:.0} mm wide, {:.0}× its scatter), \
+                     first flagged in test {since}; elsewhere along the travel it is within its \
+                     limits. Paper 000 attributes position-dependent friction to non-uniform \
+                     pitch error (wear where the machine works most) and to misalignment of the \
+                     guides and the screw: evidence of local wear of screw or guides there.",
+                    r.height_n, r.height_percent, r.peak_mm, r.start_mm, r.end_mm, r.width_mm,
+                    r.height_sigma
+                ))
+                }
+                Extent::WholeTravel => out.push(format!(
+                    "The shape of the {dir} friction profile has changed over most of the \
+                     travel ({:.0}-{:.0} mm, {:+.1} N at {:.0} mm), first flagged in test \
+                     {since}: not a local defect; a misalignment of guides and screw or a \
+                     preload that changes along the travel fits better.",
+                    r.start_mm, r.end_mm, r.height_n, r.peak_mm
+                )),
+            }
+        }
+        if last.level_flagged {
+            let since = first(&|t| t.level_flagged).unwrap_or(last.test_id);
+            let what = if last.level_n >= 0.0 {
+                if lubrication {
+                    "; with Fs and σ up this fits degrading lubrication (everywhere), not local \
+                     wear"
+                        .to_string()
+                } else if identified {
+                    "; Fs and σ have not both risen, so a change of preload or seal drag fits \
+                     as well as lubrication"
+                        .to_string()
+                } else {
+                    "; this fits lubrication more than a local defect (a triangle test tells it \
+                     from preload or seal drag: lubrication raises Fs and σ)"
+                        .to_string()
+                }
+            } else {
+                "; a falling level is evidence of a loss of preload (paper 000: friction grows \
+                 with the engagement force of balls and races)"
+                    .to_string()
+            };
+            out.push(format!(
+                "The {dir} friction has {} along the whole travel by {:+.1} N ({:+.1} %, limit \
+                 ±{:.1} %), first flagged in test {since}{what}.",
+                if last.level_n >= 0.0 {
+                    "risen"
+                } else {
+                    "fallen"
+                },
+                last.level_n,
+                last.level_percent,
+                level_limit_percent(d, p.params.level_k),
+            ));
+        }
+        if last.ranges.is_empty() && !last.level_flagged {
+            quiet.push(d);
+        }
+    }
+    if !quiet.is_empty() {
+        let words: Vec<String> = quiet
+            .iter()
+            .map(|d| {
+                let n = d.tests.iter().filter(|t| !t.in_baseline).count();
+                let earlier = d
+                    .first_flag
+                    .map(|i| {
+                        format!(
+                            ", flagged earlier in test {} but not now",
+                            d.tests[i].test_id
+                        )
+                    })
+                    .unwrap_or_default();
+                format!(
+                    "{}: {n} test(s) compared with a baseline of {}, limit ±{:.1} N{earlier}",
+                    d.direction.as_str(),
+                    d.baseline_ids.len(),
+                    median_of(&d.limit_n)
+                )
+            })
+            .collect();
+        out.push(format!(
+            "The friction along the travel stays within {k}× its baseline scatter at every \
+             position in the latest test ({}): no evidence of local wear.",
+            words.join("; ")
+        ));
+    }
+    out
+}
+
+/// The whole-travel limit K_level·σ_a·√(1 + 1/n_m) in percent of m̄.
+fn level_limit_percent(d: &DirectionChanges, level_k: f64) -> f64 {
+    let n_m = if d.reference_id.is_some() {
+        1.0
+    } else {
+        d.baseline_ids.len() as f64
+    };
+    100.0 * level_k * d.level_sigma * (1.0 + 1.0 / n_m).sqrt()
+}
+
+fn median_of(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s.get(s.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
 /// A J change enters the diagnosis only beyond this many combined standard errors.

@@ -6,8 +6,9 @@
 //! μ₀ ± L·σ ([`Limits`]), an EWMA chart ([`ewma`]) and a two-sided CUSUM ([`cusum`]) that see a
 //! sustained drift before a single test leaves the ±3σ band, a projected crossing of a user
 //! threshold from the recent slope ([`project_crossing`]), and [`diagnose`], which says which
-//! indicators moved and what the papers associate with them. The store that keeps the series
-//! lives in the CLI; nothing here does I/O.
+//! indicators moved and what the papers associate with them. [`profile_changes`] compares the
+//! friction of stroke tests with their baseline position by position along the travel (local
+//! wear). The store that keeps the series lives in the CLI; nothing here does I/O.
 //!
 //! ```
 //! use feedscope::history::{assess, Indicator, Point, TrendParams, Threshold};
@@ -31,6 +32,7 @@ use serde::{Deserialize, Serialize};
 
 mod control;
 mod diagnose;
+mod local;
 #[cfg(test)]
 mod tests;
 
@@ -38,7 +40,11 @@ pub use control::{
     baseline, cusum, ewma, project_crossing, recent_slope, Baseline, BaselineSpec, Cusum, Ewma,
     Limits, Projection, RecentSlope, Threshold,
 };
-pub use diagnose::diagnose;
+pub use diagnose::{diagnose, diagnose_with_profiles};
+pub use local::{
+    describe_baseline, profile_changes, ChangeRange, DirectionChanges, Extent, GridBuilder,
+    GridProfile, LocalParams, ProfileChanges, ProfileTest, TestChange,
+};
 
 use crate::stroke::Direction;
 
@@ -117,8 +123,8 @@ pub enum Indicator {
     Component {
         /// Stroke direction.
         direction: Direction,
-        /// Kinematic cause as classified (`shaft 1x`, `nut ball refeed 1x`, ...).
-        cause: String,
+        /// Kinematic cause as classified (written `shaft 1x`, `nut ball refeed 1x`, ...).
+        cause: crate::order::Cause,
     },
 }
 
@@ -170,7 +176,7 @@ impl Indicator {
                     }
                     "amplitude_n" => Indicator::Component {
                         direction: d,
-                        cause: rest.to_string(),
+                        cause: rest.parse().ok()?,
                     },
                     _ => return None,
                 }
@@ -232,6 +238,11 @@ pub struct TrendParams {
     pub cusum_h: f64,
     /// Tests in the recent-slope fit. Default 6.
     pub slope_window: usize,
+    /// Raise σ to √(SE² + (`min_relative_std`·μ₀)²), SE the RMS standard error of the points
+    /// that set the baseline, when that is larger (a scatter below the measurement's own
+    /// uncertainty plus the quantity's known relative scatter is luck). Default `false`.
+    #[serde(default)]
+    pub std_error_floor: bool,
 }
 
 impl Default for TrendParams {
@@ -245,6 +256,7 @@ impl Default for TrendParams {
             cusum_k: 0.5,
             cusum_h: 5.0,
             slope_window: 6,
+            std_error_floor: false,
         }
     }
 }
@@ -350,7 +362,24 @@ pub fn assess(
             return Err(HistoryError::NotFinite { time_s: p.time_s });
         }
     }
-    let b = baseline(points, params.baseline, params.min_relative_std)?;
+    let mut b = baseline(points, params.baseline, params.min_relative_std)?;
+    if params.std_error_floor {
+        let set: Vec<&Point> = match params.baseline {
+            BaselineSpec::FirstN { .. } => points.iter().take(b.count).collect(),
+            BaselineSpec::Reference { index, .. } => points.get(index).into_iter().collect(),
+        };
+        let ses: Vec<f64> = set.iter().filter_map(|p| p.std_error).collect();
+        if !ses.is_empty() {
+            // Test-to-test scatter = the relative scatter of the quantity ⊕ the measurement
+            // error: the two floors add in quadrature.
+            let rms = (ses.iter().map(|s| s * s).sum::<f64>() / ses.len() as f64).sqrt();
+            let floor = rms.hypot(params.min_relative_std * b.mean.abs());
+            if floor > b.std {
+                b.std = floor;
+                b.std_floored = true;
+            }
+        }
+    }
     let limits = Limits::shewhart(&b, params.shewhart_l);
     let values: Vec<f64> = points.iter().map(|p| p.value).collect();
     let ew = ewma(&values, &b, params.ewma_lambda, params.ewma_l);

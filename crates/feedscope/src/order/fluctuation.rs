@@ -8,6 +8,7 @@ use super::kinematic::{classify, KinematicOrder};
 use super::peaks::{find_peaks, PeakParams};
 use super::spectrum::{SpectrumAnalyzer, Window};
 use super::OrderError;
+use super::{Cause, Segment};
 use crate::diag::Diagnostic;
 use crate::stroke::StrokeView;
 
@@ -49,10 +50,6 @@ impl Default for SegmentSpec {
 /// resolution 1/L must be 0.5 orders or finer to tell 1x from 2x (the stroke-level rule of
 /// [`crate::verdict`] asks for more).
 pub const SEGMENT_CAUSE_MIN_LEADS: f64 = 2.0;
-
-/// The cause of a component whose order is not resolved (segment too short, order above the
-/// trusted one).
-pub const UNRESOLVED: &str = "unresolved";
 
 /// Most segments [`segment_bounds`] returns per interval (and for `count`).
 pub const MAX_SEGMENTS: usize = 1000;
@@ -164,8 +161,8 @@ impl Default for SpectrumParams {
 /// Amplitude spectrum of one segment of the FFS.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Spectrum {
-    /// Segment label: `all` for the whole stroke, else `1`, `2`, ... along increasing position.
-    pub segment: String,
+    /// Segment: the whole stroke (`all`), else `1`, `2`, ... along increasing position.
+    pub segment: Segment,
     /// Segment start (mm).
     pub start_mm: f64,
     /// Segment end (mm).
@@ -196,8 +193,8 @@ impl Spectrum {
 /// A significant component of a segment's FFS spectrum.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SignificantComponent {
-    /// Segment label (`all` or `1`, `2`, ...).
-    pub segment: String,
+    /// Segment (`all` or `1`, `2`, ...).
+    pub segment: Segment,
     /// Centre of the segment (mm).
     pub position_mm: f64,
     /// Refined order (cycles per lead).
@@ -207,8 +204,8 @@ pub struct SignificantComponent {
     /// Local median noise floor (N).
     pub floor_n: f64,
     /// Cause: a kinematic cause (`shaft 1x`, `nut ball refeed 1x`, ...), `unexplained`, or
-    /// [`UNRESOLVED`] when the order is not resolved well enough to name one.
-    pub cause: String,
+    /// `unresolved` when the order is not resolved well enough to name one.
+    pub cause: Cause,
     /// The kinematic order matched, if any.
     pub kinematic_order: Option<f64>,
     /// `false` when the order is above the stroke's highest trusted order (possible alias).
@@ -253,7 +250,7 @@ impl FluctuationAnalysis {
         let segs: Vec<&Spectrum> = self
             .spectra
             .iter()
-            .filter(|sp| sp.segment != "all")
+            .filter(|sp| !sp.segment.is_whole())
             .collect();
         if segs.is_empty() || max_order.is_nan() || max_order <= 0.0 {
             return None;
@@ -355,7 +352,7 @@ pub fn analyze_fluctuation(
     } else {
         segment_bounds(&[x0_mm, x1_mm], lead_mm, &params.segments)?
     };
-    let mut segs: Vec<(String, usize, usize)> = vec![("all".to_string(), 0, n)];
+    let mut segs: Vec<(Segment, usize, usize)> = vec![(Segment::Whole, 0, n)];
     let mut warnings = Vec::new();
     let mut skipped = Vec::new();
     for (i, (a, b)) in bounds.iter().enumerate() {
@@ -366,7 +363,7 @@ pub fn analyze_fluctuation(
             continue;
         }
         // Adjacent segments share their boundary sample at most.
-        segs.push(((i + 1).to_string(), lo, hi));
+        segs.push((Segment::Part(i + 1), lo, hi));
     }
     if !skipped.is_empty() {
         warnings.push(Diagnostic::new(
@@ -405,11 +402,11 @@ pub fn analyze_fluctuation(
             };
             let cause = match k {
                 Some(k) => k.cause.clone(),
-                None if long_enough && trusted => "unexplained".to_string(),
-                None => UNRESOLVED.to_string(),
+                None if long_enough && trusted => Cause::Unexplained,
+                None => Cause::Unresolved,
             };
             components.push(SignificantComponent {
-                segment: label.clone(),
+                segment: label,
                 position_mm: centre,
                 order: p.order,
                 amplitude_n: p.amplitude_n,
@@ -438,9 +435,10 @@ pub fn analyze_fluctuation(
         warnings.push(Diagnostic::new(
             "components-unresolved",
             format!(
-                "{unresolved} significant component(s) left `{UNRESOLVED}`: their segment \
+                "{unresolved} significant component(s) left `{}`: their segment \
                  spans fewer than {SEGMENT_CAUSE_MIN_LEADS} leads (order resolution coarser \
                  than 0.5) or their order is above the trusted order {:.2}",
+                Cause::Unresolved,
                 stroke.max_trusted_order
             ),
         ));

@@ -3,15 +3,19 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::Cause;
 use crate::axis::AxisParams;
+
+/// The cause of harmonic h of one refeed mechanism.
+type Harmonic = fn(u8) -> Cause;
 
 /// A kinematic order of the drive and its cause.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct KinematicOrder {
     /// Cycles per lead.
     pub order: f64,
-    /// Cause, e.g. `shaft 1x`, `nut ball refeed 2x`, `declared: rolling-tool mark`.
-    pub cause: String,
+    /// Cause, written e.g. `shaft 1x`, `nut ball refeed 2x`, `declared: rolling-tool mark`.
+    pub cause: Cause,
 }
 
 /// The kinematic orders of an axis: shaft orders 1-4 (pitch errors), ball refeeding in the nut
@@ -24,7 +28,7 @@ pub struct KinematicOrder {
 /// # Example
 /// ```
 /// use feedscope::axis::{AxisParams, ConfigFormat};
-/// use feedscope::order::kinematic_orders;
+/// use feedscope::order::{kinematic_orders, Cause};
 /// let axis = AxisParams::parse(
 ///     "lead_mm = 10\ntable_mass_kg = 425\ninertia_kgm2 = 0.004\n\
 ///      damping_nms_per_rad = 0.002\ntorque_constant_nm_per_a = 1.82\n\
@@ -34,25 +38,26 @@ pub struct KinematicOrder {
 /// )
 /// .unwrap();
 /// let k = kinematic_orders(&axis);
-/// let g2 = k.iter().find(|k| k.cause == "guide ball refeed 2x").unwrap();
+/// let g2 = k.iter().find(|k| k.cause == Cause::GuideRefeed(2)).unwrap();
 /// assert!((g2.order - 19.0).abs() < 1e-12); // z/2 · 2 with z = 19 (Eq. 7, d → ∞)
 /// ```
 pub fn kinematic_orders(axis: &AxisParams) -> Vec<KinematicOrder> {
     let mut out: Vec<KinematicOrder> = (1..=4)
         .map(|h| KinematicOrder {
             order: h as f64,
-            cause: format!("shaft {h}x"),
+            cause: Cause::Shaft(h),
         })
         .collect();
-    for (base, name) in [
-        (axis.nut_refeed_order(), "nut ball refeed"),
-        (axis.guide_refeed_order(), "guide ball refeed"),
-    ] {
+    let refeeds: [(Option<f64>, Harmonic); 2] = [
+        (axis.nut_refeed_order(), Cause::NutRefeed),
+        (axis.guide_refeed_order(), Cause::GuideRefeed),
+    ];
+    for (base, cause) in refeeds {
         if let Some(f) = base.filter(|f| f.is_finite() && *f > 0.0) {
             for h in 1..=3 {
                 out.push(KinematicOrder {
                     order: f * h as f64,
-                    cause: format!("{name} {h}x"),
+                    cause: cause(h),
                 });
             }
         }
@@ -60,7 +65,7 @@ pub fn kinematic_orders(axis: &AxisParams) -> Vec<KinematicOrder> {
     for d in &axis.declared_orders {
         out.push(KinematicOrder {
             order: d.order,
-            cause: format!("declared: {}", d.cause),
+            cause: Cause::Declared(d.cause.clone()),
         });
     }
     out

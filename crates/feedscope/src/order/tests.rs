@@ -158,26 +158,29 @@ fn classification_uses_resolution_or_relative_tolerance() {
     let k = vec![
         KinematicOrder {
             order: 1.0,
-            cause: "shaft 1x".into(),
+            cause: "shaft 1x".parse().unwrap(),
         },
         KinematicOrder {
             order: 8.6,
-            cause: "nut ball refeed 1x".into(),
+            cause: "nut ball refeed 1x".parse().unwrap(),
         },
         KinematicOrder {
             order: 9.5,
-            cause: "guide ball refeed 1x".into(),
+            cause: "guide ball refeed 1x".parse().unwrap(),
         },
     ];
-    assert_eq!(classify(1.02, 0.025, 0.03, &k).unwrap().cause, "shaft 1x");
+    assert_eq!(
+        classify(1.02, 0.025, 0.03, &k).unwrap().cause.to_string(),
+        "shaft 1x"
+    );
     assert!(classify(1.05, 0.025, 0.03, &k).is_none());
     assert!(classify(1.2, 0.25, 0.03, &k).is_some()); // coarse segment resolution
     assert_eq!(
-        classify(8.8, 0.025, 0.03, &k).unwrap().cause,
+        classify(8.8, 0.025, 0.03, &k).unwrap().cause.to_string(),
         "nut ball refeed 1x"
     );
     assert_eq!(
-        classify(9.3, 0.025, 0.03, &k).unwrap().cause,
+        classify(9.3, 0.025, 0.03, &k).unwrap().cause.to_string(),
         "guide ball refeed 1x"
     );
     assert!(classify(9.05, 0.025, 0.03, &k).is_none());

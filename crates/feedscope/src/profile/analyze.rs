@@ -93,8 +93,8 @@ pub struct StrokeAnalysis {
 /// };
 /// let a = analyze_stroke(&stroke, &axis, &AnalysisParams::default(), &mut SpectrumAnalyzer::new())
 ///     .unwrap();
-/// let c = a.fluctuation.components.iter().find(|c| c.segment == "all").unwrap();
-/// assert_eq!(c.cause, "shaft 1x");
+/// let c = a.fluctuation.components.iter().find(|c| c.segment.is_whole()).unwrap();
+/// assert_eq!(c.cause, feedscope::order::Cause::Shaft(1));
 /// assert!((c.amplitude_n - 5.0).abs() < 0.05);
 /// ```
 pub fn analyze_stroke(

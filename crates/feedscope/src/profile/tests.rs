@@ -642,7 +642,7 @@ fn whole_stroke_spectrum_finds_and_classifies_every_component() {
             .fluctuation
             .components
             .iter()
-            .filter(|c| c.segment == "all")
+            .filter(|c| c.segment.is_whole())
             .collect();
         for t in TONES {
             let found = all
@@ -672,7 +672,7 @@ fn whole_stroke_spectrum_finds_and_classifies_every_component() {
                 c.amplitude_n,
                 t.amplitude_n
             );
-            assert_eq!(c.cause, t.cause);
+            assert_eq!(c.cause.to_string(), t.cause);
             assert!(c.trusted);
         }
         // Spurious: significant components ≥ 1 N not within 0.02 orders of a true one.
@@ -696,7 +696,12 @@ fn whole_stroke_spectrum_finds_and_classifies_every_component() {
         );
         // Per segment at most one spurious significant component (any amplitude): a component
         // is explained by a true tone within max(resolution, 3 %) of its order.
-        for sp in a.fluctuation.spectra.iter().filter(|s| s.segment != "all") {
+        for sp in a
+            .fluctuation
+            .spectra
+            .iter()
+            .filter(|s| !s.segment.is_whole())
+        {
             let bad: Vec<_> = a
                 .fluctuation
                 .components
@@ -772,11 +777,11 @@ fn aliasing_guard_flags_untrusted_orders_and_gives_the_feed() {
     let comps = &a.fluctuation.components;
     assert!(comps
         .iter()
-        .filter(|c| c.segment == "all" && c.order > 12.0)
+        .filter(|c| c.segment.is_whole() && c.order > 12.0)
         .all(|c| !c.trusted));
     assert!(comps
         .iter()
-        .any(|c| c.segment == "all" && (c.order - 19.0).abs() < 0.02 && !c.trusted));
+        .any(|c| c.segment.is_whole() && (c.order - 19.0).abs() < 0.02 && !c.trusted));
     assert!(comps.iter().filter(|c| c.order <= 12.0).all(|c| c.trusted));
     let codes: Vec<&str> = a
         .fluctuation
@@ -913,7 +918,7 @@ fn heavy_noise_stays_fast_and_finds_the_strong_tones() {
             a.fluctuation
                 .components
                 .iter()
-                .any(|c| c.segment == "all" && (c.order - t.order).abs() < 0.02),
+                .any(|c| c.segment.is_whole() && (c.order - t.order).abs() < 0.02),
             "{}",
             t.order
         );

@@ -12,6 +12,7 @@
 //! | friction along the travel (paper 000 Section 4.1): IAFV, spectra, Table 2 of estimated strokes | [`analyze_strokes`] ([`analyze_trace`] from a trace) | [`AnalyzeStudyParams`] | [`AnalyzeStudy`] |
 //! | friction map and Stribeck fits of a test set (paper 000 Section 4.2) | [`map_study`] | [`MapStudyParams`] | [`MapStudy`] |
 //! | trends and diagnosis of an axis's indicator series | [`axis_trends`] | [`TrendStudyParams`] | [`AxisTrendStudy`] |
+//! | the same with the stroke tests' friction compared position by position (local wear) | [`axis_study`] | [`TrendStudyParams`] | [`AxisTrendStudy`] |
 //!
 //! ```
 //! use feedscope::study::{triangle_test, TriangleStudyParams};
@@ -67,7 +68,7 @@ pub use stroke::{
     stroke_test, Curves, HeatmapData, IntervalMean, ProfileCurve, StrokeComponent,
     StrokeStudyParams, StrokeTest,
 };
-pub use trend::{axis_trends, AxisTrendStudy, IndicatorSeries, TrendStudyParams};
+pub use trend::{axis_study, axis_trends, AxisTrendStudy, IndicatorSeries, TrendStudyParams};
 pub use triangle::{triangle_test, TriangleStudyParams, TriangleTest};
 pub use withhold::WithheldStroke;
 

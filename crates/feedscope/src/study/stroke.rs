@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::axis::AxisParams;
 use crate::estimate::{estimate, Direction, EstimateParams};
-use crate::history::Indicator;
+use crate::history::{GridBuilder, GridProfile, Indicator};
 use crate::order::{FluctuationAnalysis, SignificantComponent, SpectrumAnalyzer};
 use crate::profile::{analyze_stroke, AnalysisParams};
 use crate::stroke::StrokeView;
@@ -26,6 +26,9 @@ pub struct StrokeStudyParams {
     /// Width of the position intervals of the mean-friction indicators (mm), aligned at 0.
     /// Default 50 mm.
     pub interval_mm: f64,
+    /// Cells per lead of the position grid kept for the position-resolved comparison
+    /// ([`Curves::grid`], [`crate::history::profile_changes`]). Default 8.
+    pub grid_cells_per_lead: u32,
 }
 
 impl Default for StrokeStudyParams {
@@ -34,6 +37,7 @@ impl Default for StrokeStudyParams {
             estimate: EstimateParams::default(),
             analysis: AnalysisParams::default(),
             interval_mm: 50.0,
+            grid_cells_per_lead: 8,
         }
     }
 }
@@ -74,6 +78,12 @@ pub struct Curves {
     /// The test's data verdict (absent in curves stored before it existed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub verdict: Option<DataVerdict>,
+    /// Friction magnitude along the travel on a grid of lead/8, averaged over the strokes the
+    /// verdict supports as a profile, one per direction: what
+    /// [`crate::history::profile_changes`] compares (empty in curves stored before it
+    /// existed).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub grid: Vec<GridProfile>,
 }
 
 /// Friction and IAFV of one stroke, thinned to at most about 1,500 points.
@@ -115,7 +125,8 @@ pub struct StrokeTest {
     pub components: Vec<StrokeComponent>,
     /// Indicators: [`Indicator::MeanFriction`] per interval (standard error from the scatter
     /// about the IAFV), then [`Indicator::Component`] per direction and cause (mean over the
-    /// strokes of the largest trusted whole-stroke amplitude of that cause).
+    /// strokes of the largest trusted whole-stroke amplitude of that cause; standard error
+    /// from the spectrum's noise floor there: RMS floor/1.1774/√strokes).
     pub indicators: Vec<IndicatorValue>,
     /// Curves for a report.
     pub curves: Curves,
@@ -145,6 +156,13 @@ pub fn stroke_test(
             expected: "a positive length",
         });
     }
+    if params.grid_cells_per_lead == 0 {
+        return Err(StudyError::BadParameter {
+            name: "grid_cells_per_lead",
+            value: 0.0,
+            expected: "at least 1",
+        });
+    }
     let est = estimate(trace, axis, &params.estimate)?;
     // Only what the data support becomes an indicator: interval means need a profile,
     // component amplitudes need causes.
@@ -161,12 +179,21 @@ pub fn stroke_test(
     let mut bins: BTreeMap<(u8, i64), Bin> = BTreeMap::new();
     let mut components = Vec::new();
     // (direction, cause) → amplitudes of each stroke (max over its components of that cause)
-    let mut amp: BTreeMap<(u8, String), Vec<f64>> = BTreeMap::new();
+    let mut amp: BTreeMap<(u8, crate::order::Cause), Vec<f64>> = BTreeMap::new();
     let mut curves = Curves {
         profiles: vec![],
         heatmaps: vec![],
         verdict: Some(est.verdict.clone()),
+        grid: vec![],
     };
+    let lead_mm = lead * 1e3;
+    // Only strokes the verdict supports as a profile reach here: withheld ones feed no grid.
+    let mut grids = [
+        GridBuilder::new(Direction::Forward, lead_mm, params.grid_cells_per_lead),
+        GridBuilder::new(Direction::Backward, lead_mm, params.grid_cells_per_lead),
+    ];
+    // (direction, cause) → noise floors (N) of the components picked, one per stroke
+    let mut floors: BTreeMap<(u8, crate::order::Cause), Vec<f64>> = BTreeMap::new();
     for s in &strokes {
         let v = StrokeView::from_estimate(s, lead);
         let d = s.summary.direction;
@@ -184,6 +211,8 @@ pub fn stroke_test(
                 }
             })?;
         withhold::apply(&mut a, withhold::support_of(s));
+        // Half a lead at each end is left out: the stroke's acceleration transients.
+        grids[usize::from(dk)].add_stroke(&s.position_m, &s.friction_n, 0.5 * lead_mm);
         for ((&z, &f), &m) in s.position_m.iter().zip(&s.friction_n).zip(&a.iafv_n) {
             let b = (z * 1e3 / interval_mm).floor() as i64;
             let e = bins.entry((dk, b)).or_default();
@@ -193,23 +222,22 @@ pub fn stroke_test(
             e.raw_samples += raw_per_point;
             e.quantum_n = e.quantum_n.max(s.summary.effort_quantum_n);
         }
-        let mut best: BTreeMap<String, f64> = BTreeMap::new();
+        let mut best: BTreeMap<crate::order::Cause, (f64, f64)> = BTreeMap::new();
         for c in &a.fluctuation.components {
             components.push(StrokeComponent {
                 direction: d,
                 component: c.clone(),
             });
-            if c.segment == "all"
-                && c.trusted
-                && c.cause != "unexplained"
-                && c.cause != crate::order::UNRESOLVED
-            {
-                let e = best.entry(c.cause.clone()).or_insert(0.0);
-                *e = e.max(c.amplitude_n);
+            if c.segment.is_whole() && c.trusted && c.cause.is_kinematic() {
+                let e = best.entry(c.cause.clone()).or_insert((0.0, 0.0));
+                if c.amplitude_n > e.0 {
+                    *e = (c.amplitude_n, c.floor_n);
+                }
             }
         }
-        for (cause, x) in best {
-            amp.entry((dk, cause)).or_default().push(x);
+        for (cause, (x, floor)) in best {
+            amp.entry((dk, cause.clone())).or_default().push(x);
+            floors.entry((dk, cause)).or_default().push(floor);
         }
         if !curves.profiles.iter().any(|p| p.direction == d.as_str()) {
             let step = s.position_m.len().div_ceil(1500).max(1);
@@ -265,6 +293,12 @@ pub fn stroke_test(
         indicators.push(IndicatorValue::new(i, mean_n, Some(se)));
     }
     for ((dk, cause), v) in amp {
+        // The noise moves an amplitude by about one noise σ per bin, and the floor is the
+        // median noise amplitude, a Rayleigh median = 1.1774 σ: SE ≈ RMS floor/1.1774/√strokes.
+        let fl = floors.get(&(dk, cause.clone())).map_or(0.0, |f| {
+            (f.iter().map(|x| x * x).sum::<f64>() / f.len() as f64).sqrt()
+        });
+        let se = fl / RAYLEIGH_MEDIAN_PER_SIGMA / (v.len() as f64).sqrt();
         let i = Indicator::Component {
             direction: direction_of(dk),
             cause,
@@ -272,9 +306,10 @@ pub fn stroke_test(
         indicators.push(IndicatorValue::new(
             i,
             v.iter().sum::<f64>() / v.len() as f64,
-            None,
+            (se > 0.0).then_some(se),
         ));
     }
+    curves.grid = grids.into_iter().filter_map(GridBuilder::finish).collect();
     Ok(StrokeTest {
         intervals,
         components,
@@ -284,6 +319,10 @@ pub fn stroke_test(
         verdict: est.verdict,
     })
 }
+
+/// Median of a Rayleigh-distributed amplitude in units of the per-quadrature noise σ:
+/// √(2 ln 2).
+const RAYLEIGH_MEDIAN_PER_SIGMA: f64 = 1.177_410_022_515_474_8;
 
 /// Sums over the resampled points of one direction in one position interval.
 #[derive(Default)]

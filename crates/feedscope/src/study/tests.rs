@@ -441,7 +441,7 @@ fn analyze_strokes_finds_the_ripple_order_and_amplitude() {
             .fluctuation
             .components
             .iter()
-            .filter(|c| c.segment == "all")
+            .filter(|c| c.segment.is_whole())
             .collect();
         let c = whole
             .iter()
@@ -453,7 +453,7 @@ fn analyze_strokes_finds_the_ripple_order_and_amplitude() {
             (c.amplitude_n - amp).abs() < 0.005 * amp,
             "stroke {k}: {c:?}"
         );
-        assert_eq!(c.cause, cause);
+        assert_eq!(c.cause.to_string(), cause);
         assert!(c.trusted);
         // The FFS is the ripple: its RMS is amp/√2 (the IAFV takes the trend, not the ripple,
         // except within about a lead of the ends where the fit bends towards it).

@@ -5,8 +5,8 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use crate::history::{
-    assess, diagnose, BaselineSpec, HistoryError, Indicator, IndicatorTrend, Point, Threshold,
-    TrendParams,
+    assess, diagnose_with_profiles, profile_changes, BaselineSpec, HistoryError, Indicator,
+    IndicatorTrend, LocalParams, Point, ProfileChanges, ProfileTest, Threshold, TrendParams,
 };
 
 use super::StudyError;
@@ -22,6 +22,14 @@ pub struct TrendStudyParams {
     pub baseline_tests: usize,
     /// Alarm levels by indicator key; an indicator without one has none.
     pub thresholds: BTreeMap<String, Threshold>,
+    /// The position-resolved comparison of the stroke tests' friction profiles (its own
+    /// baseline: the first 2 stroke tests by default).
+    pub profiles: LocalParams,
+    /// Floor of σ of the component amplitudes relative to μ₀. Default 0.03: the amplitude of
+    /// an unchanged component scatters by about ±3 % between identical tests (the
+    /// spectrum's leakage and noise), more at low amplitude, where the amplitudes' own
+    /// standard errors (noise floor) set the floor instead.
+    pub component_min_relative_std: f64,
 }
 
 impl Default for TrendStudyParams {
@@ -29,6 +37,8 @@ impl Default for TrendStudyParams {
         Self {
             baseline_tests: 5,
             thresholds: BTreeMap::new(),
+            profiles: LocalParams::default(),
+            component_min_relative_std: 0.03,
         }
     }
 }
@@ -42,21 +52,48 @@ pub struct AxisTrendStudy {
     pub trends: Vec<IndicatorTrend>,
     /// Keys with too few tests for a baseline, or not known to this version.
     pub skipped: Vec<String>,
-    /// Diagnosis sentences ([`diagnose`]).
+    /// The stroke tests' friction profiles compared position by position with their baseline
+    /// ([`profile_changes`]); `None` when no profile was given.
+    pub profiles: Option<ProfileChanges>,
+    /// Diagnosis sentences ([`diagnose_with_profiles`]).
     pub diagnosis: Vec<String>,
 }
 
-/// Trend every indicator series of an axis ([`assess`]) and diagnose them ([`diagnose`]).
-///
-/// `series` maps indicator keys ([`Indicator::name`]) to their points; `reference` is the id
-/// of the axis's reference test, whose value then is the baseline mean.
+/// Trend every indicator series of an axis ([`assess`]) and diagnose them
+/// ([`crate::history::diagnose`]): [`axis_study`] without friction profiles.
 ///
 /// # Errors
-/// [`StudyError::Trend`] when a series cannot be assessed for a reason other than too few
-/// tests (those are listed in [`AxisTrendStudy::skipped`]).
+/// As [`axis_study`].
 pub fn axis_trends(
     series: &BTreeMap<String, IndicatorSeries>,
     reference: Option<i64>,
+    params: &TrendStudyParams,
+) -> Result<AxisTrendStudy, StudyError> {
+    axis_study(series, reference, &[], params)
+}
+
+/// Trend every indicator series of an axis ([`assess`]), compare the stroke tests' friction
+/// profiles with their baseline position by position ([`profile_changes`]) and diagnose both
+/// ([`diagnose_with_profiles`]).
+///
+/// `series` maps indicator keys ([`Indicator::name`]) to their points; `reference` is the id
+/// of the axis's reference test, whose value (and profile) then is the baseline. `profiles`:
+/// the grid profiles of the stroke tests in time order ([`super::Curves::grid`]), only of
+/// tests the store kept (a test whose strokes the data verdict withheld from a profile has
+/// none: they do not reach the comparison).
+///
+/// Component amplitudes get σ ≥ √(SE² + (c·μ₀)²), c =
+/// [`TrendStudyParams::component_min_relative_std`], SE their own standard errors
+/// ([`TrendParams::std_error_floor`]).
+///
+/// # Errors
+/// [`StudyError::Trend`] when a series cannot be assessed for a reason other than too few
+/// tests (those are listed in [`AxisTrendStudy::skipped`]) or the profiles cannot be
+/// compared (times not increasing, non-finite values, parameters out of range).
+pub fn axis_study(
+    series: &BTreeMap<String, IndicatorSeries>,
+    reference: Option<i64>,
+    profiles: &[ProfileTest],
     params: &TrendStudyParams,
 ) -> Result<AxisTrendStudy, StudyError> {
     let mut trends = Vec::new();
@@ -76,9 +113,18 @@ pub fn axis_trends(
                 count: params.baseline_tests,
             },
         };
-        let trend_params = TrendParams {
-            baseline,
-            ..TrendParams::default()
+        let trend_params = if matches!(ind, Indicator::Component { .. }) {
+            TrendParams {
+                baseline,
+                min_relative_std: params.component_min_relative_std,
+                std_error_floor: true,
+                ..TrendParams::default()
+            }
+        } else {
+            TrendParams {
+                baseline,
+                ..TrendParams::default()
+            }
         };
         let th = params.thresholds.get(name).copied().unwrap_or_default();
         match assess(&ind, &pts, &trend_params, &th) {
@@ -123,6 +169,18 @@ pub fn axis_trends(
         .iter()
         .filter(|n| Indicator::parse(n).is_some())
         .count();
+    let changes = if profiles.is_empty() {
+        None
+    } else {
+        Some(
+            profile_changes(profiles, reference, &params.profiles).map_err(|source| {
+                StudyError::Trend {
+                    indicator: "friction profile".into(),
+                    source,
+                }
+            })?,
+        )
+    };
     let mut diagnosis = if trends.is_empty() {
         vec![format!(
             "No indicator has a baseline yet: a baseline needs {} tests and the series have \
@@ -132,8 +190,17 @@ pub fn axis_trends(
             params.baseline_tests.saturating_sub(most).max(1)
         )]
     } else {
-        diagnose(&trends)
+        diagnose_with_profiles(&trends, changes.as_ref())
     };
+    if trends.is_empty() {
+        // What the profiles already allow (after 1, 2, 3 stroke tests) is worth saying even
+        // before the indicators have a baseline.
+        diagnosis.extend(
+            diagnose_with_profiles(&[], changes.as_ref())
+                .into_iter()
+                .filter(|s| !s.starts_with("No indicator has left its baseline band")),
+        );
+    }
     if !trends.is_empty() && short > 0 {
         diagnosis.push(format!(
             "{short} indicator(s) have too few tests for a baseline and are not assessed."
@@ -142,6 +209,7 @@ pub fn axis_trends(
     Ok(AxisTrendStudy {
         trends,
         skipped,
+        profiles: changes,
         diagnosis,
     })
 }

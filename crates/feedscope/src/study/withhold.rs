@@ -5,7 +5,7 @@ use serde::Serialize;
 
 use crate::diag::Diagnostic;
 use crate::estimate::StrokeFriction;
-use crate::order::UNRESOLVED;
+use crate::order::Cause;
 use crate::profile::StrokeAnalysis;
 use crate::stroke::Direction;
 use crate::verdict::Support;
@@ -86,7 +86,7 @@ pub(crate) fn not_supported(needed: &'static str, withheld: &[WithheldStroke]) -
 
 /// Withhold from one stroke's analysis what its support does not allow: below
 /// [`Support::Orders`] no significant component is kept; below [`Support::Causes`] every
-/// component's cause is [`UNRESOLVED`]. Each withholding is said in the fluctuation warnings.
+/// component's cause is [`Cause::Unresolved`]. Each withholding is said in the fluctuation warnings.
 pub(crate) fn apply(a: &mut StrokeAnalysis, support: Support) {
     let fl = &mut a.fluctuation;
     if support < Support::Orders && !fl.components.is_empty() {
@@ -103,8 +103,8 @@ pub(crate) fn apply(a: &mut StrokeAnalysis, support: Support) {
     } else if support < Support::Causes {
         let mut n = 0;
         for c in &mut fl.components {
-            if c.cause != UNRESOLVED {
-                c.cause = UNRESOLVED.to_string();
+            if c.cause != Cause::Unresolved {
+                c.cause = Cause::Unresolved;
                 c.kinematic_order = None;
                 n += 1;
             }
@@ -113,8 +113,9 @@ pub(crate) fn apply(a: &mut StrokeAnalysis, support: Support) {
             fl.warnings.push(Diagnostic::new(
                 "causes-withheld",
                 format!(
-                    "{n} component cause(s) withheld (`{UNRESOLVED}`): the data verdict of \
+                    "{n} component cause(s) withheld (`{}`): the data verdict of \
                      this stroke is `{}` (too few leads to tell kinematic orders apart)",
+                    Cause::Unresolved,
                     support.as_str()
                 ),
             ));

@@ -1,6 +1,7 @@
 //! Round trips through the digital twin: simulate a drive with known friction, estimate it,
-//! compare with the truth.
+//! compare with the truth; and condition histories built from it.
 mod estimate;
+mod history;
 mod ident;
 mod map;
 mod nc;

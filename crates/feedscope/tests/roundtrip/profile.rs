@@ -6,20 +6,20 @@
 //! amplitude error below 10 % and the right cause, no spurious peak of 1 N or more; per segment
 //! at most one spurious significant component.
 use feedscope::axis::DeclaredOrder;
-use feedscope::order::{kinematic_orders, SpectrumAnalyzer};
+use feedscope::order::{kinematic_orders, Cause, SpectrumAnalyzer};
 use feedscope::profile::{analyze_stroke, AnalysisParams, StrokeView};
 use feedscope::sim::ComponentDirection;
 
 use crate::util::*;
 
 /// The cause feedscope should give a true component of this order.
-fn expected_cause(axis: &feedscope::axis::AxisParams, order: f64) -> String {
+fn expected_cause(axis: &feedscope::axis::AxisParams, order: f64) -> Cause {
     let kin = kinematic_orders(axis);
     kin.iter()
         .min_by(|a, b| (a.order - order).abs().total_cmp(&(b.order - order).abs()))
         .filter(|k| (k.order - order).abs() < 1e-6)
         .map(|k| k.cause.clone())
-        .unwrap_or_else(|| "unexplained".into())
+        .unwrap_or(Cause::Unexplained)
 }
 
 fn check(label: &str, mut cfg: feedscope::sim::SimConfig) {
@@ -55,7 +55,7 @@ fn check(label: &str, mut cfg: feedscope::sim::SimConfig) {
             .fluctuation
             .components
             .iter()
-            .filter(|c| c.segment == "all")
+            .filter(|c| c.segment.is_whole())
             .collect();
         // Components beyond the trusted order are flagged, not claimed: only trusted ones count.
         let claimed = |c: &&&feedscope::order::SignificantComponent| c.trusted;
@@ -104,7 +104,7 @@ fn check(label: &str, mut cfg: feedscope::sim::SimConfig) {
             .fluctuation
             .spectra
             .iter()
-            .filter(|sp| sp.segment != "all")
+            .filter(|sp| !sp.segment.is_whole())
         {
             let spurious = a
                 .fluctuation
