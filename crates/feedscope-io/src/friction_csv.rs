@@ -243,7 +243,7 @@ pub enum FrictionCsvError {
         text: String,
     },
     /// A position beyond any feed axis' travel ([`MAX_ABS_POSITION_M`]).
-    #[error("{source_name}:{line}: position {value_mm} mm is beyond ±{limit_mm} mm, which no feed axis reaches")]
+    #[error("{source_name}:{line}: position {} mm is beyond ±{} mm, which no feed axis reaches", feedscope::units::Shown(*.value_mm), feedscope::units::Shown(*.limit_mm))]
     PositionOutOfRange {
         /// The file.
         source_name: String,
@@ -255,7 +255,7 @@ pub enum FrictionCsvError {
         limit_mm: f64,
     },
     /// The summary's `params.samples_per_lead` is not a grid a friction CSV was written on.
-    #[error("{source_name}: params.samples_per_lead = {value}: must lie in [1, {max}]", max = MAX_SAMPLES_PER_LEAD)]
+    #[error("{source_name}: params.samples_per_lead = {}: must lie in [1, {max}]", feedscope::units::Shown(*.value), max = MAX_SAMPLES_PER_LEAD)]
     BadSamplesPerLead {
         /// The summary file.
         source_name: String,

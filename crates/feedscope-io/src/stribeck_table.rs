@@ -210,7 +210,8 @@ pub enum TableError {
     /// 0): no steady-speed test runs that slowly or fast, and a subnormal feed such as 1e-320
     /// mm/min becomes 0 m/s.
     #[error(
-        "{source_name}:{line}: feed {feed_mm_min} mm/min: |feed| must lie in [{min}, {max}] mm/min",
+        "{source_name}:{line}: feed {} mm/min: |feed| must lie in [{min}, {max}] mm/min",
+        feedscope::units::Shown(*.feed_mm_min),
         min = MIN_FEED_MM_MIN,
         max = MAX_FEED_MM_MIN
     )]
@@ -223,7 +224,7 @@ pub enum TableError {
         feed_mm_min: f64,
     },
     /// A torque or force beyond any feed drive's ([`MAX_ABS_TORQUE_NM`], [`MAX_ABS_FORCE_N`]).
-    #[error("{source_name}:{line}: column `{column}`: {value} is beyond ±{limit}, which no feed drive reaches")]
+    #[error("{source_name}:{line}: column `{column}`: {} is beyond ±{}, which no feed drive reaches", feedscope::units::Shown(*.value), feedscope::units::Shown(*.limit))]
     EffortOutOfRange {
         /// The file.
         source_name: String,

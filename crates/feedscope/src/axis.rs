@@ -32,7 +32,7 @@ pub enum AxisError {
         name: String,
     },
     /// A key holds a value outside its physical range.
-    #[error("{source_name}: key `{key}` = {value}: {reason}")]
+    #[error("{source_name}: key `{key}` = {}: {reason}", crate::units::Shown(*.value))]
     InvalidValue {
         /// File name (or other label) of the input.
         source_name: String,

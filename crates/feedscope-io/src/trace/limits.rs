@@ -6,8 +6,11 @@
 //! The bounds are generous on purpose; they only keep numbers that cannot come from a drive
 //! out of the maths (one current sample of 1e300 A made a mean friction of 1.9e300 N):
 //! - position: |x| ≤ 100 m. Ball screws are at most about 15 m long; a position beyond
-//!   100 m is a unit error (µm read as mm) or a logger glitch that no screening could tell
-//!   from motion.
+//!   100 m is a unit error (µm read as mm) or a logger glitch. The imports refuse it; the
+//!   trace readers leave position samples to the glitch screen of `feedscope::trace::glitch`
+//!   (issue #10), which drops an excursion of 1-3 samples that comes back, with a warning
+//!   naming its line, and refuses a jump that does not come back. The estimate's grid bound
+//!   refuses a trace whose positions are mis-scaled as a whole.
 //! - motor current: |i| ≤ 10 kA. The largest servo drives of machine tools deliver a few
 //!   hundred amperes.
 //! - motor torque: |T| ≤ 1 MN·m. The largest feed-axis motors deliver a few thousand N·m.
@@ -39,6 +42,10 @@ pub(crate) fn check(
     row: Option<u64>,
 ) -> Option<super::TraceError> {
     let (limit, unit) = bound(channel)?;
+    // Positions: the glitch screen decides (module docs).
+    if unit == "m" {
+        return None;
+    }
     (v.abs() > limit).then(|| super::TraceError::Implausible {
         source_name: source_name.to_string(),
         line,
