@@ -596,14 +596,12 @@ fn smooth(v: &[Option<f64>], half: usize) -> Vec<Option<f64>> {
             if j < half || j + half >= n {
                 return None;
             }
+            let window = &v[j - half..=j + half];
             let mut s = 0.0;
-            for i in j - half..=j + half {
-                let w = if i == j - half || i == j + half {
-                    0.5
-                } else {
-                    1.0
-                };
-                s += w * v[i]?;
+            for (k, x) in window.iter().enumerate() {
+                // Trapezoidal ends: the window spans 2·half steps, not 2·half + 1 nodes.
+                let w = if k == 0 || k == 2 * half { 0.5 } else { 1.0 };
+                s += w * (*x)?;
             }
             Some(s / (2 * half) as f64)
         })

@@ -36,8 +36,10 @@ const DAY_S: f64 = 86_400.0;
 
 /// The twin's axis and sampling (not the papers': see the module docs).
 fn machine(seed: u64) -> SimConfig {
-    let mut c = SimConfig::default();
-    c.seed = seed;
+    let mut c = SimConfig {
+        seed,
+        ..SimConfig::default()
+    };
     c.axis.name = Some("twin X".into());
     c.axis.lead_mm = LEAD_MM;
     c.axis.table_mass_kg = 180.0;
@@ -148,8 +150,11 @@ fn truth_history(story: Story, seed: u64, tests: usize) -> Vec<ProfileTest> {
         .collect()
 }
 
+/// A first flag: the test (1-based), its peak (mm) and extent.
+type FirstFlag = Option<(i64, f64, Extent)>;
+
 /// First test (1-based) with a flagged local range, its peak and extent, per direction.
-fn first_local(c: &ProfileChanges) -> Vec<(Direction, Option<(i64, f64, Extent)>)> {
+fn first_local(c: &ProfileChanges) -> Vec<(Direction, FirstFlag)> {
     c.directions
         .iter()
         .map(|d| {
