@@ -16,6 +16,7 @@ pub mod error;
 pub mod estimate;
 pub mod history;
 pub mod ident;
+pub mod label;
 pub mod lugre;
 pub mod map;
 pub mod nc;

@@ -1,7 +1,7 @@
 //! Diagnosis in words: which indicators moved and what the papers associate with them.
 use super::local::{describe_baseline, DirectionChanges, Extent, ProfileChanges};
 use super::{Indicator, IndicatorTrend, Status};
-use crate::order::Cause;
+use crate::label::Cause;
 
 /// How an indicator moved: +1 up, −1 down, 0 not at all (status `Ok`).
 fn moved(t: &IndicatorTrend) -> i32 {

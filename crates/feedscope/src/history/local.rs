@@ -361,7 +361,7 @@ pub struct ProfileChanges {
 }
 
 /// Compare every stroke test's friction profile with the baseline, position by position (the
-/// rule in the [module docs](self)).
+/// rule in docs/history.md and in this module's source).
 ///
 /// `tests` in time order; `reference` the id of a test marked as reference, whose profile then
 /// is m(x) (the scatter still comes from the first [`LocalParams::baseline_tests`] tests).

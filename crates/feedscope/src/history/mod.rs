@@ -124,7 +124,7 @@ pub enum Indicator {
         /// Stroke direction.
         direction: Direction,
         /// Kinematic cause as classified (written `shaft 1x`, `nut ball refeed 1x`, ...).
-        cause: crate::order::Cause,
+        cause: crate::label::Cause,
     },
 }
 

@@ -162,7 +162,7 @@ fn indicator_names_round_trip() {
         },
         Indicator::Component {
             direction: Direction::Forward,
-            cause: crate::order::Cause::NutRefeed(1),
+            cause: crate::label::Cause::NutRefeed(1),
         },
     ] {
         assert_eq!(Indicator::parse(&i.name()), Some(i.clone()), "{}", i.name());
@@ -266,7 +266,7 @@ fn diagnosis_preload_and_local_bump() {
     };
     let refeed = Indicator::Component {
         direction: Direction::Forward,
-        cause: crate::order::Cause::NutRefeed(1),
+        cause: crate::label::Cause::NutRefeed(1),
     };
     let d = diagnose(&[
         trend_of(m(0.0, 100.0), &falling),

@@ -23,16 +23,15 @@
 
 mod fluctuation;
 mod kinematic;
-mod label;
 mod peaks;
 mod spectrum;
 
+pub use crate::label::{Cause, LabelError, Segment};
 pub use fluctuation::{
     analyze_fluctuation, segment_bounds, FluctuationAnalysis, SegmentSpec, SignificantComponent,
     Spectrum, SpectrumGrid, SpectrumParams, MAX_SEGMENTS, SEGMENT_CAUSE_MIN_LEADS,
 };
 pub use kinematic::{classify, kinematic_orders, KinematicOrder};
-pub use label::{Cause, LabelError, Segment};
 pub(crate) use peaks::find_peaks;
 pub use peaks::PeakParams;
 pub use spectrum::{SpectrumAnalyzer, Window};
