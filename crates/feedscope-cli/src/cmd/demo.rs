@@ -308,10 +308,19 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
     write_atomic(&th_path, th.as_bytes())?;
     drop(store);
     let report = out.join("report.html");
-    super::report::write_report(&db, "demo lathe", Some("Z"), 5, Some(&th_path), &report)?;
+    let detectors = super::history::DetectorArgs::default();
+    super::report::write_report(
+        &db,
+        "demo lathe",
+        Some("Z"),
+        5,
+        &detectors,
+        Some(&th_path),
+        &report,
+    )?;
     let store = super::history::open_store(&db)?;
     let thresholds = super::history::load_thresholds(Some(&th_path))?;
-    let t = super::history::axis_trends(&store, "demo lathe", "Z", 5, &thresholds)?;
+    let t = super::history::axis_trends(&store, "demo lathe", "Z", 5, &detectors, &thresholds)?;
     outln!(
         "\ncondition history of the demo axis ({} tests):",
         t.tests.len()

@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use clap::builder::{EnumValueParser, TypedValueParser};
 use clap::{Subcommand, ValueEnum};
 use feedscope::axis::AxisParams;
-use feedscope::history::{Indicator, IndicatorTrend, Threshold};
+use feedscope::history::{Indicator, IndicatorTrend, LocalParams, Threshold};
 use feedscope::study::{analyze_test, StrokeStudyParams, TestStudyParams, TrendStudyParams};
 use feedscope::trace::GlitchParams;
 use feedscope_io::trace::{read_trace_file_with, ReadOptions};
@@ -164,12 +164,90 @@ pub struct TrendArgs {
     /// Thresholds file (TOML): a `[thresholds]` table of indicator = { upper = .., lower = .. }.
     #[arg(long)]
     pub thresholds: Option<PathBuf>,
+    #[command(flatten)]
+    pub detectors: DetectorArgs,
     /// Exit with code 1 when any indicator is not `ok`.
     #[arg(long)]
     pub fail_on_warning: bool,
     /// What to print on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     pub format: Format,
+}
+
+/// Settings of the change detectors, shared by `history trend` and `report`
+/// (docs/history.md).
+#[derive(Debug, clap::Args, Clone, PartialEq)]
+pub struct DetectorArgs {
+    /// Stroke tests whose friction profiles form the baseline of the position-resolved
+    /// comparison (the first N; ≥ 2, their scatter sets the limits). With a reference test
+    /// marked, its profile is the baseline and these N its scatter.
+    #[arg(long, default_value_t = LocalParams::default().baseline_tests, value_name = "N")]
+    pub profile_baseline_tests: usize,
+    /// Flag width of the position-resolved comparison, in σ of the baseline's own
+    /// test-to-test scatter at each position.
+    #[arg(long, default_value_t = LocalParams::default().k, value_name = "K")]
+    pub profile_limit_sigma: f64,
+    /// Chance per test that any of the axis's component amplitudes raises a false alarm
+    /// although nothing changed (their limits are widened together); in (0, 0.5).
+    #[arg(
+        long,
+        default_value_t = TrendStudyParams::default().component_false_alarm_per_test,
+        value_name = "P"
+    )]
+    pub component_false_alarm: f64,
+}
+
+impl Default for DetectorArgs {
+    fn default() -> Self {
+        Self {
+            profile_baseline_tests: LocalParams::default().baseline_tests,
+            profile_limit_sigma: LocalParams::default().k,
+            component_false_alarm: TrendStudyParams::default().component_false_alarm_per_test,
+        }
+    }
+}
+
+impl DetectorArgs {
+    /// The library's settings, or bad input naming the flag.
+    fn study_params(
+        &self,
+        baseline_tests: usize,
+        thresholds: &BTreeMap<String, Threshold>,
+    ) -> Result<TrendStudyParams> {
+        if self.profile_baseline_tests < 2 {
+            return Err(BadInput(format!(
+                "--profile-baseline-tests {}: the profile baseline needs at least 2 stroke \
+                 tests (their scatter sets the limits)",
+                self.profile_baseline_tests
+            ))
+            .into());
+        }
+        if !(self.profile_limit_sigma.is_finite() && self.profile_limit_sigma > 0.0) {
+            return Err(BadInput(format!(
+                "--profile-limit-sigma {}: must be a positive number of σ",
+                self.profile_limit_sigma
+            ))
+            .into());
+        }
+        if !(self.component_false_alarm > 0.0 && self.component_false_alarm < 0.5) {
+            return Err(BadInput(format!(
+                "--component-false-alarm {}: must be a probability in (0, 0.5), e.g. 0.001",
+                self.component_false_alarm
+            ))
+            .into());
+        }
+        Ok(TrendStudyParams {
+            baseline_tests,
+            thresholds: thresholds.clone(),
+            profiles: LocalParams {
+                baseline_tests: self.profile_baseline_tests,
+                k: self.profile_limit_sigma,
+                ..LocalParams::default()
+            },
+            component_false_alarm_per_test: self.component_false_alarm,
+            ..TrendStudyParams::default()
+        })
+    }
 }
 
 /// `--kind`: the store's [`TestKind`] as clap sees it (the store crate knows no clap).
@@ -630,8 +708,10 @@ pub fn axis_trends(
     machine: &str,
     axis: &str,
     baseline_tests: usize,
+    detectors: &DetectorArgs,
     thresholds: &BTreeMap<String, Threshold>,
 ) -> Result<AxisTrends> {
+    let params = detectors.study_params(baseline_tests, thresholds)?;
     let tests = store.list(&Filter {
         machine: Some(machine.to_string()),
         axis: Some(axis.to_string()),
@@ -642,16 +722,7 @@ pub fn axis_trends(
     let reference = tests.iter().find(|t| t.reference).map(|t| t.id);
     let series = store.series(machine, axis)?;
     let profiles = stroke_profiles(store, &tests)?;
-    let study = feedscope::study::axis_study(
-        &series,
-        reference,
-        &profiles,
-        &TrendStudyParams {
-            baseline_tests,
-            thresholds: thresholds.clone(),
-            ..TrendStudyParams::default()
-        },
-    )?;
+    let study = feedscope::study::axis_study(&series, reference, &profiles, &params)?;
     Ok(AxisTrends {
         machine: machine.to_string(),
         axis: axis.to_string(),
@@ -693,7 +764,14 @@ fn trend(db: &Path, a: &TrendArgs) -> Result<bool> {
     let store = open_store(db)?;
     let axis = resolve_axis(&store, &a.machine, a.axis_name.as_deref())?;
     let thresholds = with_axis_thresholds(&store, &a.machine, &axis, thresholds)?;
-    let t = axis_trends(&store, &a.machine, &axis, a.baseline_tests, &thresholds)?;
+    let t = axis_trends(
+        &store,
+        &a.machine,
+        &axis,
+        a.baseline_tests,
+        &a.detectors,
+        &thresholds,
+    )?;
     let warn = t
         .trends
         .iter()

@@ -3,7 +3,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 
-use super::history::{axis_trends, db_path, load_thresholds, open_store, resolve_axis};
+use super::history::{
+    axis_trends, db_path, load_thresholds, open_store, resolve_axis, DetectorArgs,
+};
 use crate::output::write_atomic;
 
 /// Write the condition report of an axis: one self-contained HTML file.
@@ -35,6 +37,8 @@ pub struct Args {
     /// Thresholds file (TOML, a `[thresholds]` table; see docs/history.md).
     #[arg(long)]
     pub thresholds: Option<PathBuf>,
+    #[command(flatten)]
+    pub detectors: DetectorArgs,
     /// HTML file to write.
     #[arg(short = 'o', long = "output", default_value = "report.html")]
     pub output: PathBuf,
@@ -46,6 +50,7 @@ pub fn write_report(
     machine: &str,
     axis: Option<&str>,
     baseline_tests: usize,
+    detectors: &DetectorArgs,
     thresholds: Option<&Path>,
     out: &Path,
 ) -> Result<()> {
@@ -56,7 +61,14 @@ pub fn write_report(
     let store = open_store(db)?;
     let axis = resolve_axis(&store, machine, axis)?;
     let thresholds = super::history::with_axis_thresholds(&store, machine, &axis, thresholds)?;
-    let t = axis_trends(&store, machine, &axis, baseline_tests, &thresholds)?;
+    let t = axis_trends(
+        &store,
+        machine,
+        &axis,
+        baseline_tests,
+        detectors,
+        &thresholds,
+    )?;
     let html = crate::report::render(&store, &t, baseline_tests)?;
     write_atomic(out, html.as_bytes())
 }
@@ -94,6 +106,7 @@ pub fn run(args: Args) -> Result<()> {
         &args.machine,
         args.axis_name.as_deref(),
         args.baseline_tests,
+        &args.detectors,
         args.thresholds.as_deref(),
         &args.output,
     )?;

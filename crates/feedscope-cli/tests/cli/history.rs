@@ -604,6 +604,39 @@ fn local_wear_is_flagged_by_trend_and_drawn_by_the_report() {
     let diag = v["diagnosis"].to_string();
     assert!(diag.contains("Local wear"), "{diag}");
     assert!(!diag.contains("fits lubrication"), "{diag}");
+    // a 3-test profile baseline and a tighter flag width are the user's to choose
+    let mut c = feedscope(d);
+    c.args([
+        "history",
+        "--db",
+        "h.db",
+        "trend",
+        "--format",
+        "json",
+        "--profile-baseline-tests",
+        "3",
+        "--profile-limit-sigma",
+        "5",
+    ]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v3: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for dir in v3["profiles"]["directions"].as_array().unwrap() {
+        assert_eq!(dir["baseline_ids"], serde_json::json!([1, 2, 3]), "{dir}");
+    }
+    for (flag, value) in [
+        ("--profile-baseline-tests", "1"),
+        ("--profile-limit-sigma", "0"),
+        ("--profile-limit-sigma", "NaN"),
+        ("--component-false-alarm", "0"),
+        ("--component-false-alarm", "0.7"),
+    ] {
+        let mut c = feedscope(d);
+        c.args(["history", "--db", "h.db", "trend", flag, value]);
+        let o = run(c);
+        assert_eq!(o.status.code(), Some(2), "{flag} {value}");
+        assert!(stderr(&o).contains(flag), "{flag}: {}", stderr(&o));
+    }
     // text output names the flagged range
     let mut c = feedscope(d);
     c.args(["history", "--db", "h.db", "trend"]);

@@ -160,6 +160,23 @@ pub struct Ewma {
 
 /// EWMA chart of `values` around `b` with weight `lambda` ∈ (0, 1] and width `l` (σ units).
 pub fn ewma(values: &[f64], b: &Baseline, lambda: f64, l: f64) -> Ewma {
+    ewma_around_estimate(values, b, lambda, l, 0.0)
+}
+
+/// [`ewma`] whose limits also hold the error of μ₀ itself when μ₀ is an estimate:
+/// μ₀ ± L·σ·√(λ/(2 − λ)·(1 − (1 − λ)^{2t}) + `mean_var`), `mean_var` = Var(μ₀)/σ² (1/n for the
+/// mean of n baseline tests, 1 for a single reference test). The EWMA averages the tests'
+/// scatter away but not the baseline's own error, which every later z_t carries in full: with
+/// 5 baseline tests and λ = 0.2 that error is larger than the scatter left in z_t, and
+/// without it an unchanged series drifts out of its EWMA limits far more often than L
+/// promises.
+pub fn ewma_around_estimate(
+    values: &[f64],
+    b: &Baseline,
+    lambda: f64,
+    l: f64,
+    mean_var: f64,
+) -> Ewma {
     let mut z = Vec::with_capacity(values.len());
     let mut limits = Vec::with_capacity(values.len());
     let mut first_alarm = None;
@@ -168,7 +185,7 @@ pub fn ewma(values: &[f64], b: &Baseline, lambda: f64, l: f64) -> Ewma {
     for (i, &x) in values.iter().enumerate() {
         let zt = lambda * x + r * prev;
         let t = (i + 1) as f64;
-        let w = l * b.std * (lambda / (2.0 - lambda) * (1.0 - r.powf(2.0 * t))).sqrt();
+        let w = l * b.std * (lambda / (2.0 - lambda) * (1.0 - r.powf(2.0 * t)) + mean_var).sqrt();
         let lim = Limits {
             lower: b.mean - w,
             upper: b.mean + w,
@@ -319,4 +336,103 @@ pub fn project_crossing(s: &RecentSlope, th: &Threshold) -> Option<Projection> {
         upper,
         days,
     })
+}
+
+/// Limit width L (σ units) for each of `members` charts judged together at every test, such
+/// that the chance that any of them raises a false alarm at a test (Gaussian, independent
+/// scatter) is `false_alarm_per_test` (Šidák's correction for a family of tests):
+///
+/// α = 1 − (1 − α_family)^{1/m}, L = Φ⁻¹(1 − α / 2).
+///
+/// An axis has a dozen or more component amplitudes; judged each at ±3σ, one of them leaves
+/// its band by chance every few dozen tests although the screw is unchanged. One ±3σ chart has
+/// α_family = 0.0027 (L = 3.0 for m = 1); α_family = 0.001 gives L = 3.84 for 8 members and
+/// 4.06 for 20. `false_alarm_per_test` is clamped to [1e-12, 0.5] and `members` to ≥ 1.
+pub fn family_limit_width(false_alarm_per_test: f64, members: usize) -> f64 {
+    let family = if false_alarm_per_test.is_nan() {
+        0.0027
+    } else {
+        false_alarm_per_test.clamp(1e-12, 0.5)
+    };
+    // 1 − (1 − α)^{1/m} without cancellation for small α
+    let alpha = -((-family).ln_1p() / members.max(1) as f64).exp_m1();
+    normal_upper_quantile(alpha / 2.0)
+}
+
+/// 1 − Φ(x) of the standard normal distribution, via the complementary error function
+/// (Chebyshev fit of Numerical Recipes §6.2, fractional error < 1.2e-7 everywhere).
+fn normal_upper_tail(x: f64) -> f64 {
+    0.5 * erfc(x / std::f64::consts::SQRT_2)
+}
+
+fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let poly = -z * z - 1.265_512_23
+        + t * (1.000_023_68
+            + t * (0.374_091_96
+                + t * (0.096_784_18
+                    + t * (-0.186_288_06
+                        + t * (0.278_868_07
+                            + t * (-1.135_203_98
+                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+    let r = t * poly.exp();
+    if x >= 0.0 {
+        r
+    } else {
+        2.0 - r
+    }
+}
+
+/// x with 1 − Φ(x) = p, for p ∈ (0, 0.5]: bisection on [`normal_upper_tail`] (monotone), to
+/// 1e-10 in x; a limit width needs no more.
+fn normal_upper_quantile(p: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0_f64, 40.0_f64);
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if normal_upper_tail(mid) > p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+        if hi - lo < 1e-10 {
+            break;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+#[cfg(test)]
+mod family_tests {
+    use super::*;
+
+    #[test]
+    fn normal_tail_matches_tabulated_values() {
+        // Abramowitz & Stegun Table 26.1 values, to the fit's 1.2e-7 relative accuracy
+        for (x, q) in [
+            (0.0, 0.5),
+            (1.0, 0.158_655_253_9),
+            (1.959_963_985, 0.025),
+            (3.0, 0.001_349_898_0),
+            (4.0, 3.167_124_2e-5),
+        ] {
+            let got = normal_upper_tail(x);
+            assert!((got - q).abs() <= 2e-7 * q, "x {x}: {got} vs {q}");
+            assert!((normal_upper_quantile(q) - x).abs() < 1e-5, "q {q}");
+        }
+    }
+
+    #[test]
+    fn family_width_keeps_the_family_rate() {
+        // one chart at α = 0.0027 is the ±3σ chart
+        assert!((family_limit_width(0.002_699_796, 1) - 3.0).abs() < 1e-5);
+        assert!((family_limit_width(0.001, 8) - 3.8360).abs() < 1e-3);
+        for m in [2usize, 8, 20, 100] {
+            let l = family_limit_width(0.001, m);
+            let fam = 1.0 - (1.0 - 2.0 * normal_upper_tail(l)).powi(m as i32);
+            assert!((fam - 0.001).abs() < 1e-6, "m {m}: {fam}");
+            assert!(l > family_limit_width(0.001, m - 1));
+        }
+        assert!(family_limit_width(f64::NAN, 1).is_finite());
+    }
 }

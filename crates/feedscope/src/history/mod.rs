@@ -37,8 +37,8 @@ mod local;
 mod tests;
 
 pub use control::{
-    baseline, cusum, ewma, project_crossing, recent_slope, Baseline, BaselineSpec, Cusum, Ewma,
-    Limits, Projection, RecentSlope, Threshold,
+    baseline, cusum, ewma, ewma_around_estimate, family_limit_width, project_crossing,
+    recent_slope, Baseline, BaselineSpec, Cusum, Ewma, Limits, Projection, RecentSlope, Threshold,
 };
 pub use diagnose::{diagnose, diagnose_with_profiles};
 pub use local::{
@@ -243,6 +243,14 @@ pub struct TrendParams {
     /// uncertainty plus the quantity's known relative scatter is luck). Default `false`.
     #[serde(default)]
     pub std_error_floor: bool,
+    /// Limits that hold the error of μ₀ itself (an estimate from the baseline's n tests, or a
+    /// single reference test): Shewhart μ₀ ± L·σ·√(1 + 1/n), EWMA as
+    /// [`ewma_around_estimate`] with Var(μ₀)/σ² = 1/n, and the CUSUM, which integrates that
+    /// error into a drift, does not raise [`Status::Drifting`] (it is still computed and
+    /// shown). For indicators judged many at a time, whose baselines come from few tests
+    /// (the component amplitudes). Default `false`.
+    #[serde(default)]
+    pub baseline_mean_error: bool,
 }
 
 impl Default for TrendParams {
@@ -257,6 +265,7 @@ impl Default for TrendParams {
             cusum_h: 5.0,
             slope_window: 6,
             std_error_floor: false,
+            baseline_mean_error: false,
         }
     }
 }
@@ -380,22 +389,30 @@ pub fn assess(
             }
         }
     }
-    let limits = Limits::shewhart(&b, params.shewhart_l);
+    // Var(μ₀)/σ²: the baseline mean's own error, when the limits are to hold it
+    let mean_var = if params.baseline_mean_error {
+        1.0 / b.count.max(1) as f64
+    } else {
+        0.0
+    };
+    let limits = Limits::shewhart(&b, params.shewhart_l * (1.0 + mean_var).sqrt());
     let values: Vec<f64> = points.iter().map(|p| p.value).collect();
-    let ew = ewma(&values, &b, params.ewma_lambda, params.ewma_l);
+    let ew = ewma_around_estimate(&values, &b, params.ewma_lambda, params.ewma_l, mean_var);
     let cu = cusum(&values, &b, params.cusum_k, params.cusum_h);
     let slope = recent_slope(points, params.slope_window);
     let projection = slope.as_ref().and_then(|s| project_crossing(s, threshold));
     let last = *values.last().expect("baseline needs ≥ 1 point");
     let n = values.len() - 1;
     let shewhart_first = values.iter().position(|&x| limits.outside(x));
-    let first_alarm = [ew.first_alarm, cu.first_alarm, shewhart_first]
+    let cusum_first = cu.first_alarm.filter(|_| !params.baseline_mean_error);
+    let first_alarm = [ew.first_alarm, cusum_first, shewhart_first]
         .into_iter()
         .flatten()
         .min();
     let crossed =
         threshold.upper.is_some_and(|u| last > u) || threshold.lower.is_some_and(|l| last < l);
-    let drifting = ew.limits[n].outside(ew.z[n]) || cu.upper[n] > cu.h || cu.lower[n] > cu.h;
+    let cusum_signal = !params.baseline_mean_error && (cu.upper[n] > cu.h || cu.lower[n] > cu.h);
+    let drifting = ew.limits[n].outside(ew.z[n]) || cusum_signal;
     let status = if crossed {
         Status::ThresholdCrossed
     } else if limits.outside(last) {

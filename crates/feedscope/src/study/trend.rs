@@ -5,8 +5,9 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use crate::history::{
-    assess, diagnose_with_profiles, profile_changes, BaselineSpec, HistoryError, Indicator,
-    IndicatorTrend, LocalParams, Point, ProfileChanges, ProfileTest, Threshold, TrendParams,
+    assess, diagnose_with_profiles, family_limit_width, profile_changes, BaselineSpec,
+    HistoryError, Indicator, IndicatorTrend, LocalParams, Point, ProfileChanges, ProfileTest,
+    Threshold, TrendParams,
 };
 
 use super::StudyError;
@@ -30,6 +31,11 @@ pub struct TrendStudyParams {
     /// spectrum's leakage and noise), more at low amplitude, where the amplitudes' own
     /// standard errors (noise floor) set the floor instead.
     pub component_min_relative_std: f64,
+    /// Chance per test that any of the axis's component amplitudes raises a false alarm
+    /// although the screw is unchanged: their Shewhart and EWMA limits are widened together
+    /// ([`family_limit_width`]). Default 0.001 (one false alarm in about 1000 tests of an
+    /// axis, 20 years of weekly tests; a single ±3σ chart has 0.0027).
+    pub component_false_alarm_per_test: f64,
 }
 
 impl Default for TrendStudyParams {
@@ -39,6 +45,7 @@ impl Default for TrendStudyParams {
             thresholds: BTreeMap::new(),
             profiles: LocalParams::default(),
             component_min_relative_std: 0.03,
+            component_false_alarm_per_test: 0.001,
         }
     }
 }
@@ -84,7 +91,11 @@ pub fn axis_trends(
 ///
 /// Component amplitudes get σ ≥ √(SE² + (c·μ₀)²), c =
 /// [`TrendStudyParams::component_min_relative_std`], SE their own standard errors
-/// ([`TrendParams::std_error_floor`]).
+/// ([`TrendParams::std_error_floor`]), and, being judged together at every test, Shewhart and
+/// EWMA limits of the family width ([`family_limit_width`]): the axis's m amplitudes together
+/// raise a false alarm in [`TrendStudyParams::component_false_alarm_per_test`] of the tests
+/// (0.1 %), not in m × 0.27 % as m independent ±3σ charts would; the limits hold the baseline mean's own error
+/// ([`TrendParams::baseline_mean_error`]).
 ///
 /// # Errors
 /// [`StudyError::Trend`] when a series cannot be assessed for a reason other than too few
@@ -98,6 +109,13 @@ pub fn axis_study(
 ) -> Result<AxisTrendStudy, StudyError> {
     let mut trends = Vec::new();
     let mut skipped = Vec::new();
+    // The component amplitudes are judged together at every test: their limits are widened so
+    // that the family as a whole keeps the chosen false-alarm rate (Šidák).
+    let components = series
+        .keys()
+        .filter(|n| matches!(Indicator::parse(n), Some(Indicator::Component { .. })))
+        .count();
+    let component_l = family_limit_width(params.component_false_alarm_per_test, components);
     for (name, s) in series {
         let Some(ind) = Indicator::parse(name) else {
             skipped.push(name.clone());
@@ -118,6 +136,9 @@ pub fn axis_study(
                 baseline,
                 min_relative_std: params.component_min_relative_std,
                 std_error_floor: true,
+                shewhart_l: component_l,
+                ewma_l: component_l,
+                baseline_mean_error: true,
                 ..TrendParams::default()
             }
         } else {
