@@ -156,7 +156,7 @@ pub fn mutate_text_once(rng: &mut Rng, t: &[u8]) -> Vec<u8> {
     let ls = lines(t);
     match rng.below(16) {
         // A number replaced by an extreme (the most telling mutation: weighted double).
-        0 | 1 | 2 => {
+        0..=2 => {
             let nums = numbers(t);
             if nums.is_empty() {
                 return mutate_bytes_once(rng, t);
@@ -299,7 +299,8 @@ pub fn mutate_text_once(rng: &mut Rng, t: &[u8]) -> Vec<u8> {
 pub fn mutate_bytes_once(rng: &mut Rng, t: &[u8]) -> Vec<u8> {
     let mut v = t.to_vec();
     if v.is_empty() {
-        v.extend_from_slice(*rng.pick(JUNK));
+        let junk: &[u8] = rng.pick::<&[u8]>(JUNK);
+        v.extend_from_slice(junk);
         return v;
     }
     let at = rng.below(v.len());

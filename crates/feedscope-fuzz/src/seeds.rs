@@ -196,7 +196,7 @@ pub fn friction_csv_and_summary() -> (Vec<u8>, Vec<u8>) {
 /// Threshold files of `history trend` and `report`.
 pub fn thresholds() -> Vec<Vec<u8>> {
     vec![
-        b"[thresholds]\nfs_n = { upper = 480 }\nfc_n = { lower = 10, upper = 400 }\n\"mean_n/forward/0-100mm\" = { upper = 900 }\n\"amplitude_n/backward/nut refeed\" = { upper = 12.5 }\n".to_vec(),
+        b"[thresholds]\nfs_n = { upper = 480 }\nfc_n = { lower = 10, upper = 400 }\n\"mean_n/forward/0-100mm\" = { upper = 900 }\n\"amplitude_n/backward/nut ball refeed 1x\" = { upper = 12.5 }\n".to_vec(),
     ]
 }
 

@@ -138,7 +138,9 @@ fn positions_times_1e4_are_refused_before_any_allocation_grows() {
             "-o",
             "f.csv",
         ],
-        &["trace.csv:", "position", "which no feed axis reaches"],
+        // 1200 mm in 72 ms: the glitch screen refuses the jump (naming its line) before
+        // the bound of a feed axis (100 m) is reached
+        &["trace.csv:33:", "the position jumps by 1200 mm"],
     );
     assert!(!d.path().join("f.csv").exists());
 }
@@ -196,4 +198,106 @@ fn a_subnormal_feed_in_a_stribeck_table_is_refused_naming_its_line() {
         &["fit-stribeck", "t.csv", "--out", "out"],
         &["t.csv:4:", "1e-320"],
     );
+}
+
+/// A trace whose positions lie beyond the travel the axis file declares (here 0-40 mm: the
+/// stroke goes to 50 mm) is refused naming the line and the travel, before any estimate.
+#[test]
+fn positions_outside_the_declared_travel_are_refused_naming_the_line() {
+    let d = tempfile::tempdir().unwrap();
+    write(
+        d.path(),
+        "axis.toml",
+        format!("{AXIS}travel_min_mm = 0\ntravel_max_mm = 40\n").as_bytes(),
+    );
+    write(d.path(), "trace.csv", good_long_trace().as_bytes());
+    expect_bad_input(
+        d.path(),
+        &[
+            "estimate",
+            "trace.csv",
+            "--axis",
+            "axis.toml",
+            "-o",
+            "f.csv",
+        ],
+        &[
+            "trace.csv:",
+            "outside the axis travel [0, 40] mm",
+            "travel_max_mm",
+        ],
+    );
+    assert!(!d.path().join("f.csv").exists());
+    // within the travel (0-60 mm) the same trace is estimated
+    write(
+        d.path(),
+        "axis.toml",
+        format!("{AXIS}travel_min_mm = 0\ntravel_max_mm = 60\n").as_bytes(),
+    );
+    let mut c = crate::util::feedscope(d.path());
+    c.args([
+        "estimate",
+        "trace.csv",
+        "--axis",
+        "axis.toml",
+        "-o",
+        "f.csv",
+    ]);
+    let o = crate::util::run(c);
+    assert!(o.status.success(), "{}", crate::util::stderr(&o));
+}
+
+/// A CSV cut off in the middle of its last line (an interrupted copy) is read, with a warning
+/// naming the line, and the summary records it: never a silently shorter recording.
+#[test]
+fn a_cut_csv_is_read_with_a_warning_naming_its_last_line() {
+    let d = tempfile::tempdir().unwrap();
+    let full = good_long_trace();
+    // cut inside the second stroke, in the middle of the value of a row (a cut channel
+    // name would be a malformed row, refused naming its line)
+    let line_start = full[..full.len() * 3 / 4].rfind('\n').unwrap() + 1;
+    let line = &full[line_start..line_start + full[line_start..].find('\n').unwrap()];
+    let value_at = line_start + line.rfind(',').unwrap() + 1;
+    let cut = &full[..value_at + 2];
+    assert!(!cut.ends_with('\n'));
+    let last_line = cut.lines().count();
+    write(d.path(), "axis.toml", AXIS.as_bytes());
+    write(d.path(), "trace.csv", cut.as_bytes());
+    let mut c = crate::util::feedscope(d.path());
+    c.args([
+        "estimate",
+        "trace.csv",
+        "--axis",
+        "axis.toml",
+        "-o",
+        "f.csv",
+    ]);
+    let o = crate::util::run(c);
+    let err = crate::util::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains(&format!(
+            "warning: trace.csv: the last line (line {last_line}) has no line end"
+        )),
+        "{err}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("f.json")).unwrap()).unwrap();
+    assert_eq!(v["unterminated_last_line"], last_line as u64);
+    // the whole file has none
+    write(d.path(), "trace.csv", full.as_bytes());
+    let mut c = crate::util::feedscope(d.path());
+    c.args([
+        "estimate",
+        "trace.csv",
+        "--axis",
+        "axis.toml",
+        "-o",
+        "f.csv",
+    ]);
+    let o = crate::util::run(c);
+    assert!(!crate::util::stderr(&o).contains("no line end"));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("f.json")).unwrap()).unwrap();
+    assert!(v.get("unterminated_last_line").is_none());
 }

@@ -262,7 +262,8 @@ pub(crate) fn check_limits(imported: &Imported) -> Result<(), ImportError> {
         let Some((limit, unit)) = crate::trace::limits::bound(label) else {
             continue;
         };
-        if let Some(k) = ch.value.iter().position(|v| !(v.abs() <= limit)) {
+        // NaN is beyond every bound too
+        if let Some(k) = ch.value.iter().position(|v| v.abs() > limit || v.is_nan()) {
             return Err(ImportError::Implausible {
                 source_name: r.source_name.clone(),
                 channel: format!("{label} (from {source})"),

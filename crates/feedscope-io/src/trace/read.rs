@@ -234,6 +234,38 @@ pub enum TraceError {
         /// The speed limit of the screening (mm/min).
         limit_mm_min: f64,
     },
+    /// A position sample outside the travel the axis file declares, beyond its margin
+    /// ([`GlitchParams::travel_m`]): the trace is not this axis in machine coordinates.
+    #[error(
+        "{source_name}{}: position {} mm at t = {} s is outside the axis travel [{}, {}] mm \
+         declared in the axis file (travel_min_mm, travel_max_mm; margin {} mm): the trace is \
+         in other coordinates (work offset?), scaled (µm written as mm?) or of another axis; \
+         record machine coordinates of this axis, or correct the travel in the axis file",
+        at(.line, .row),
+        mm(*.position_mm),
+        secs(*.time_s),
+        mm(*.travel_min_mm),
+        mm(*.travel_max_mm),
+        mm(*.margin_mm)
+    )]
+    OutsideTravel {
+        /// The file.
+        source_name: String,
+        /// 1-based line of the sample (CSV).
+        line: Option<u64>,
+        /// 1-based data row of the sample (Parquet).
+        row: Option<u64>,
+        /// Its time (s).
+        time_s: f64,
+        /// Its position (mm).
+        position_mm: f64,
+        /// Declared lower end of the travel (mm).
+        travel_min_mm: f64,
+        /// Declared upper end of the travel (mm).
+        travel_max_mm: f64,
+        /// The margin allowed beyond either end (mm).
+        margin_mm: f64,
+    },
     /// A sample beyond the bounds of a feed axis ([`super::limits`]): |position| > 100 m,
     /// |current| > 10 kA or |torque| > 1 MN·m is not a ball-screw drive but a corrupt or
     /// mis-scaled file.
@@ -318,6 +350,10 @@ pub struct ReadReport {
     /// The speed limit the position was screened with (m/s); `None` when it was not screened
     /// (a report made by hand).
     pub max_axis_speed_m_s: Option<f64>,
+    /// The 1-based line of a CSV file's last data line when the file does not end with a line
+    /// end: a file cut off while being written or copied looks like this, and its last row
+    /// may hold a shortened number. The row was read as it stands.
+    pub unterminated_last_line: Option<u64>,
 }
 
 /// A position sample dropped as a glitch.
@@ -339,6 +375,22 @@ pub struct DroppedSample {
 const SHOWN_DROPPED: usize = 5;
 
 impl ReadReport {
+    /// What the read warns about, in one line for people: [`ReadReport::glitch_warning`] and a
+    /// last line without a line end. `None` for a clean read.
+    pub fn warning(&self) -> Option<String> {
+        let cut = self.unterminated_last_line.map(|l| {
+            format!(
+                "the last line (line {l}) has no line end: the file may have been cut off \
+                 while being written or copied, and its last row shortened (it was read as it \
+                 stands; the recording may end early)"
+            )
+        });
+        match (self.glitch_warning(), cut) {
+            (Some(g), Some(c)) => Some(format!("{g}; {c}")),
+            (g, c) => g.or(c),
+        }
+    }
+
     /// One sentence for people when position samples were dropped as glitches: the count, the
     /// limit, and the time (and line or row) of the first few. `None` when nothing was dropped.
     pub fn glitch_warning(&self) -> Option<String> {
@@ -493,7 +545,7 @@ pub(super) fn screen_and_check(
     (mut trace, mut report): (Trace, ReadReport),
     glitch: &GlitchParams,
     origin: Origin,
-    locate: impl FnOnce(&[usize]) -> Vec<Option<u64>>,
+    locate: impl Fn(&[usize]) -> Vec<Option<u64>>,
 ) -> Result<(Trace, ReadReport), TraceError> {
     check_channels(name, &trace.position_m, &trace.effort, trace.effort_kind)?;
     report.max_axis_speed_m_s = Some(glitch.max_axis_speed_m_s);
@@ -534,6 +586,35 @@ pub(super) fn screen_and_check(
                 jump_mm: j.jump_m * 1e3,
                 speed_mm_min: feed_m_s_to_mm_min(j.speed_m_s),
                 limit_mm_min: glitch.max_axis_speed_mm_min(),
+            });
+        }
+    }
+    if let Some((lo, hi)) = glitch.travel_m {
+        let margin = glitch.travel_margin_m();
+        let p = &trace.position_m;
+        // NaN cannot be here: the readers refuse it before.
+        if let Some(k) = p
+            .value
+            .iter()
+            .position(|&z| z < lo - margin || z > hi + margin)
+        {
+            // The line of a kept sample: its index in the channel as read, counting the
+            // dropped glitches before it.
+            let dropped = report
+                .dropped_position
+                .iter()
+                .filter(|d| d.time_s <= p.time_s[k])
+                .count();
+            let (line, row) = split(locate(&[k + dropped]).first().copied().flatten());
+            return Err(TraceError::OutsideTravel {
+                source_name: name.to_string(),
+                line,
+                row,
+                time_s: p.time_s[k],
+                position_mm: p.value[k] * 1e3,
+                travel_min_mm: lo * 1e3,
+                travel_max_mm: hi * 1e3,
+                margin_mm: margin * 1e3,
             });
         }
     }
