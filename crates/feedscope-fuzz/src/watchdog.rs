@@ -25,7 +25,7 @@ fn now_ns() -> u64 {
 }
 
 /// Start the watchdog: inputs running longer than `limit` are written under `out` and end
-/// the process. Without a call, [`arm`] and [`disarm`] cost an atomic store.
+/// the process. Without a call, `arm` and `disarm` cost an atomic store.
 pub fn start(out: PathBuf, limit: Duration) {
     if CONFIG
         .set(Config {
