@@ -9,8 +9,9 @@
 //!   100 m is a unit error (µm read as mm) or a logger glitch. The imports refuse it; the
 //!   trace readers leave position samples to the glitch screen of `feedscope::trace::glitch`
 //!   (issue #10), which drops an excursion of 1-3 samples that comes back, with a warning
-//!   naming its line, and refuses a jump that does not come back. The estimate's grid bound
-//!   refuses a trace whose positions are mis-scaled as a whole.
+//!   naming its line, and refuses a jump that does not come back; a position it keeps
+//!   beyond the bound (a stretch mis-scaled as a whole, or times so far apart that every jump
+//!   is slow) is refused after it, naming its line or row.
 //! - motor current: |i| ≤ 10 kA. The largest servo drives of machine tools deliver a few
 //!   hundred amperes.
 //! - motor torque: |T| ≤ 1 MN·m. The largest feed-axis motors deliver a few thousand N·m.

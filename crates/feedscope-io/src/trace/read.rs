@@ -589,6 +589,27 @@ pub(super) fn screen_and_check(
             });
         }
     }
+    // Kept positions beyond the bound of a feed axis: what the glitch screen could not call
+    // a glitch (a whole stretch mis-scaled, or times so far apart that any jump is slow).
+    let bound = super::limits::MAX_ABS_POSITION_M;
+    let p = &trace.position_m;
+    if let Some(k) = p.value.iter().position(|z| z.abs() > bound) {
+        let (line, row) = split(
+            locate(&[k + dropped_before(&report, p.time_s[k])])
+                .first()
+                .copied()
+                .flatten(),
+        );
+        return Err(TraceError::Implausible {
+            source_name: name.to_string(),
+            line,
+            row,
+            channel: "position".into(),
+            value: p.value[k],
+            limit: bound,
+            unit: "m",
+        });
+    }
     if let Some((lo, hi)) = glitch.travel_m {
         let margin = glitch.travel_margin_m();
         let p = &trace.position_m;
@@ -598,14 +619,12 @@ pub(super) fn screen_and_check(
             .iter()
             .position(|&z| z < lo - margin || z > hi + margin)
         {
-            // The line of a kept sample: its index in the channel as read, counting the
-            // dropped glitches before it.
-            let dropped = report
-                .dropped_position
-                .iter()
-                .filter(|d| d.time_s <= p.time_s[k])
-                .count();
-            let (line, row) = split(locate(&[k + dropped]).first().copied().flatten());
+            let (line, row) = split(
+                locate(&[k + dropped_before(&report, p.time_s[k])])
+                    .first()
+                    .copied()
+                    .flatten(),
+            );
             return Err(TraceError::OutsideTravel {
                 source_name: name.to_string(),
                 line,
@@ -619,6 +638,16 @@ pub(super) fn screen_and_check(
         }
     }
     Ok((trace, report))
+}
+
+/// Position samples dropped as glitches at or before `time_s`: added to a kept sample's index
+/// they give its index in the channel as read (what `locate` maps to a line or row).
+fn dropped_before(report: &ReadReport, time_s: f64) -> usize {
+    report
+        .dropped_position
+        .iter()
+        .filter(|d| d.time_s <= time_s)
+        .count()
 }
 
 /// The first checks every reader ends with: enough samples in both channels, and motion.
