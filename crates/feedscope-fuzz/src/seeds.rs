@@ -181,7 +181,12 @@ pub fn stribeck_table() -> Vec<Vec<u8>> {
 pub fn friction_csv_and_summary() -> (Vec<u8>, Vec<u8>) {
     // Strokes long enough for the estimate's minimum of spline knots.
     let (t, axis) = twin_of(40.0);
-    let params = EstimateParams::default();
+    // 64 points per lead instead of 1024: the parser sees every column and stroke, with a
+    // sixteenth of the rows, so a long run gets through its million inputs.
+    let params = EstimateParams {
+        samples_per_lead: 64,
+        ..EstimateParams::default()
+    };
     let est = estimate(&t, &axis, &params).expect("the twin estimates");
     let mut csv = Vec::new();
     feedscope_io::friction_csv::write(&mut csv, est.effort_kind, &est.strokes).expect("memory");
