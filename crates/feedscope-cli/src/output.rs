@@ -234,10 +234,11 @@ impl OutputSet {
 }
 
 /// Print on stderr what a trace read warns about: position samples dropped as glitches (one
-/// line: the count, the speed limit, the first few times with their lines or rows), as
-/// `warning: SOURCE: ...`. Prints nothing for a clean read.
+/// line: the count, the speed limit, the first few times with their lines or rows) and a last
+/// line without a line end (a cut file), as `warning: SOURCE: ...`. Prints nothing for a clean
+/// read.
 pub fn print_read_warnings(source: &str, report: &feedscope_io::trace::ReadReport) {
-    if let Some(w) = report.glitch_warning() {
+    if let Some(w) = report.warning() {
         eprintln!("warning: {source}: {w}");
     }
 }

@@ -24,6 +24,7 @@ use feedscope::profile::StrokeAnalysis;
 use feedscope::trace::EffortKind;
 
 use crate::fixed::push_fixed;
+use crate::trace::limits::MAX_ABS_POSITION_M;
 
 /// The first bytes of every friction CSV of `feedscope estimate`: enough to tell it from a
 /// trace file.
@@ -241,6 +242,26 @@ pub enum FrictionCsvError {
         /// The text found (trimmed).
         text: String,
     },
+    /// A position beyond any feed axis' travel ([`MAX_ABS_POSITION_M`]).
+    #[error("{source_name}:{line}: position {} mm is beyond ±{} mm, which no feed axis reaches", feedscope::units::Shown(*.value_mm), feedscope::units::Shown(*.limit_mm))]
+    PositionOutOfRange {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: usize,
+        /// The position read (mm).
+        value_mm: f64,
+        /// The bound (mm).
+        limit_mm: f64,
+    },
+    /// The summary's `params.samples_per_lead` is not a grid a friction CSV was written on.
+    #[error("{source_name}: params.samples_per_lead = {}: must lie in [1, {max}]", feedscope::units::Shown(*.value), max = MAX_SAMPLES_PER_LEAD)]
+    BadSamplesPerLead {
+        /// The summary file.
+        source_name: String,
+        /// The value found.
+        value: f64,
+    },
     /// The file holds no row of friction.
     #[error("{source_name}: no friction rows")]
     NoRows {
@@ -323,11 +344,21 @@ pub fn read_summary(path: &Path) -> Result<Option<EstimateSummary>, FrictionCsvE
     let samples_per_lead = v["params"]["samples_per_lead"]
         .as_f64()
         .unwrap_or_else(default_samples_per_lead);
+    // The grid step is lead / samples_per_lead: a value of 1e-320 made it infinite.
+    if !(1.0..=MAX_SAMPLES_PER_LEAD).contains(&samples_per_lead) {
+        return Err(FrictionCsvError::BadSamplesPerLead {
+            source_name: source_name(),
+            value: samples_per_lead,
+        });
+    }
     Ok(Some(EstimateSummary {
         strokes,
         samples_per_lead,
     }))
 }
+
+/// Finest grid a summary may declare (samples per lead): 2^24, far finer than any estimate.
+const MAX_SAMPLES_PER_LEAD: f64 = 16_777_216.0;
 
 /// The grid of `feedscope estimate` when no summary says otherwise.
 fn default_samples_per_lead() -> f64 {
@@ -445,8 +476,18 @@ pub fn parse(
             effort: Vec::new(),
             friction_n: Vec::new(),
         });
+        let position_mm = num(2, "position_mm")?;
+        // Bounded before the grid snap, whose division by a small step overflowed to inf.
+        if position_mm.abs() > MAX_ABS_POSITION_M * 1e3 {
+            return Err(FrictionCsvError::PositionOutOfRange {
+                source_name: name(),
+                line,
+                value_mm: position_mm,
+                limit_mm: MAX_ABS_POSITION_M * 1e3,
+            });
+        }
         s.position_m
-            .push((num(2, "position_mm")? * 1e-3 / step).round() * step);
+            .push((position_mm * 1e-3 / step).round() * step);
         s.time_s.push(num(3, "time_s")?);
         s.velocity_m_s.push(num(4, "velocity_mm_s")? * 1e-3);
         s.accel_m_s2.push(num(5, "accel_mm_s2")? * 1e-3);

@@ -57,4 +57,5 @@ pub mod nc;
 pub mod sim;
 pub mod stribeck_table;
 pub mod test_set;
+pub mod thresholds;
 pub mod trace;

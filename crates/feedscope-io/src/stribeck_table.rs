@@ -5,7 +5,9 @@
 //! A CSV with a header naming `feed_mm_min` and one of `torque_nm` (motor torque at steady
 //! speed, converted by paper 001 Eq. 15: F = 2π·η·T/p) or `force_n` (friction force), and
 //! optionally `direction` (`forward`/`backward`, or `+`/`-`; any case). Without a direction
-//! column the sign of the feed gives the direction. More columns are allowed; lines starting
+//! column the sign of the feed gives the direction. |feed| must lie in
+//! [[`MIN_FEED_MM_MIN`], [`MAX_FEED_MM_MIN`]] (1e-3 to 1e6 mm/min), |torque| at most
+//! [`MAX_ABS_TORQUE_NM`], |force| at most [`MAX_ABS_FORCE_N`]. More columns are allowed; lines starting
 //! with `#` and blank lines are skipped; fields are trimmed.
 //!
 //! ```text
@@ -28,6 +30,17 @@
 //! ```
 
 use std::path::Path;
+
+pub use crate::trace::limits::MAX_ABS_TORQUE_NM;
+
+/// Smallest |feed| a row may hold (mm/min): 1e-3 mm/min is 17 nm/s, below the slowest
+/// steady-speed test of any feed axis (the Stribeck region starts near 1 mm/min) and far
+/// above the subnormal numbers that convert to 0 m/s.
+pub const MIN_FEED_MM_MIN: f64 = 1e-3;
+/// Largest |feed| a row may hold (mm/min): 1000 m/min, ten times the fastest ball-screw axis.
+pub const MAX_FEED_MM_MIN: f64 = 1e6;
+/// Largest |friction force| a `force_n` row may hold (N): 1e7 N, a thousand tonnes-force.
+pub const MAX_ABS_FORCE_N: f64 = 1e7;
 
 use feedscope::estimate::Direction;
 use feedscope::stribeck::{friction_from_torque_n, StribeckError, M_S_PER_MM_MIN};
@@ -193,6 +206,37 @@ pub enum TableError {
         /// 1-based line number.
         line: usize,
     },
+    /// A row whose |feed| lies outside [[`MIN_FEED_MM_MIN`], [`MAX_FEED_MM_MIN`]] (but is not
+    /// 0): no steady-speed test runs that slowly or fast, and a subnormal feed such as 1e-320
+    /// mm/min becomes 0 m/s.
+    #[error(
+        "{source_name}:{line}: feed {} mm/min: |feed| must lie in [{min}, {max}] mm/min",
+        feedscope::units::Shown(*.feed_mm_min),
+        min = MIN_FEED_MM_MIN,
+        max = MAX_FEED_MM_MIN
+    )]
+    FeedOutOfRange {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: usize,
+        /// The feed read (mm/min).
+        feed_mm_min: f64,
+    },
+    /// A torque or force beyond any feed drive's ([`MAX_ABS_TORQUE_NM`], [`MAX_ABS_FORCE_N`]).
+    #[error("{source_name}:{line}: column `{column}`: {} is beyond ±{}, which no feed drive reaches", feedscope::units::Shown(*.value), feedscope::units::Shown(*.limit))]
+    EffortOutOfRange {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The value read.
+        value: f64,
+        /// The bound of the column.
+        limit: f64,
+    },
     /// The direction is not one of `forward`, `backward`, `+`, `-`.
     #[error("{source_name}:{line}: direction `{text}`: expected forward or backward")]
     BadDirection {
@@ -353,10 +397,30 @@ pub fn parse(
         };
         let feed = num(feed_col)?;
         let effort_value = num(eff_col)?;
+        let limit = match effort {
+            EffortColumn::TorqueNm => MAX_ABS_TORQUE_NM,
+            EffortColumn::ForceN => MAX_ABS_FORCE_N,
+        };
+        if effort_value.abs() > limit {
+            return Err(TableError::EffortOutOfRange {
+                source_name: name(),
+                line,
+                column: cols[eff_col].to_string(),
+                value: effort_value,
+                limit,
+            });
+        }
         if feed == 0.0 {
             return Err(TableError::ZeroFeed {
                 source_name: name(),
                 line,
+            });
+        }
+        if !(MIN_FEED_MM_MIN..=MAX_FEED_MM_MIN).contains(&feed.abs()) {
+            return Err(TableError::FeedOutOfRange {
+                source_name: name(),
+                line,
+                feed_mm_min: feed,
             });
         }
         let direction = match dir_col {
@@ -469,6 +533,29 @@ mod tests {
         assert_eq!(
             err("feed_mm_min,force_n\n0,1\n", &no),
             "t.csv:2: feed 0 has no direction; a steady-speed table needs motion"
+        );
+        // A subnormal feed would become 0 m/s: refused below 1e-3 mm/min, naming the line.
+        assert_eq!(
+            err("feed_mm_min,force_n\n600,1\n1e-320,1\n", &no),
+            "t.csv:3: feed 1e-320 mm/min: |feed| must lie in [0.001, 1000000] mm/min"
+        );
+        assert_eq!(
+            err("feed_mm_min,force_n\n-0.0009,1\n", &no),
+            "t.csv:2: feed -0.0009 mm/min: |feed| must lie in [0.001, 1000000] mm/min"
+        );
+        assert!(parse("feed_mm_min,force_n\n0.001,1\n", "t.csv", &no).is_ok());
+        assert_eq!(
+            err("feed_mm_min,force_n\n1e308,1\n", &no),
+            "t.csv:2: feed 1e308 mm/min: |feed| must lie in [0.001, 1000000] mm/min"
+        );
+        // A torque of 1e308 N·m made an infinite friction force (Eq. 15).
+        let lead = TableOptions {
+            lead_mm: Some(10.0),
+            efficiency: 0.9,
+        };
+        assert_eq!(
+            err("feed_mm_min,torque_nm\n600,1e308\n", &lead),
+            "t.csv:2: column `torque_nm`: 1e308 is beyond ±1000000, which no feed drive reaches"
         );
         assert_eq!(
             err("feed_mm_min,force_n,direction\n-5,1,forward\n", &no),

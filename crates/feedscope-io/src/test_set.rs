@@ -51,7 +51,7 @@ pub fn estimate_set(
         &set.runs,
         |run| {
             read_trace_file_with(&run.file, &read, &glitch)
-                .map(|(t, report)| (t, report.glitch_warning()))
+                .map(|(t, report)| (t, report.warning()))
                 .map_err(|e| e.to_string())
         },
         axis,

@@ -456,6 +456,14 @@ impl SqliteStore {
                 supported: SCHEMA_VERSION,
             });
         }
+        // No version of feedscope writes a negative one (found by the `store` fuzz target: it
+        // skipped every migration and stamped the file current).
+        if version < 0 {
+            return Err(StoreError::Corrupt {
+                path: self.path.display().to_string(),
+                detail: format!("schema version {version} is negative"),
+            });
+        }
         for (k, sql) in MIGRATIONS.iter().enumerate().skip(version as usize) {
             tx.execute_batch(sql).map_err(|e| {
                 let e = StoreError::from(e);
@@ -1340,6 +1348,14 @@ mod tests {
         let e = SqliteStore::open(&path).err().expect("refused");
         assert!(matches!(e, StoreError::Corrupt { .. }), "{e:?}");
         assert!(e.is_bad_input());
+        assert_eq!(std::fs::read(&path).unwrap(), before);
+        // a negative schema version (the fuzz finding): damage, not a panic or a silent stamp
+        raw()
+            .pragma_update(None, "user_version", -2_147_483_647)
+            .unwrap();
+        let before = std::fs::read(&path).unwrap();
+        let e = SqliteStore::open(&path).err().expect("refused");
+        assert!(matches!(e, StoreError::Corrupt { .. }), "{e:?}");
         assert_eq!(std::fs::read(&path).unwrap(), before);
     }
 

@@ -32,7 +32,7 @@ pub enum AxisError {
         name: String,
     },
     /// A key holds a value outside its physical range.
-    #[error("{source_name}: key `{key}` = {value}: {reason}")]
+    #[error("{source_name}: key `{key}` = {}: {reason}", crate::units::Shown(*.value))]
     InvalidValue {
         /// File name (or other label) of the input.
         source_name: String,
@@ -270,16 +270,69 @@ impl AxisParams {
                 Err(bad(key, v, "must be a finite number, zero or greater"))
             }
         };
+        // Upper (and for the lead, lower) bounds far beyond any ball-screw axis but finite:
+        // the maths divides by the lead and multiplies by the rest, and 1e308 would
+        // overflow into infinities that no later check names.
+        let at_most = |key: &'static str, v: f64, max: f64, reason: &'static str| {
+            if v <= max {
+                Ok(())
+            } else {
+                Err(bad(key, v, reason))
+            }
+        };
         positive("lead_mm", self.lead_mm)?;
+        if !(0.1..=500.0).contains(&self.lead_mm) {
+            return Err(bad("lead_mm", self.lead_mm, "must lie in [0.1, 500] mm"));
+        }
         non_negative("table_mass_kg", self.table_mass_kg)?;
+        at_most(
+            "table_mass_kg",
+            self.table_mass_kg,
+            1e6,
+            "must be at most 1e6 kg",
+        )?;
         non_negative("inertia_kgm2", self.inertia_kgm2)?;
+        at_most(
+            "inertia_kgm2",
+            self.inertia_kgm2,
+            1e3,
+            "must be at most 1000 kg·m²",
+        )?;
         non_negative("damping_nms_per_rad", self.damping_nms_per_rad)?;
+        at_most(
+            "damping_nms_per_rad",
+            self.damping_nms_per_rad,
+            1e6,
+            "must be at most 1e6 N·m·s/rad",
+        )?;
         positive("torque_constant_nm_per_a", self.torque_constant_nm_per_a)?;
+        at_most(
+            "torque_constant_nm_per_a",
+            self.torque_constant_nm_per_a,
+            1e4,
+            "must be at most 1e4 N·m/A",
+        )?;
+        for (key, v) in [
+            ("travel_min_mm", self.travel_min_mm),
+            ("travel_max_mm", self.travel_max_mm),
+        ] {
+            // NaN is refused too: a lone travel bound let it through.
+            if let Some(v) = v.filter(|v| !v.is_finite() || v.abs() > 1e5) {
+                return Err(bad(key, v, "must lie within ±100000 mm (100 m)"));
+            }
+        }
+        if let Some(v) = self.rapid_rate_mm_min {
+            at_most("rapid_rate_mm_min", v, 1e6, "must be at most 1e6 mm/min")?;
+        }
+        // The geometry of Eq. 7 is bounded too: a ball count of 1e308 made the nut's refeed
+        // order infinite.
         if let Some(v) = self.screw_diameter_mm {
             positive("screw_diameter_mm", v)?;
+            at_most("screw_diameter_mm", v, 1000.0, "must be at most 1000 mm")?;
         }
         if let Some(v) = self.screw_ball_diameter_mm {
             positive("screw_ball_diameter_mm", v)?;
+            at_most("screw_ball_diameter_mm", v, 200.0, "must be at most 200 mm")?;
             if let Some(d) = self.screw_diameter_mm {
                 if v >= d {
                     return Err(bad(
@@ -297,12 +350,20 @@ impl AxisParams {
         }
         if let Some(v) = self.screw_balls_per_turn {
             positive("screw_balls_per_turn", v)?;
+            at_most("screw_balls_per_turn", v, 1000.0, "must be at most 1000")?;
         }
         if let Some(v) = self.guide_ball_diameter_mm {
             positive("guide_ball_diameter_mm", v)?;
+            at_most("guide_ball_diameter_mm", v, 200.0, "must be at most 200 mm")?;
         }
         if let Some(v) = self.guide_balls_per_raceway {
             positive("guide_balls_per_raceway", v)?;
+            at_most(
+                "guide_balls_per_raceway",
+                v,
+                10_000.0,
+                "must be at most 10000",
+            )?;
         }
         if let (Some(lo), Some(hi)) = (self.travel_min_mm, self.travel_max_mm) {
             if !(lo.is_finite() && hi.is_finite() && hi > lo) {
@@ -318,6 +379,12 @@ impl AxisParams {
         }
         for d in &self.declared_orders {
             positive("declared_order.order", d.order)?;
+            at_most(
+                "declared_order.order",
+                d.order,
+                1e4,
+                "must be at most 1e4 cycles per lead",
+            )?;
         }
         for (name, t) in &self.thresholds {
             if crate::history::Indicator::parse(name).is_none() {

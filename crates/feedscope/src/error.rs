@@ -26,13 +26,21 @@ pub enum ErrorKind {
 
 impl ErrorKind {
     /// The kind of an operating-system error met while reading or writing something the user
-    /// named: a missing file is the user's input ([`ErrorKind::BadInput`]), anything else is
-    /// [`ErrorKind::Io`].
+    /// named: a missing file, and a file whose bytes are not what the reader expects
+    /// (`InvalidData`: `std::fs::read_to_string` of a file that is not UTF-8) are the user's
+    /// input ([`ErrorKind::BadInput`]); anything else is [`ErrorKind::Io`].
+    ///
+    /// ```
+    /// use feedscope::ErrorKind;
+    /// use std::io::{Error, ErrorKind as Io};
+    /// assert_eq!(ErrorKind::of_io(&Error::from(Io::NotFound)), ErrorKind::BadInput);
+    /// assert_eq!(ErrorKind::of_io(&Error::from(Io::InvalidData)), ErrorKind::BadInput);
+    /// assert_eq!(ErrorKind::of_io(&Error::from(Io::PermissionDenied)), ErrorKind::Io);
+    /// ```
     pub fn of_io(error: &std::io::Error) -> Self {
-        if error.kind() == std::io::ErrorKind::NotFound {
-            ErrorKind::BadInput
-        } else {
-            ErrorKind::Io
+        match error.kind() {
+            std::io::ErrorKind::NotFound | std::io::ErrorKind::InvalidData => ErrorKind::BadInput,
+            _ => ErrorKind::Io,
         }
     }
 }

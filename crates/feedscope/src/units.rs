@@ -70,9 +70,49 @@ pub fn mm_to_m(x_mm: f64) -> f64 {
     x_mm / MM_PER_M
 }
 
+/// A number as a person reads it in a message: plain between 1e-4 and 1e9 in magnitude (and
+/// 0, NaN, ±inf), in exponent form beyond (Rust's plain form of 1e300 is 301 digits, of
+/// 1e-320 over 300).
+///
+/// ```
+/// use feedscope::units::Shown;
+/// assert_eq!(Shown(250.5).to_string(), "250.5");
+/// assert_eq!(Shown(1e300).to_string(), "1e300");
+/// assert_eq!(Shown(-1e-320).to_string(), "-1e-320");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shown(pub f64);
+
+impl std::fmt::Display for Shown {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-4..1e9).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shown_numbers_are_short() {
+        for (v, text) in [
+            (0.0, "0"),
+            (1e-4, "0.0001"),
+            (123456789.0, "123456789"),
+            (1e9, "1e9"),
+            (-1.797e308, "-1.797e308"),
+            (5e-324, "5e-324"),
+            (f64::NAN, "NaN"),
+            (f64::NEG_INFINITY, "-inf"),
+        ] {
+            assert_eq!(Shown(v).to_string(), text);
+        }
+    }
 
     #[test]
     fn constants_are_the_literals_they_replace() {

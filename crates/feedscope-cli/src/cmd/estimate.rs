@@ -158,6 +158,9 @@ pub struct Summary {
     pub dropped_position_samples: Vec<DroppedPosition>,
     /// The speed limit the glitch screen used (mm/min).
     pub max_axis_speed_mm_min: Option<f64>,
+    /// The CSV's last data line when the file does not end with a line end (a cut file).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unterminated_last_line: Option<u64>,
 }
 
 /// A dropped position sample as the summary reports it (user units).
@@ -391,6 +394,7 @@ pub fn estimate_to_csv(
             ignored_channels: report.ignored_channels.clone(),
             dropped_position_samples: report.dropped_position.iter().map(Into::into).collect(),
             max_axis_speed_mm_min: report.max_axis_speed_m_s.map(feed_m_s_to_mm_min),
+            unterminated_last_line: report.unterminated_last_line,
         },
         plot,
     })

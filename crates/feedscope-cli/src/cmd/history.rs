@@ -8,13 +8,13 @@ use anyhow::{Context, Result};
 use clap::builder::{EnumValueParser, TypedValueParser};
 use clap::{Subcommand, ValueEnum};
 use feedscope::axis::AxisParams;
-use feedscope::history::{Indicator, IndicatorTrend, LocalParams, Threshold};
+use feedscope::history::{IndicatorTrend, LocalParams, Threshold};
 use feedscope::study::{analyze_test, StrokeStudyParams, TestStudyParams, TrendStudyParams};
 use feedscope::trace::GlitchParams;
 use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use feedscope_store::time::{format_rfc3339, parse_rfc3339};
 use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, TestKind};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use super::BadInput;
 
@@ -314,15 +314,6 @@ fn store_err(e: StoreError, path: &Path) -> anyhow::Error {
 #[error("{0}")]
 pub struct CheckFailed(pub StoreError);
 
-/// The `[thresholds]` file of `history trend` and `report`.
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ThresholdFile {
-    /// Indicator key → threshold.
-    #[serde(default)]
-    pub thresholds: BTreeMap<String, Threshold>,
-}
-
 /// The thresholds in force: those of the axis file stored with the tests (`[thresholds]`),
 /// each overridden by the same key of a `--thresholds` file.
 pub fn with_axis_thresholds(
@@ -348,22 +339,10 @@ pub fn with_axis_thresholds(
 
 /// Read a thresholds file; unknown indicator keys are bad input.
 pub fn load_thresholds(path: Option<&Path>) -> Result<BTreeMap<String, Threshold>> {
-    let Some(p) = path else {
-        return Ok(BTreeMap::new());
-    };
-    let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-    let f: ThresholdFile =
-        toml::from_str(&text).with_context(|| format!("parsing {}", p.display()))?;
-    for k in f.thresholds.keys() {
-        if Indicator::parse(k).is_none() {
-            return Err(BadInput(format!(
-                "{}: unknown indicator {k:?} (see `feedscope history show` for the keys)",
-                p.display()
-            ))
-            .into());
-        }
+    match path {
+        None => Ok(BTreeMap::new()),
+        Some(p) => Ok(feedscope_io::thresholds::read(p)?),
     }
-    Ok(f.thresholds)
 }
 
 fn axis_name(flag: Option<&str>, axis: &AxisParams, path: &Path) -> String {

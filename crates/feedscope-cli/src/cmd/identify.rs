@@ -207,10 +207,7 @@ fn read(
         .map_err(|e| super::effort::name_the_flag(e, opts.effort))?;
     let source = path.display().to_string();
     crate::output::print_read_warnings(&source, &report);
-    Ok((
-        trace,
-        report.glitch_warning().map(|w| format!("{source}: {w}")),
-    ))
+    Ok((trace, report.warning().map(|w| format!("{source}: {w}"))))
 }
 
 /// Measured and computed torque over time, at most ~4000 points per series.

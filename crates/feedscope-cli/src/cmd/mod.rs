@@ -75,7 +75,7 @@ fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
     };
     use feedscope_io::{
         axis::AxisFileError, friction_csv::FrictionCsvError, import::ImportError,
-        stribeck_table::TableError, trace::TraceError,
+        stribeck_table::TableError, thresholds::ThresholdsError, trace::TraceError,
     };
     use feedscope_store::{BackendErrorKind, StoreError};
     macro_rules! kind_if {
@@ -105,6 +105,7 @@ fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
         FrictionCsvError,
         ImportError,
         TableError,
+        ThresholdsError,
         TraceError,
         StoreError,
     );

@@ -225,6 +225,56 @@ pub enum ImportError {
     /// An option is out of range.
     #[error("{0}")]
     BadParam(String),
+    /// A converted sample is beyond the bounds of a feed axis
+    /// ([`crate::trace::limits`]): a corrupt value or a wrong unit scale.
+    #[error(
+        "{source_name}: {channel} at t = {time_s} s: {value:e} {unit} is beyond ±{limit:e} \
+         {unit}, which no feed axis reaches (a corrupt value or a wrong unit scale)"
+    )]
+    Implausible {
+        /// The file.
+        source_name: String,
+        /// The channel and its source (column or data item).
+        channel: String,
+        /// Time of the sample in the converted trace (s).
+        time_s: f64,
+        /// The value (SI: m, A or N·m).
+        value: f64,
+        /// The bound (same unit).
+        limit: f64,
+        /// The unit.
+        unit: &'static str,
+    },
+}
+
+/// Refuse a converted trace with a sample beyond the bounds of a feed axis
+/// ([`crate::trace::limits`]), as the trace readers do.
+///
+/// # Errors
+/// [`ImportError::Implausible`] naming the channel, its source, the time and the value.
+pub(crate) fn check_limits(imported: &Imported) -> Result<(), ImportError> {
+    let t = &imported.trace;
+    let r = &imported.report;
+    for (ch, label, source) in [
+        (&t.position_m, "position", &r.position.source_key),
+        (&t.effort, t.effort_kind.column(), &r.effort.source_key),
+    ] {
+        let Some((limit, unit)) = crate::trace::limits::bound(label) else {
+            continue;
+        };
+        // NaN is beyond every bound too
+        if let Some(k) = ch.value.iter().position(|v| v.abs() > limit || v.is_nan()) {
+            return Err(ImportError::Implausible {
+                source_name: r.source_name.clone(),
+                channel: format!("{label} (from {source})"),
+                time_s: ch.time_s[k],
+                value: ch.value[k],
+                limit,
+                unit,
+            });
+        }
+    }
+    Ok(())
 }
 
 impl ImportError {

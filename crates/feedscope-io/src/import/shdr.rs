@@ -807,7 +807,9 @@ impl ShdrLog {
             warnings,
         };
         super::sampling_warnings(&mut report, &trace);
-        Ok(Imported { trace, report })
+        let imported = Imported { trace, report };
+        super::check_limits(&imported)?;
+        Ok(imported)
     }
 }
 

@@ -277,7 +277,9 @@ impl UmichTable {
             warnings,
         };
         super::sampling_warnings(&mut report, &trace);
-        Ok(Imported { trace, report })
+        let imported = Imported { trace, report };
+        super::check_limits(&imported)?;
+        Ok(imported)
     }
 }
 

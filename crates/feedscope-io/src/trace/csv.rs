@@ -13,6 +13,7 @@ use std::path::Path;
 use feedscope::trace::{Channel, EffortKind, GlitchParams, RecordingFacts, Trace};
 
 use super::format::Layout;
+use super::limits;
 use super::read::{
     choose_effort, name_problem, screen_and_check, shorten, show_name, EffortChoice, Origin,
     ReadOptions, ReadReport, TraceError,
@@ -329,6 +330,8 @@ struct BlockParser {
     bytes_seen: u64,
     /// Whether the channels were reserved for the whole file.
     reserved: bool,
+    /// The file's last data line has no terminator (see [`ReadReport::unterminated_last_line`]).
+    cut_last_line: bool,
 }
 
 impl BlockParser {
@@ -355,6 +358,7 @@ impl BlockParser {
             bom_checked: false,
             bytes_seen: 0,
             reserved: false,
+            cut_last_line: false,
         }
     }
 
@@ -368,6 +372,11 @@ impl BlockParser {
             }
         }
         let term = *self.terminator.get_or_insert_with(|| line_terminator(buf));
+        if eof && !matches!(buf.last(), None | Some(b'\n' | b'\r')) {
+            let start = memchr::memrchr(term, buf).map_or(0, |k| k + 1);
+            let last = trim_line(&buf[start..]);
+            self.cut_last_line = !last.is_empty() && last[0] != b'#';
+        }
         // Only complete lines now; the rest waits for the next block.
         let end = if eof {
             buf.len()
@@ -662,6 +671,7 @@ impl BlockParser {
             ignored_channels: self.ignored_names,
             lines: self.lines,
             layout: Some(layout),
+            unterminated_last_line: self.cut_last_line.then_some(self.lines),
             ..ReadReport::default()
         };
         Ok((
@@ -745,6 +755,23 @@ fn relocate(e: TraceError, line_abs: u64) -> TraceError {
             line: line_abs,
             name,
             reason,
+        },
+        TraceError::Implausible {
+            source_name,
+            row,
+            channel,
+            value,
+            limit,
+            unit,
+            ..
+        } => TraceError::Implausible {
+            source_name,
+            line: Some(line_abs),
+            row,
+            channel,
+            value,
+            limit,
+            unit,
         },
         other => other,
     }
@@ -953,6 +980,9 @@ fn parse_piece(
                     Slot::Current => (&mut p.cur, 1, "current_a"),
                     Slot::Torque => (&mut p.tor, 2, "torque_nm"),
                 };
+                if let Some(e) = limits::check(name, cname, v, Some(0), None) {
+                    return Err((line_no, e));
+                }
                 if let Some(&prev) = ch.time_s.last() {
                     if t <= prev {
                         return Err(not_inc(cname, line_no, t, prev));
@@ -1002,6 +1032,9 @@ fn parse_piece(
                         continue; // no sample of this channel at this time
                     }
                     let v = num(cell, &names[col], line_no)? * scale;
+                    if let Some(e) = limits::check(name, cname, v, Some(0), None) {
+                        return Err((line_no, e));
+                    }
                     let (ch, idx) = if slot == 0 {
                         (&mut p.pos, 0)
                     } else if slot == 1 {
@@ -1399,6 +1432,92 @@ mod tests {
                 )
                 .unwrap();
                 assert_eq!(r2.dropped_position, r.dropped_position, "{label} {block}");
+            }
+        }
+    }
+
+    #[test]
+    fn positions_outside_the_declared_travel_are_refused_with_their_line() {
+        // the stroke runs 0 → 20 mm; a travel of [0, 19] mm has a margin of 1.19 mm
+        let (s, lines) = long_stroke(|_, mm| format!("{mm:.4}"));
+        let travel = |lo: f64, hi: f64| GlitchParams {
+            travel_m: Some((lo * 1e-3, hi * 1e-3)),
+            ..GlitchParams::default()
+        };
+        let opts = ReadOptions::default();
+        assert!(parse_trace_with(s.as_bytes(), "t.csv", &opts, &travel(0.0, 19.0)).is_ok());
+        let e = parse_trace_with(s.as_bytes(), "t.csv", &opts, &travel(0.0, 18.0)).unwrap_err();
+        let TraceError::OutsideTravel {
+            line,
+            position_mm,
+            margin_mm,
+            ..
+        } = &e
+        else {
+            panic!("{e}")
+        };
+        // the first sample beyond 18 + 1.18 mm: 19.2 mm at k = 242
+        assert_eq!((*line, *position_mm), (Some(lines[242]), 19.2), "{e}");
+        assert!((margin_mm - 1.18).abs() < 1e-9);
+        assert_eq!(e.kind(), feedscope::ErrorKind::BadInput);
+        let msg = e.to_string();
+        assert!(
+            msg.contains("t.csv:") && msg.contains("outside the axis travel [0, 18] mm"),
+            "{msg}"
+        );
+        // a dropped glitch before it does not shift the line named
+        let (g, glines) = long_stroke(|k, mm| {
+            if k == 100 {
+                "1e308".into()
+            } else {
+                format!("{mm:.4}")
+            }
+        });
+        let e = parse_trace_with(g.as_bytes(), "t.csv", &opts, &travel(0.0, 18.0)).unwrap_err();
+        assert!(
+            matches!(e, TraceError::OutsideTravel { line: Some(l), .. } if l == glines[242]),
+            "{e}"
+        );
+        // without a declared travel nothing is checked
+        assert!(parse_trace_with(s.as_bytes(), "t.csv", &opts, &GlitchParams::default()).is_ok());
+    }
+
+    #[test]
+    fn a_cut_last_line_is_reported_with_its_number() {
+        let (s, _) = long_stroke(|_, mm| format!("{mm:.4}"));
+        let (_, r) = parse(&s).unwrap();
+        assert_eq!(r.unterminated_last_line, None);
+        assert!(r.warning().is_none());
+        // cut inside the last number: the line ends without a terminator
+        let cut = &s[..s.len() - 2];
+        let (t, r) = parse(cut).unwrap();
+        assert_eq!(t.effort.len(), 300);
+        assert_eq!(r.unterminated_last_line, Some(602));
+        let w = r.warning().unwrap();
+        assert!(w.contains("(line 602) has no line end"), "{w}");
+        // a trailing comment or blank text without a line end is not data
+        for tail in ["# end", "   "] {
+            let (_, r) = parse(&format!("{s}{tail}")).unwrap();
+            assert_eq!(r.unterminated_last_line, None, "{tail:?}");
+        }
+        // the same through small blocks and CRLF / bare CR line ends
+        let dir = tempfile::tempdir().unwrap();
+        for (label, text) in [
+            ("lf", cut.to_string()),
+            ("crlf", cut.replace('\n', "\r\n")),
+            ("cr", cut.replace('\n', "\r")),
+        ] {
+            let path = dir.path().join(format!("{label}.csv"));
+            std::fs::write(&path, &text).unwrap();
+            for block in [97, 1 << 20] {
+                let (_, r2) = read_file_in_blocks(
+                    &path,
+                    &ReadOptions::default(),
+                    &GlitchParams::default(),
+                    block,
+                )
+                .unwrap();
+                assert_eq!(r2.unterminated_last_line, Some(602), "{label} {block}");
             }
         }
     }

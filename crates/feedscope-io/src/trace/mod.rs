@@ -65,6 +65,10 @@
 //! - A jump that does not come back (re-homing, recordings joined) is refused:
 //!   [`TraceError::PositionJump`] names the line or row, the jump (mm) and its speed (mm/min).
 //!
+//! - With the axis' travel declared (`travel_min_mm`, `travel_max_mm`, through
+//!   [`GlitchParams::for_axis`]), a kept position farther outside it than 1 mm + 1 % of the
+//!   travel is refused: [`TraceError::OutsideTravel`] names the line or row and the value.
+//!
 //! The effort channel is not screened: current and torque jump legitimately (acceleration,
 //! reversal, saturation) and the axis description gives no bound for them.
 
@@ -75,6 +79,7 @@ use feedscope::trace::{GlitchParams, Trace};
 
 mod csv;
 mod format;
+pub mod limits;
 mod parquet;
 mod read;
 

@@ -277,7 +277,8 @@ fn decode<R: ChunkReader + 'static>(
                 })?;
         }
     }
-    let (plan, roots) = plan(builder.schema(), name, opts)?;
+    let schema = builder.schema().clone();
+    let (plan, roots) = plan(&schema, name, opts)?;
     let mask = ProjectionMask::roots(builder.parquet_schema(), roots);
     let reader = builder
         .with_projection(mask)
@@ -294,6 +295,19 @@ fn decode<R: ChunkReader + 'static>(
     }
     let (mut trace, report) = state.finish(&plan, opts)?;
     trace.facts = facts;
+    // An integer effort column holds whole amperes (or N·m): its resolution is a fact the
+    // estimate must know (it states it and widens its standard errors), not a silent loss.
+    let effort_col = match &plan {
+        Plan::Wide { effort, .. } => &effort.name,
+        Plan::Long { value, .. } => &value.name,
+    };
+    if schema
+        .field_with_name(effort_col)
+        .is_ok_and(|f| matches!(f.data_type(), DataType::Int32 | DataType::Int64))
+    {
+        let q = trace.facts.effort_quantum.unwrap_or(0.0).max(1.0);
+        trace.facts.effort_quantum = Some(q);
+    }
     Ok((trace, report))
 }
 
@@ -885,6 +899,9 @@ fn push_sample(
     row: u64,
     label: &str,
 ) -> Result<(), TraceError> {
+    if let Some(e) = super::limits::check(name, label, v, None, Some(row)) {
+        return Err(e);
+    }
     if let Some(&prev) = ch.time_s.last() {
         if t <= prev {
             return Err(TraceError::TimeNotIncreasingInRow {

@@ -234,6 +234,62 @@ pub enum TraceError {
         /// The speed limit of the screening (mm/min).
         limit_mm_min: f64,
     },
+    /// A position sample outside the travel the axis file declares, beyond its margin
+    /// ([`GlitchParams::travel_m`]): the trace is not this axis in machine coordinates.
+    #[error(
+        "{source_name}{}: position {} mm at t = {} s is outside the axis travel [{}, {}] mm \
+         declared in the axis file (travel_min_mm, travel_max_mm; margin {} mm): the trace is \
+         in other coordinates (work offset?), scaled (µm written as mm?) or of another axis; \
+         record machine coordinates of this axis, or correct the travel in the axis file",
+        at(.line, .row),
+        mm(*.position_mm),
+        secs(*.time_s),
+        mm(*.travel_min_mm),
+        mm(*.travel_max_mm),
+        mm(*.margin_mm)
+    )]
+    OutsideTravel {
+        /// The file.
+        source_name: String,
+        /// 1-based line of the sample (CSV).
+        line: Option<u64>,
+        /// 1-based data row of the sample (Parquet).
+        row: Option<u64>,
+        /// Its time (s).
+        time_s: f64,
+        /// Its position (mm).
+        position_mm: f64,
+        /// Declared lower end of the travel (mm).
+        travel_min_mm: f64,
+        /// Declared upper end of the travel (mm).
+        travel_max_mm: f64,
+        /// The margin allowed beyond either end (mm).
+        margin_mm: f64,
+    },
+    /// A sample beyond the bounds of a feed axis ([`super::limits`]): |position| > 100 m,
+    /// |current| > 10 kA or |torque| > 1 MN·m is not a ball-screw drive but a corrupt or
+    /// mis-scaled file.
+    #[error(
+        "{source_name}{}: channel `{channel}`: {value:e} {unit} is beyond ±{limit:e} {unit}, \
+         which no feed axis reaches (a corrupt or mis-scaled value)",
+        at(line, row)
+    )]
+    Implausible {
+        /// The file.
+        source_name: String,
+        /// 1-based line (CSV).
+        line: Option<u64>,
+        /// 1-based data row (Parquet).
+        row: Option<u64>,
+        /// The channel: `position`, `current_a` or `torque_nm`.
+        channel: String,
+        /// The value, in SI units (m, A, N·m).
+        value: f64,
+        /// The bound (same unit).
+        limit: f64,
+        /// The unit.
+        unit: &'static str,
+    },
     /// Time does not strictly increase within a channel of a Parquet file
     /// ([`TraceError::TimeNotIncreasing`] of a row, not a line).
     #[error(
@@ -294,6 +350,10 @@ pub struct ReadReport {
     /// The speed limit the position was screened with (m/s); `None` when it was not screened
     /// (a report made by hand).
     pub max_axis_speed_m_s: Option<f64>,
+    /// The 1-based line of a CSV file's last data line when the file does not end with a line
+    /// end: a file cut off while being written or copied looks like this, and its last row
+    /// may hold a shortened number. The row was read as it stands.
+    pub unterminated_last_line: Option<u64>,
 }
 
 /// A position sample dropped as a glitch.
@@ -315,6 +375,22 @@ pub struct DroppedSample {
 const SHOWN_DROPPED: usize = 5;
 
 impl ReadReport {
+    /// What the read warns about, in one line for people: [`ReadReport::glitch_warning`] and a
+    /// last line without a line end. `None` for a clean read.
+    pub fn warning(&self) -> Option<String> {
+        let cut = self.unterminated_last_line.map(|l| {
+            format!(
+                "the last line (line {l}) has no line end: the file may have been cut off \
+                 while being written or copied, and its last row shortened (it was read as it \
+                 stands; the recording may end early)"
+            )
+        });
+        match (self.glitch_warning(), cut) {
+            (Some(g), Some(c)) => Some(format!("{g}; {c}")),
+            (g, c) => g.or(c),
+        }
+    }
+
     /// One sentence for people when position samples were dropped as glitches: the count, the
     /// limit, and the time (and line or row) of the first few. `None` when nothing was dropped.
     pub fn glitch_warning(&self) -> Option<String> {
@@ -469,7 +545,7 @@ pub(super) fn screen_and_check(
     (mut trace, mut report): (Trace, ReadReport),
     glitch: &GlitchParams,
     origin: Origin,
-    locate: impl FnOnce(&[usize]) -> Vec<Option<u64>>,
+    locate: impl Fn(&[usize]) -> Vec<Option<u64>>,
 ) -> Result<(Trace, ReadReport), TraceError> {
     check_channels(name, &trace.position_m, &trace.effort, trace.effort_kind)?;
     report.max_axis_speed_m_s = Some(glitch.max_axis_speed_m_s);
@@ -513,7 +589,65 @@ pub(super) fn screen_and_check(
             });
         }
     }
+    // Kept positions beyond the bound of a feed axis: what the glitch screen could not call
+    // a glitch (a whole stretch mis-scaled, or times so far apart that any jump is slow).
+    let bound = super::limits::MAX_ABS_POSITION_M;
+    let p = &trace.position_m;
+    if let Some(k) = p.value.iter().position(|z| z.abs() > bound) {
+        let (line, row) = split(
+            locate(&[k + dropped_before(&report, p.time_s[k])])
+                .first()
+                .copied()
+                .flatten(),
+        );
+        return Err(TraceError::Implausible {
+            source_name: name.to_string(),
+            line,
+            row,
+            channel: "position".into(),
+            value: p.value[k],
+            limit: bound,
+            unit: "m",
+        });
+    }
+    if let Some((lo, hi)) = glitch.travel_m {
+        let margin = glitch.travel_margin_m();
+        let p = &trace.position_m;
+        // NaN cannot be here: the readers refuse it before.
+        if let Some(k) = p
+            .value
+            .iter()
+            .position(|&z| z < lo - margin || z > hi + margin)
+        {
+            let (line, row) = split(
+                locate(&[k + dropped_before(&report, p.time_s[k])])
+                    .first()
+                    .copied()
+                    .flatten(),
+            );
+            return Err(TraceError::OutsideTravel {
+                source_name: name.to_string(),
+                line,
+                row,
+                time_s: p.time_s[k],
+                position_mm: p.value[k] * 1e3,
+                travel_min_mm: lo * 1e3,
+                travel_max_mm: hi * 1e3,
+                margin_mm: margin * 1e3,
+            });
+        }
+    }
     Ok((trace, report))
+}
+
+/// Position samples dropped as glitches at or before `time_s`: added to a kept sample's index
+/// they give its index in the channel as read (what `locate` maps to a line or row).
+fn dropped_before(report: &ReadReport, time_s: f64) -> usize {
+    report
+        .dropped_position
+        .iter()
+        .filter(|d| d.time_s <= time_s)
+        .count()
 }
 
 /// The first checks every reader ends with: enough samples in both channels, and motion.

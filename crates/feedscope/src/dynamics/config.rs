@@ -299,27 +299,27 @@ pub struct DriveConfig {
     pub mesh: MeshParams,
 }
 
-fn positive(key: &'static str, value: f64) -> Result<(), DynamicsError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(DynamicsError::InvalidValue {
-            key,
-            value,
-            reason: "must be a finite number > 0",
-        })
-    }
-}
+/// Highest feed rate a drive file may name (mm/min): 1000 m/min, several times the fastest
+/// linear-motor axis and ten times the fastest ball-screw axis.
+const MAX_FEED_MM_MIN: f64 = 1e6;
 
-fn non_negative(key: &'static str, value: f64) -> Result<(), DynamicsError> {
-    if value.is_finite() && value >= 0.0 {
+/// A value within the physical range `[lo, hi]` of its key. Every float key has one: the
+/// ranges are wide (far beyond any ball-screw drive) but finite, because the model multiplies
+/// and factors these numbers, and a product that overflows (a Hertz constant of 1e308
+/// N/m^1.5, a preload fraction or loaded turns of 1e300, a stiffness weight of 1.8e308, a
+/// feed of 1e308 mm/min) puts an infinity into the stiffness matrix, whose eigenvalues are
+/// then NaN and were reported as natural frequencies of 0.0 Hz.
+fn ranged(
+    key: &'static str,
+    value: f64,
+    lo: f64,
+    hi: f64,
+    reason: &'static str,
+) -> Result<(), DynamicsError> {
+    if value.is_finite() && value >= lo && value <= hi {
         Ok(())
     } else {
-        Err(DynamicsError::InvalidValue {
-            key,
-            value,
-            reason: "must be a finite number >= 0",
-        })
+        Err(DynamicsError::InvalidValue { key, value, reason })
     }
 }
 
@@ -386,27 +386,123 @@ impl DriveConfig {
     /// [`DynamicsError::InvalidValue`] naming the first offending key.
     pub fn validate(&self) -> Result<(), DynamicsError> {
         let s = &self.screw;
-        positive("screw.length_mm", s.length_mm)?;
-        positive("screw.lead_mm", s.lead_mm)?;
-        positive("screw.nominal_diameter_mm", s.nominal_diameter_mm)?;
-        positive("screw.stiffness_area_mm2", s.stiffness_area_mm2)?;
-        positive("screw.mass_area_mm2", s.mass_area_mm2)?;
-        positive("screw.polar_moment_mm4", s.polar_moment_mm4)?;
-        positive("screw.youngs_modulus_gpa", s.youngs_modulus_gpa)?;
-        positive("screw.shear_modulus_gpa", s.shear_modulus_gpa)?;
-        positive("screw.density_kg_m3", s.density_kg_m3)?;
+        ranged(
+            "screw.length_mm",
+            s.length_mm,
+            1.0,
+            50_000.0,
+            "must lie in [1, 50000] mm",
+        )?;
+        ranged(
+            "screw.lead_mm",
+            s.lead_mm,
+            0.1,
+            500.0,
+            "must lie in [0.1, 500] mm",
+        )?;
+        ranged(
+            "screw.nominal_diameter_mm",
+            s.nominal_diameter_mm,
+            1.0,
+            1000.0,
+            "must lie in [1, 1000] mm",
+        )?;
+        ranged(
+            "screw.stiffness_area_mm2",
+            s.stiffness_area_mm2,
+            0.1,
+            1e6,
+            "must lie in [0.1, 1e6] mm²",
+        )?;
+        ranged(
+            "screw.mass_area_mm2",
+            s.mass_area_mm2,
+            0.1,
+            1e6,
+            "must lie in [0.1, 1e6] mm²",
+        )?;
+        ranged(
+            "screw.polar_moment_mm4",
+            s.polar_moment_mm4,
+            1e-3,
+            1e12,
+            "must lie in [1e-3, 1e12] mm⁴",
+        )?;
+        ranged(
+            "screw.youngs_modulus_gpa",
+            s.youngs_modulus_gpa,
+            1.0,
+            1500.0,
+            "must lie in [1, 1500] GPa (steel: 210)",
+        )?;
+        ranged(
+            "screw.shear_modulus_gpa",
+            s.shear_modulus_gpa,
+            0.5,
+            1000.0,
+            "must lie in [0.5, 1000] GPa (steel: 80)",
+        )?;
+        ranged(
+            "screw.density_kg_m3",
+            s.density_kg_m3,
+            100.0,
+            25_000.0,
+            "must lie in [100, 25000] kg/m³ (steel: 7850)",
+        )?;
         if let Some(k) = s.motor_torsional_stiffness_nm_per_rad {
-            positive("screw.motor_torsional_stiffness_nm_per_rad", k)?;
+            ranged(
+                "screw.motor_torsional_stiffness_nm_per_rad",
+                k,
+                1e-3,
+                1e10,
+                "must lie in [1e-3, 1e10] N·m/rad",
+            )?;
         }
         let n = &self.nut;
         angle("nut.contact_angle_deg", n.contact_angle_deg)?;
         angle("nut.lead_angle_deg", n.lead_angle_deg)?;
-        positive("nut.ball_diameter_mm", n.ball_diameter_mm)?;
-        positive("nut.loaded_turns", n.loaded_turns)?;
-        positive("nut.rated_dynamic_load_kn", n.rated_dynamic_load_kn)?;
-        non_negative("nut.preload_fraction", n.preload_fraction)?;
-        positive("nut.hertz_constant_n_per_m1_5", n.hertz_constant_n_per_m1_5)?;
-        positive("nut.stiffness_weight", n.stiffness_weight)?;
+        ranged(
+            "nut.ball_diameter_mm",
+            n.ball_diameter_mm,
+            0.1,
+            200.0,
+            "must lie in [0.1, 200] mm",
+        )?;
+        ranged(
+            "nut.loaded_turns",
+            n.loaded_turns,
+            0.1,
+            100.0,
+            "must lie in [0.1, 100]",
+        )?;
+        ranged(
+            "nut.rated_dynamic_load_kn",
+            n.rated_dynamic_load_kn,
+            1e-3,
+            1e5,
+            "must lie in [0.001, 1e5] kN",
+        )?;
+        ranged(
+            "nut.preload_fraction",
+            n.preload_fraction,
+            0.0,
+            1.0,
+            "must lie in [0, 1] (a fraction of the rated dynamic load; typical 0.02-0.1)",
+        )?;
+        ranged(
+            "nut.hertz_constant_n_per_m1_5",
+            n.hertz_constant_n_per_m1_5,
+            1e6,
+            1e13,
+            "must lie in [1e6, 1e13] N/m^1.5 (steel balls: about 3e9)",
+        )?;
+        ranged(
+            "nut.stiffness_weight",
+            n.stiffness_weight,
+            1e-3,
+            10.0,
+            "must lie in [0.001, 10] (the paper: 0.9)",
+        )?;
         if n.ball_diameter_mm >= s.nominal_diameter_mm {
             return Err(DynamicsError::InvalidValue {
                 key: "nut.ball_diameter_mm",
@@ -416,36 +512,123 @@ impl DriveConfig {
         }
         let b = &self.bearings;
         angle("bearings.contact_angle_deg", b.contact_angle_deg)?;
-        positive("bearings.loaded_rows", b.loaded_rows)?;
-        positive("bearings.balls_per_row", b.balls_per_row)?;
-        non_negative("bearings.screw_pretension_kn", b.screw_pretension_kn)?;
-        positive(
+        ranged(
+            "bearings.loaded_rows",
+            b.loaded_rows,
+            0.1,
+            100.0,
+            "must lie in [0.1, 100]",
+        )?;
+        ranged(
+            "bearings.balls_per_row",
+            b.balls_per_row,
+            1.0,
+            1000.0,
+            "must lie in [1, 1000]",
+        )?;
+        ranged(
+            "bearings.screw_pretension_kn",
+            b.screw_pretension_kn,
+            0.0,
+            1e4,
+            "must lie in [0, 1e4] kN",
+        )?;
+        ranged(
             "bearings.hertz_constant_n_per_m1_5",
             b.hertz_constant_n_per_m1_5,
+            1e6,
+            1e13,
+            "must lie in [1e6, 1e13] N/m^1.5 (steel balls: about 3e9)",
         )?;
-        positive("bearings.stiffness_weight", b.stiffness_weight)?;
-        positive("table.mass_kg", self.table.mass_kg)?;
-        non_negative(
+        ranged(
+            "bearings.stiffness_weight",
+            b.stiffness_weight,
+            1e-3,
+            10.0,
+            "must lie in [0.001, 10] (the paper: 0.9)",
+        )?;
+        ranged(
+            "table.mass_kg",
+            self.table.mass_kg,
+            1e-3,
+            1e6,
+            "must lie in [0.001, 1e6] kg",
+        )?;
+        ranged(
             "table.guide_stiffness_n_per_um",
             self.table.guide_stiffness_n_per_um,
+            0.0,
+            1e6,
+            "must lie in [0, 1e6] N/µm",
         )?;
         let f = &self.friction;
-        non_negative("friction.coulomb_n", f.coulomb_n)?;
-        non_negative("friction.static_n", f.static_n)?;
-        non_negative(
+        ranged(
+            "friction.coulomb_n",
+            f.coulomb_n,
+            0.0,
+            1e6,
+            "must lie in [0, 1e6] N",
+        )?;
+        ranged(
+            "friction.static_n",
+            f.static_n,
+            0.0,
+            1e6,
+            "must lie in [0, 1e6] N",
+        )?;
+        ranged(
             "friction.stribeck_velocity_mm_min",
             f.stribeck_velocity_mm_min,
+            0.0,
+            MAX_FEED_MM_MIN,
+            "must lie in [0, 1e6] mm/min",
         )?;
-        non_negative("friction.viscous_n_per_mm_min", f.viscous_n_per_mm_min)?;
-        positive("friction.shape_exponent", f.shape_exponent)?;
+        ranged(
+            "friction.viscous_n_per_mm_min",
+            f.viscous_n_per_mm_min,
+            0.0,
+            1e3,
+            "must lie in [0, 1000] N per mm/min",
+        )?;
+        ranged(
+            "friction.shape_exponent",
+            f.shape_exponent,
+            0.1,
+            10.0,
+            "must lie in [0.1, 10] (Eq. 3: 2)",
+        )?;
         let r = &self.ripple;
-        positive("ripple.pole_pairs", r.pole_pairs)?;
+        ranged(
+            "ripple.pole_pairs",
+            r.pole_pairs,
+            1.0,
+            1000.0,
+            "must lie in [1, 1000]",
+        )?;
         for &h in &r.harmonics {
-            positive("ripple.harmonics", h)?;
+            ranged(
+                "ripple.harmonics",
+                h,
+                1e-3,
+                1000.0,
+                "must lie in [0.001, 1000]",
+            )?;
         }
-        non_negative("ripple.margin_hz", r.margin_hz)?;
+        ranged(
+            "ripple.margin_hz",
+            r.margin_hz,
+            0.0,
+            1e5,
+            "must lie in [0, 1e5] Hz",
+        )?;
         let w = &self.sweep;
-        positive("sweep.feed_max_mm_min", w.feed_max_mm_min)?;
+        ranged(
+            "sweep.feed_max_mm_min",
+            w.feed_max_mm_min,
+            1e-3,
+            MAX_FEED_MM_MIN,
+            "must lie in [0.001, 1e6] mm/min",
+        )?;
         count(
             "sweep.feed_points",
             w.feed_points,
@@ -479,11 +662,11 @@ impl DriveConfig {
             });
         }
         for &v in &w.position_feeds_mm_min {
-            if !v.is_finite() {
+            if !(v.is_finite() && v.abs() <= MAX_FEED_MM_MIN) {
                 return Err(DynamicsError::InvalidValue {
                     key: "sweep.position_feeds_mm_min",
                     value: v,
-                    reason: "must be finite",
+                    reason: "must lie in [-1e6, 1e6] mm/min",
                 });
             }
         }

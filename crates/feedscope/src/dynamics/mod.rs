@@ -76,7 +76,7 @@ pub enum DynamicsError {
         message: String,
     },
     /// A key holds a value outside its physical range.
-    #[error("key `{key}` = {value}: {reason}")]
+    #[error("key `{key}` = {}: {reason}", crate::units::Shown(*.value))]
     InvalidValue {
         /// The offending key, with its table, e.g. `screw.length_mm`.
         key: &'static str,

@@ -34,11 +34,17 @@ impl DriveModel {
     /// [`DynamicsError::InvalidValue`] naming the first key out of range.
     pub fn from_config(cfg: &DriveConfig) -> Result<Self, DynamicsError> {
         cfg.validate()?;
-        Ok(Self {
+        Ok(Self::from_config_unchecked(cfg))
+    }
+
+    /// The model without the range check, for test oracles that need a limit no real drive
+    /// reaches (a rigid, massless screw).
+    pub(crate) fn from_config_unchecked(cfg: &DriveConfig) -> Self {
+        Self {
             screw: ScrewModel::from_config(cfg),
             joints: JointModel::from_config(cfg),
             config: cfg.clone(),
-        })
+        }
     }
 
     /// The configuration this model was built from.
@@ -392,8 +398,13 @@ impl PositionPlan {
     }
 }
 
-/// f = √max(λ, 0) / 2π; a slightly negative λ is round-off on a (near) mechanism.
+/// f = √max(λ, 0) / 2π; a slightly negative λ is round-off on a (near) mechanism. A NaN λ
+/// (a matrix that overflowed) stays NaN: `f64::max` would turn it into a plausible-looking
+/// 0.0 Hz.
 fn omega_to_hz(lambda: f64) -> f64 {
+    if lambda.is_nan() {
+        return f64::NAN;
+    }
     lambda.max(0.0).sqrt() / (2.0 * PI)
 }
 

@@ -76,7 +76,8 @@ pub enum StribeckError {
     /// An input value is NaN or infinite.
     #[error("{quantity} number {index} is not finite ({value})")]
     NonFinite {
-        /// Which input (`"speed"` or `"friction"`).
+        /// Which input (`"speed"`, `"friction"`, `"torque"`) or result
+        /// (`"friction from torque"`).
         quantity: &'static str,
         /// Index in the input slice (0-based).
         index: usize,
@@ -119,7 +120,7 @@ impl StribeckError {
 ///
 /// # Errors
 /// [`StribeckError::BadParameter`] when p is not positive and finite or η is not in (0, 1];
-/// [`StribeckError::NonFinite`] when T is not finite.
+/// [`StribeckError::NonFinite`] when T, or the force it gives, is not finite.
 ///
 /// # Example
 /// ```
@@ -157,7 +158,16 @@ pub fn friction_from_torque_n(
             value: torque_nm,
         });
     }
-    Ok(2.0 * std::f64::consts::PI * efficiency * torque_nm / lead_m)
+    let force_n = 2.0 * std::f64::consts::PI * efficiency * torque_nm / lead_m;
+    // A finite torque on a tiny lead can still overflow.
+    if !force_n.is_finite() {
+        return Err(StribeckError::NonFinite {
+            quantity: "friction from torque",
+            index: 0,
+            value: force_n,
+        });
+    }
+    Ok(force_n)
 }
 
 /// Parameters of the Stribeck curve, SI units.

@@ -70,12 +70,19 @@ pub struct GlitchParams {
     /// when the axis file gives it, which catches much smaller glitches. `f64::INFINITY` turns
     /// screening off.
     pub max_axis_speed_m_s: f64,
+    /// The axis's usable travel [min, max] (m) when the axis file declares it
+    /// (`travel_min_mm`, `travel_max_mm`): a kept position sample farther outside it than
+    /// [`GlitchParams::travel_margin_m`] is not this axis in machine coordinates (another
+    /// coordinate system, a wrong scale, another axis), and readers refuse it. `None`: not
+    /// checked.
+    pub travel_m: Option<(f64, f64)>,
 }
 
 impl Default for GlitchParams {
     fn default() -> Self {
         Self {
             max_axis_speed_m_s: feed_mm_min_to_m_s(DEFAULT_MAX_AXIS_SPEED_MM_MIN),
+            travel_m: None,
         }
     }
 }
@@ -94,14 +101,32 @@ impl GlitchParams {
         match rapid_rate_mm_min {
             Some(r) if r.is_finite() && r > 0.0 => Self {
                 max_axis_speed_m_s: feed_mm_min_to_m_s(RAPID_RATE_MARGIN * r),
+                travel_m: None,
             },
             _ => Self::default(),
         }
     }
 
-    /// [`GlitchParams::from_rapid_rate`] with the axis' `rapid_rate_mm_min`.
+    /// [`GlitchParams::from_rapid_rate`] with the axis' `rapid_rate_mm_min`, and its travel
+    /// when both ends are declared (finite, max > min).
     pub fn for_axis(axis: &crate::axis::AxisParams) -> Self {
-        Self::from_rapid_rate(axis.rapid_rate_mm_min)
+        let travel_m = match (axis.travel_min_mm, axis.travel_max_mm) {
+            (Some(lo), Some(hi)) if lo.is_finite() && hi.is_finite() && hi > lo => {
+                Some((lo * 1e-3, hi * 1e-3))
+            }
+            _ => None,
+        };
+        Self {
+            travel_m,
+            ..Self::from_rapid_rate(axis.rapid_rate_mm_min)
+        }
+    }
+
+    /// How far outside the declared travel a position may lie (m): 1 mm + 1 % of the travel,
+    /// room for reference-point and overtravel margins and the slack of a hand-written travel.
+    pub fn travel_margin_m(&self) -> f64 {
+        self.travel_m
+            .map_or(0.0, |(lo, hi)| 1e-3 + 0.01 * (hi - lo))
     }
 
     /// The limit in mm/min, for messages.
@@ -526,6 +551,7 @@ mod tests {
         c.value[100] = 1e308;
         let off = GlitchParams {
             max_axis_speed_m_s: f64::INFINITY,
+            ..GlitchParams::default()
         };
         assert!(screen_position(&c, &off).unwrap().glitches.is_empty());
     }
