@@ -132,13 +132,19 @@ impl SignalDef {
 
     /// What the signal measures, from its unitsType, variable and description.
     pub fn role(&self) -> SignalRole {
-        let units = self.units_type.as_deref().unwrap_or("").to_ascii_lowercase();
+        let units = self
+            .units_type
+            .as_deref()
+            .unwrap_or("")
+            .to_ascii_lowercase();
         let var = self.variable().to_ascii_lowercase();
         let desc = self.description.to_ascii_lowercase();
         let not_actual = ["setpoint", "following", "deviation", "difference", "error"]
             .iter()
             .any(|w| desc.contains(w))
-            || ["cmd", "flwerr", "dev", "des"].iter().any(|w| var.contains(w));
+            || ["cmd", "flwerr", "dev", "des"]
+                .iter()
+                .any(|w| var.contains(w));
         if units == "posn" || units.is_empty() {
             let named = var.starts_with("measpos")
                 || var.contains("actpos")
@@ -521,14 +527,21 @@ impl<S: Sink> Pass<'_, S> {
         self.last_record = None;
     }
 
-    fn frame_header(&mut self, e: &quick_xml::events::BytesStart<'_>, line: u64) -> Result<(), ImportError> {
+    fn frame_header(
+        &mut self,
+        e: &quick_xml::events::BytesStart<'_>,
+        line: u64,
+    ) -> Result<(), ImportError> {
         for a in e.attributes() {
             let a = a.map_err(|err| self.bad(line, format!("frameHeader: {err}")))?;
             let v = attr_text(&a);
             match a.key.as_ref() {
                 "startTime" => {
                     let t = Timestamp::parse(v.trim()).map_err(|r| {
-                        self.bad(line, format!("frameHeader startTime `{}`: {r}", shorten(&v)))
+                        self.bad(
+                            line,
+                            format!("frameHeader startTime `{}`: {r}", shorten(&v)),
+                        )
                     })?;
                     self.frame().start = Some(t);
                 }
@@ -545,7 +558,11 @@ impl<S: Sink> Pass<'_, S> {
         Ok(())
     }
 
-    fn data_signal(&mut self, e: &quick_xml::events::BytesStart<'_>, line: u64) -> Result<(), ImportError> {
+    fn data_signal(
+        &mut self,
+        e: &quick_xml::events::BytesStart<'_>,
+        line: u64,
+    ) -> Result<(), ImportError> {
         if self.began {
             return Err(self.bad(line, "dataSignal after the first rec of its dataFrame"));
         }
@@ -574,7 +591,11 @@ impl<S: Sink> Pass<'_, S> {
                 "unitsType" => d.units_type = Some(v),
                 "dataType" => d.data_type = Some(v),
                 "interval" => {
-                    d.interval_s = v.trim().parse::<f64>().ok().filter(|x| x.is_finite() && *x > 0.0)
+                    d.interval_s = v
+                        .trim()
+                        .parse::<f64>()
+                        .ok()
+                        .filter(|x| x.is_finite() && *x > 0.0)
                 }
                 "datapointCount" => d.datapoint_count = v.trim().parse().ok(),
                 _ => {}
@@ -586,7 +607,10 @@ impl<S: Sink> Pass<'_, S> {
         if !has_name {
             return Err(self.bad(
                 line,
-                format!("dataSignal `{}` without its `name` attribute (the NCK path)", d.id),
+                format!(
+                    "dataSignal `{}` without its `name` attribute (the NCK path)",
+                    d.id
+                ),
             ));
         }
         let idx = self.frame().signals.len();
@@ -661,7 +685,7 @@ impl<S: Sink> Pass<'_, S> {
             };
             let sig = &self.listing.frames[fi].signals[i];
             let v = match parsed {
-                Ok(v) if v.abs() >= INVALID_MARK => v,
+                // Finite first: an infinity is damage, not the control's mark.
                 Ok(v) if v.is_finite() => v,
                 Ok(_) => {
                     return Err(self.bad(
@@ -818,7 +842,11 @@ impl<S: Sink> Pass<'_, S> {
 }
 
 /// Stream a trace through `sink`; returns the listing with every signal's counts.
-fn scan<R: BufRead, S: Sink>(r: R, source: &str, sink: S) -> Result<(SinumerikListing, S), ImportError> {
+fn scan<R: BufRead, S: Sink>(
+    r: R,
+    source: &str,
+    sink: S,
+) -> Result<(SinumerikListing, S), ImportError> {
     let io = |error| ImportError::Io {
         source_name: source.to_string(),
         error,
@@ -912,7 +940,13 @@ fn scan<R: BufRead, S: Sink>(r: R, source: &str, sink: S) -> Result<(SinumerikLi
                     "dataSignal" if in_frame => pass.data_signal(e, line)?,
                     "rec" if in_frame => pass.record(e, line, &mut scratch)?,
                     "rec" | "dataSignal" | "frameHeader" if trace_data => {
-                        return Err(pass.bad(line, format!("<{name}> outside a <dataFrame>")));
+                        let reason = match stack.last() {
+                            Some(open) if stack.iter().any(|s| s == "dataFrame") => format!(
+                                "<{name}> inside <{open}>: an element before it is not closed                                  (not well-formed XML)"
+                            ),
+                            _ => format!("<{name}> outside a <dataFrame>"),
+                        };
+                        return Err(pass.bad(line, reason));
                     }
                     _ => {}
                 }
@@ -971,7 +1005,12 @@ fn scan<R: BufRead, S: Sink>(r: R, source: &str, sink: S) -> Result<(SinumerikLi
 struct CountSink;
 
 impl Sink for CountSink {
-    fn begin(&mut self, l: &SinumerikListing, f: usize, _: u64) -> Result<Vec<Option<usize>>, ImportError> {
+    fn begin(
+        &mut self,
+        l: &SinumerikListing,
+        f: usize,
+        _: u64,
+    ) -> Result<Vec<Option<usize>>, ImportError> {
         Ok(vec![None; l.frames[f].signals.len()])
     }
     fn sample(&mut self, _: usize, _: f64, _: f64, _: u64) -> Result<(), ImportError> {
@@ -993,7 +1032,10 @@ pub fn list_sinumerik(path: &Path) -> Result<SinumerikListing, ImportError> {
 ///
 /// # Errors
 /// As [`list_sinumerik`].
-pub fn list_sinumerik_from<R: BufRead>(r: R, source_name: &str) -> Result<SinumerikListing, ImportError> {
+pub fn list_sinumerik_from<R: BufRead>(
+    r: R,
+    source_name: &str,
+) -> Result<SinumerikListing, ImportError> {
     Ok(scan(r, source_name, CountSink)?.0)
 }
 
@@ -1071,17 +1113,20 @@ impl ConvertSink<'_> {
                         .collect::<String>()
                         .to_ascii_lowercase()
                 };
-                let hit = axes.iter().find(|(a, _)| squash(a) == squash(want)).or_else(|| {
-                    // `u1,7`: the whole bracket.
-                    f.signals
-                        .iter()
-                        .find(|s| {
-                            s.name
-                                .rfind('[')
-                                .is_some_and(|k| squash(&s.name[k..]) == format!("[{}]", squash(want)))
-                        })
-                        .and_then(|s| axes.iter().find(|(a, _)| Some(a.as_str()) == s.axis()))
-                });
+                let hit = axes
+                    .iter()
+                    .find(|(a, _)| squash(a) == squash(want))
+                    .or_else(|| {
+                        // `u1,7`: the whole bracket.
+                        f.signals
+                            .iter()
+                            .find(|s| {
+                                s.name.rfind('[').is_some_and(|k| {
+                                    squash(&s.name[k..]) == format!("[{}]", squash(want))
+                                })
+                            })
+                            .and_then(|s| axes.iter().find(|(a, _)| Some(a.as_str()) == s.axis()))
+                    });
                 match hit {
                     Some((a, _)) => Some(a.clone()),
                     None => {
@@ -1146,7 +1191,11 @@ impl ConvertSink<'_> {
         Ok((pos, eff))
     }
 
-    fn units(&self, pos: &SignalDef, eff: &SignalDef) -> Result<(UnitChoice<PositionUnit>, UnitChoice<EffortUnit>), ImportError> {
+    fn units(
+        &self,
+        pos: &SignalDef,
+        eff: &SignalDef,
+    ) -> Result<(UnitChoice<PositionUnit>, UnitChoice<EffortUnit>), ImportError> {
         let pu = if let Some(u) = self.params.position_unit {
             UnitChoice {
                 unit: u,
@@ -1164,8 +1213,8 @@ impl ConvertSink<'_> {
         {
             UnitChoice {
                 unit: PositionUnit::Millimetre,
-                rule: "unitsType posn: mm, the metric basic system (--position-unit inch for an \
-                       inch machine)"
+                rule: "unitsType posn, metric basic system assumed; --position-unit inch for an \
+                       inch machine"
                     .into(),
             }
         } else {
@@ -1194,13 +1243,12 @@ impl ConvertSink<'_> {
         } else if ut == "current" {
             UnitChoice {
                 unit: EffortUnit::Ampere,
-                rule: "unitsType current: A".into(),
+                rule: "unitsType current".into(),
             }
         } else if ut == "torque" || (ut.is_empty() && eff.role() == SignalRole::Torque) {
             UnitChoice {
                 unit: EffortUnit::NewtonMetre,
-                rule: "a torque: N·m (a linear motor's force in N would need its own axis file)"
-                    .into(),
+                rule: "a torque signal".into(),
             }
         } else {
             return Err(ImportError::Item {
@@ -1234,7 +1282,12 @@ fn signal_list(f: &Frame, keep: impl Fn(&SignalDef) -> bool) -> String {
 }
 
 impl Sink for ConvertSink<'_> {
-    fn begin(&mut self, l: &SinumerikListing, fi: usize, line: u64) -> Result<Vec<Option<usize>>, ImportError> {
+    fn begin(
+        &mut self,
+        l: &SinumerikListing,
+        fi: usize,
+        line: u64,
+    ) -> Result<Vec<Option<usize>>, ImportError> {
         let f = &l.frames[fi];
         let mut slots = vec![None; f.signals.len()];
         if self.chosen.is_none() {
@@ -1315,7 +1368,10 @@ impl Sink for ConvertSink<'_> {
 /// position or effort signal or a named signal does not exist; [`ImportError::TooFewSamples`]
 /// and [`ImportError::NoInformation`]-free emptiness ([`ImportError::Item`]) when a converted
 /// signal has no valid sample.
-pub fn read_sinumerik(path: &Path, params: &SinumerikParams) -> Result<SinumerikImport, ImportError> {
+pub fn read_sinumerik(
+    path: &Path,
+    params: &SinumerikParams,
+) -> Result<SinumerikImport, ImportError> {
     let source = path.display().to_string();
     let f = open(path, &source)?;
     parse_sinumerik(f, &source, params)
@@ -1341,7 +1397,8 @@ pub fn parse_sinumerik<R: BufRead>(
         notes: Vec::new(),
     };
     let (listing, sink) = scan(r, source_name, sink)?;
-    let (Some((pdef, edef)), Some(pu), Some(eu)) = (sink.chosen, sink.pos_unit, sink.eff_unit) else {
+    let (Some((pdef, edef)), Some(pu), Some(eu)) = (sink.chosen, sink.pos_unit, sink.eff_unit)
+    else {
         // scan refuses a file without records, so the first frame with one chose.
         unreachable!("signals are chosen at the first record");
     };
@@ -1511,7 +1568,7 @@ pub fn parse_sinumerik<R: BufRead>(
     // A servo trace resolves its band; the generic slow-sampling note is for polled logs.
     report
         .warnings
-        .retain(|w| !(w.code == "slow-sampling" && trace_interval_ok(&trace)));
+        .retain(|w| !(w.code == "slow-sampling" && fast_trace(&trace)));
     Ok(SinumerikImport {
         imported: Imported { trace, report },
         position: (pdef, pstats),
@@ -1522,7 +1579,7 @@ pub fn parse_sinumerik<R: BufRead>(
 
 /// Both channels sampled at 100 Hz or faster (a servo or IPO trace), where the generic
 /// "slow sampling" warning does not apply.
-fn trace_interval_ok(t: &Trace) -> bool {
+pub(super) fn fast_trace(t: &Trace) -> bool {
     let med = |c: &Channel| {
         let mut d: Vec<f64> = c.time_s.windows(2).map(|w| w[1] - w[0]).collect();
         if d.is_empty() {
@@ -1678,7 +1735,10 @@ pub fn write_sinumerik_xml<W: Write>(
         if s.ch.time_s.windows(2).any(|p| us(p[1]) <= us(p[0])) {
             return Err(std::io::Error::new(
                 std::io::ErrorKind::InvalidInput,
-                format!("{}: samples closer than the records' 1 µs resolution", s.name),
+                format!(
+                    "{}: samples closer than the records' 1 µs resolution",
+                    s.name
+                ),
             ));
         }
     }
@@ -1769,11 +1829,7 @@ pub fn write_sinumerik_xml<W: Write>(
             }
         }
         if any {
-            writeln!(
-                w,
-                "  <rec time=\"{:.6}\"{line}/>",
-                (t - t0) as f64 * 1e-6
-            )?;
+            writeln!(w, "  <rec time=\"{:.6}\"{line}/>", (t - t0) as f64 * 1e-6)?;
         }
     }
     writeln!(w, " </dataFrame>")?;

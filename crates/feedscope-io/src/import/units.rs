@@ -170,10 +170,16 @@ mod tests {
             PositionUnit::from_symbol("MM"),
             Some(PositionUnit::Millimetre)
         );
-        assert_eq!(PositionUnit::from_symbol("um"), Some(PositionUnit::Micrometre));
+        assert_eq!(
+            PositionUnit::from_symbol("um"),
+            Some(PositionUnit::Micrometre)
+        );
         assert_eq!(PositionUnit::from_symbol("deg"), None);
         assert!((PositionUnit::Inch.metres() - 0.0254).abs() < 1e-15);
-        assert_eq!(EffortUnit::from_symbol("N·m"), Some(EffortUnit::NewtonMetre));
+        assert_eq!(
+            EffortUnit::from_symbol("N·m"),
+            Some(EffortUnit::NewtonMetre)
+        );
         assert_eq!(EffortUnit::from_symbol("%"), None);
         assert_eq!(EffortUnit::Milliampere.kind(), EffortKind::CurrentA);
         assert_eq!(unit_symbol("mm (Length)"), Some("mm"));
