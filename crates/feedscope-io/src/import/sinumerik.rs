@@ -264,6 +264,32 @@ pub struct Frame {
     pub stats: Vec<SignalStats>,
 }
 
+impl Frame {
+    /// The signals converted by default for `axis` (`None`: every signal): the actual
+    /// position, measuring system 1 first, and the actual current, else a torque; indices into
+    /// [`Frame::signals`].
+    pub fn default_signals(&self, axis: Option<&str>) -> (Option<usize>, Option<usize>) {
+        let on_axis = |s: &SignalDef| axis.is_none() || s.axis() == axis;
+        let of_role = |role| {
+            (0..self.signals.len())
+                .filter(move |&k| on_axis(&self.signals[k]) && self.signals[k].role() == role)
+        };
+        let pos = of_role(SignalRole::ActualPosition)
+            .find(|&k| self.signals[k].is_first_measuring_system())
+            .or_else(|| of_role(SignalRole::ActualPosition).next());
+        let eff = of_role(SignalRole::Current)
+            .next()
+            .or_else(|| of_role(SignalRole::Torque).next());
+        (pos, eff)
+    }
+
+    /// The axes of the frame's signals with their numbers of signals, in order of first
+    /// appearance.
+    pub fn axes(&self) -> Vec<(String, usize)> {
+        axes_of(self)
+    }
+}
+
 /// Everything a trace file declares and holds, with counts per signal (no values).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct SinumerikListing {
@@ -1161,32 +1187,14 @@ impl ConvertSink<'_> {
                 signal_list(f, on_axis)
             ),
         };
+        let (dp, de) = f.default_signals(axis.as_deref());
         let pos = match &self.params.position_signal {
             Some(w) => self.find_named(f, w, "position")?,
-            None => {
-                let cands: Vec<usize> = (0..f.signals.len())
-                    .filter(|&k| {
-                        on_axis(&f.signals[k]) && f.signals[k].role() == SignalRole::ActualPosition
-                    })
-                    .collect();
-                *cands
-                    .iter()
-                    .find(|&&k| f.signals[k].is_first_measuring_system())
-                    .or(cands.first())
-                    .ok_or_else(|| missing("actual position", "--position-signal"))?
-            }
+            None => dp.ok_or_else(|| missing("actual position", "--position-signal"))?,
         };
         let eff = match &self.params.effort_signal {
             Some(w) => self.find_named(f, w, "effort")?,
-            None => {
-                let pick = |role| {
-                    (0..f.signals.len())
-                        .find(|&k| on_axis(&f.signals[k]) && f.signals[k].role() == role)
-                };
-                pick(SignalRole::Current)
-                    .or_else(|| pick(SignalRole::Torque))
-                    .ok_or_else(|| missing("motor current or torque", "--effort-signal"))?
-            }
+            None => de.ok_or_else(|| missing("motor current or torque", "--effort-signal"))?,
         };
         Ok((pos, eff))
     }

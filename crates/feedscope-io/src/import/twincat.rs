@@ -137,6 +137,32 @@ impl ScopeChannel {
         (!v.is_empty()).then(|| v.join(", "))
     }
 
+    fn lower_names(&self) -> String {
+        format!("{} {}", self.name, self.get("SymbolName").unwrap_or("")).to_ascii_lowercase()
+    }
+
+    /// A length unit, or no unit and a name with `ActPos` (not a set value).
+    pub fn may_be_position(&self) -> bool {
+        match self.unit_symbol() {
+            Some(u) => PositionUnit::from_symbol(u).is_some(),
+            None => {
+                let n = self.lower_names();
+                n.contains("actpos") && !n.contains("set")
+            }
+        }
+    }
+
+    /// A current or torque unit, or no unit and a name with `Torque` or `Current`.
+    pub fn may_be_effort(&self) -> bool {
+        match self.unit_symbol() {
+            Some(u) => EffortUnit::from_symbol(u).is_some(),
+            None => {
+                let n = self.lower_names();
+                ["torque", "current"].iter().any(|w| n.contains(w))
+            }
+        }
+    }
+
     fn is_named(&self, wanted: &str) -> bool {
         self.name == wanted
             || self.get("SymbolName") == Some(wanted)
@@ -185,6 +211,21 @@ impl ScopeHeader {
             ',' => "comma",
             _ => "other",
         }
+    }
+
+    /// The channels converted by default: the only one that may be the position, the only
+    /// one that may be the effort (`None` where none or several fit).
+    pub fn default_channels(&self) -> (Option<usize>, Option<usize>) {
+        let only = |fits: fn(&ScopeChannel) -> bool| {
+            let v: Vec<usize> = (0..self.channels.len())
+                .filter(|&k| fits(&self.channels[k]))
+                .collect();
+            (v.len() == 1).then(|| v[0])
+        };
+        (
+            only(ScopeChannel::may_be_position),
+            only(ScopeChannel::may_be_effort),
+        )
     }
 
     fn channel_list(&self) -> String {
@@ -620,6 +661,26 @@ impl DataPass<'_> {
                     ),
                 ));
             }
+            // Row k holds the k-th sample of every channel, so the first row has all columns
+            // (trailing channels end early, they never start late). Fewer means the header
+            // has more columns than the data: a name or unit split at the separator.
+            if self.rows == 1 && f.len() < self.header.columns && lines.last_ended {
+                return Err(bad(
+                    line,
+                    format!(
+                        "the first data row has {} fields but the channel header {} columns: \
+                         the header does not line up with the data (a channel name holding the \
+                         separator{}); export with tab or semicolon as separator",
+                        f.len(),
+                        self.header.columns,
+                        if sep == ' ' {
+                            ", e.g. a name or unit with a space"
+                        } else {
+                            ""
+                        }
+                    ),
+                ));
+            }
             let cut = !lines.last_ended;
             for k in 0..self.wanted.len() {
                 let c = &self.header.channels[self.wanted[k]];
@@ -809,36 +870,19 @@ pub fn parse_twincat<R: BufRead>(
 ) -> Result<TwincatImport, ImportError> {
     let mut lines = Lines::new(r);
     let h = parse_header(&mut lines, source_name)?;
-    let lname = |c: &ScopeChannel| {
-        format!("{} {}", c.name, c.get("SymbolName").unwrap_or("")).to_ascii_lowercase()
-    };
     let p = choose(
         &h,
         params.position.as_deref(),
         "position",
         "--position",
-        |c| match c.unit_symbol() {
-            Some(u) => PositionUnit::from_symbol(u).is_some(),
-            None => {
-                let n = lname(c);
-                n.contains("actpos") && !n.contains("set")
-            }
-        },
+        ScopeChannel::may_be_position,
     )?;
     let e = choose(
         &h,
         params.effort.as_deref(),
         "effort",
         "--effort",
-        |c| match c.unit_symbol() {
-            Some(u) => EffortUnit::from_symbol(u).is_some(),
-            None => {
-                let n = lname(c);
-                ["acttorque", "actcurrent", "torque", "current"]
-                    .iter()
-                    .any(|w| n.contains(w))
-            }
-        },
+        ScopeChannel::may_be_effort,
     )?;
     if p == e {
         return Err(ImportError::BadParam(format!(

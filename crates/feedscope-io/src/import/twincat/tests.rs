@@ -407,6 +407,20 @@ fn the_writer_round_trips_in_every_layout() {
 }
 
 #[test]
+fn a_header_split_at_the_separator_is_refused() {
+    // A space-separated export of a channel named with a space: the header has one column more
+    // than the data.
+    let text = export(' ', &["0 1 0 2", "1 1,1 1 2,1"]).replace("Axis_X.SetPos", "Set Pos");
+    let e = list_twincat_from(text.as_bytes(), "s.csv")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("s.csv:18: the first data row has 4 fields but the channel header 7 columns"),
+        "{e}"
+    );
+}
+
+#[test]
 fn quoted_fields_are_unquoted() {
     assert_eq!(
         split_fields(
