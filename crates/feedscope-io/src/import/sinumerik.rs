@@ -987,6 +987,19 @@ fn scan<R: BufRead, S: Sink>(
                     pass.end_frame(line)?;
                 }
             }
+            Event::Text(ref t) if !root_seen => {
+                let text = t.xml_content(quick_xml::XmlVersion::Implicit1_0);
+                if !text.trim().is_empty() {
+                    return Err(pass.bad(
+                        line,
+                        format!(
+                            "`{}` before any XML element: not an XML file (a SINUMERIK trace \
+                             is XML)",
+                            shorten(text.trim().lines().next().unwrap_or(""))
+                        ),
+                    ));
+                }
+            }
             Event::Eof => {
                 let line = reader.get_ref().newlines + 1;
                 if let Some(open) = stack.last() {

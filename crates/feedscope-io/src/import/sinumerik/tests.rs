@@ -284,6 +284,12 @@ fn truncated_files_say_so_with_the_last_record() {
         parse("", &axis("7")).unwrap_err(),
         ImportError::Empty { .. }
     ));
+    let csv = "time_s,channel,value\n0,position_mm,1\n";
+    assert!(
+        err(csv).starts_with("t.xml:1: `time_s,channel,value` before any XML element: not an XML file"),
+        "{}",
+        err(csv)
+    );
     let setup_only = r#"<traceSession version="1"><traceCaptureSetup/></traceSession>"#;
     assert!(
         err(setup_only).contains("no <traceData>"),
