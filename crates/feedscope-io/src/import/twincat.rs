@@ -617,6 +617,8 @@ struct DataPass<'a> {
     rows: u64,
     marks: Marks,
     eof_marker: bool,
+    /// Non-empty cells of the previous data row.
+    prev_fields: usize,
 }
 
 impl DataPass<'_> {
@@ -682,6 +684,20 @@ impl DataPass<'_> {
                 ));
             }
             let cut = !lines.last_ended;
+            // A last line without its line break and with fewer fields than the line before
+            // was cut while the file was written or copied (TwinCAT ends every line).
+            let n_fields = f.iter().filter(|c| !c.is_empty()).count();
+            if cut && n_fields < self.prev_fields {
+                return Err(bad(
+                    line,
+                    format!(
+                        "the last line is cut short ({n_fields} cells, the line before has {}, \
+                         no line break at the end): truncated file",
+                        self.prev_fields
+                    ),
+                ));
+            }
+            self.prev_fields = n_fields;
             for k in 0..self.wanted.len() {
                 let c = &self.header.channels[self.wanted[k]];
                 let cell = |p: usize| f.get(p).map_or("", |s| s.as_ref());
@@ -786,6 +802,7 @@ pub fn list_twincat_from<R: BufRead>(
             rows: 0,
             marks: Marks::default(),
             eof_marker: false,
+            prev_fields: 0,
         };
         pass.run(&mut lines)?;
         (
@@ -997,6 +1014,7 @@ pub fn parse_twincat<R: BufRead>(
             rows: 0,
             marks: Marks::default(),
             eof_marker: false,
+            prev_fields: 0,
         };
         pass.run(&mut lines)?;
         let mut chans = std::mem::take(&mut pass.channels);

@@ -286,7 +286,8 @@ fn truncated_files_say_so_with_the_last_record() {
     ));
     let csv = "time_s,channel,value\n0,position_mm,1\n";
     assert!(
-        err(csv).starts_with("t.xml:1: `time_s,channel,value` before any XML element: not an XML file"),
+        err(csv)
+            .starts_with("t.xml:1: `time_s,channel,value` before any XML element: not an XML file"),
         "{}",
         err(csv)
     );

@@ -283,7 +283,7 @@ fn a_cut_last_line_is_truncation() {
     let cut = text.trim_end().rfind("\t0,6").unwrap();
     let e = err(&text[..cut + 1]);
     assert!(
-        e.contains("s.csv:23: channel `Axis_X.ActTorque` has a time but no value (the last line is cut short: truncated file)"),
+        e.contains("s.csv:23: the last line is cut short (3 cells, the line before has 4, no line break at the end): truncated file"),
         "{e}"
     );
 }
