@@ -49,6 +49,35 @@
 //! Memory: the file is streamed (quick-xml, one element at a time); only the two converted
 //! signals are kept, so a trace of tens of MB needs a few MB plus 16 bytes per kept sample.
 //!
+//! # Example
+//! ```
+//! use feedscope_io::import::sinumerik::{parse_sinumerik, SinumerikParams};
+//!
+//! let xml = r#"<traceSession version="01.00.03.02"><traceData dataFrames="1"><dataFrame>
+//!   <frameHeader startTime="2026-01-05T08:00:00Z" stopInc="0.008000"/>
+//!   <dataSignal id="f1" name="/Nck/!SEMA/measPos1 [u1, 3]" unitsType="posn"
+//!     description="Actual position value for measuring system 1."
+//!     interval="0.002000" datapointCount="5"/>
+//!   <dataSignal id="f2" name="/Nck/!SD/nckServoDataActCurr32 [u1, 3]" unitsType="current"
+//!     description="Torque-prod. Current act. Val. i(q) (32 bit)"
+//!     interval="0.002000" datapointCount="5"/>
+//!   <rec time="0.000000" f1="10.000" f2="1.5"/>
+//!   <rec time="0.002000" f1="10.002"/>
+//!   <rec time="0.004000" f1="10.004" f2="9223372036854775807"/>
+//!   <rec time="0.006000" f1="10.006" f2="1.7"/>
+//!   <rec time="0.008000" f1="10.008" f2="1.7"/>
+//! </dataFrame></traceData></traceSession>"#;
+//! let imp = parse_sinumerik(xml.as_bytes(), "trace.xml", &SinumerikParams::default())?;
+//! let t = &imp.imported.trace;
+//! assert!((t.position_m.value[4] - 0.010008).abs() < 1e-15); // mm → m
+//! // The current at 2 ms was left out as a repeat of 1.5 A and is put back; the invalid mark
+//! // at 4 ms is dropped.
+//! assert_eq!(t.effort.time_s, [0.0, 0.002, 0.006, 0.008]);
+//! assert!((t.effort.value[1] - 1.5).abs() < 1e-15);
+//! assert_eq!((imp.effort.1.restored, imp.effort.1.invalid), (1, 1));
+//! # Ok::<(), feedscope_io::import::ImportError>(())
+//! ```
+//!
 //! # Errors
 //! Exit-2 errors name the file and line: XML that is not well-formed or ends inside an element
 //! (a truncated file), a `dataSignal` without `id` or `name`, a `rec` without `time`, a value

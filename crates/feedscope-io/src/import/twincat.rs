@@ -1,27 +1,28 @@
 //! TwinCAT 3 Scope exports (Scope View → Export → CSV/TXT).
 //!
 //! # The file
+//! A semicolon export (tab is the exporter's default):
 //! ```text
-//! Name	tc3_scope
-//! File	C:\scope\axis_test.csv
-//! Starttime of export	132959733843760000	Montag, 2. Mai 2022	15:56:24.376
-//! Endtime of export	132959733853750000	Montag, 2. Mai 2022	15:56:25.375
+//! Name;tc3_scope
+//! File;C:\scope\axis_test.csv
+//! Starttime of export;132959733843760000;Montag, 2. Mai 2022;15:56:24.376
+//! Endtime of export;132959733853750000;Montag, 2. Mai 2022;15:56:25.375
 //!
 //!
-//! Name	Axis_X.ActPos	Name	Axis_X.ActTorque
-//! SampleTime[ms]	1	SampleTime[ms]	1
-//! …	(Data-Type, SymbolName, NetID, Port, Offset, ScaleFactor, BitMask, …)
-//! Unit	mm (Length)	Unit	Nm (Torque)
+//! Name;Axis_X.ActPos;Name;Axis_X.ActTorque
+//! SampleTime[ms];1;SampleTime[ms];1
+//! …;(Data-Type, SymbolName, NetID, Port, Offset, ScaleFactor, BitMask, …)
+//! Unit;mm (Length);Unit;Nm (Torque)
 //!
-//! 0	12,5	0	0,84
-//! 1	12,5001	1	0,85
+//! 0;12,5;0;0,84
+//! 1;12,5001;1;0,85
 //! ```
 //! A block of `key<sep>value` lines for the file (the start and end of the export as Windows
 //! FILETIME: 100 ns ticks since 1601-01-01 UTC, then the local date and time as text), a
 //! blank line, then one header row per key with a `key<sep>value` pair per channel, a blank
 //! line, and the data: per channel a time column (ms from the start) and a value column.
 //! With "exclude double timestamps" the channels that share a sample time share one time
-//! column (`Name	a	b	Name	c`): a key cell opens each time column in every header row.
+//! column (`Name;a;b;Name;c`): a key cell opens each time column in every header row.
 //!
 //! # What is read, and how
 //! - **Separator** (tab, space, `:`, `;` or `,`) from the first line: the character after
@@ -46,6 +47,26 @@
 //!   (the FILETIME) is kept as time zero.
 //!
 //! The data is streamed line by line; only the two converted channels are kept.
+//!
+//! # Example
+//! ```
+//! use feedscope_io::import::twincat::{parse_twincat, TwincatParams};
+//!
+//! let csv = "Name;scope\nFile;x.csv\n\
+//!     Starttime of export;132959733843760000;Montag, 2. Mai 2022;15:56:24.376\n\n\
+//!     Name;Axis_Z.ActPos;Name;Axis_Z.ActCurrent\n\
+//!     SampleTime[ms];1;SampleTime[ms];1\n\
+//!     Unit;mm (Length);Unit;A (Current)\n\n\
+//!     0;10,000;0;1,25\n1;10,001;1;1,27\n2;10,002;2;1,26\n3;10,003;3;1,28\n";
+//! let imp = parse_twincat(csv.as_bytes(), "scope.csv", &TwincatParams::default())?;
+//! // The FILETIME is UTC; the text beside it is the PC's local time (CEST).
+//! let t0 = imp.imported.report.time_zero.unwrap();
+//! assert_eq!(t0.to_string(), "2022-05-02T13:56:24.376Z");
+//! let t = &imp.imported.trace;
+//! assert!((t.position_m.value[3] - 0.010003).abs() < 1e-15); // decimal comma, mm → m
+//! assert!((t.effort.time_s[2] - 0.002).abs() < 1e-15); // ms → s
+//! # Ok::<(), feedscope_io::import::ImportError>(())
+//! ```
 //!
 //! # Errors
 //! Exit-2 errors name the file and line (and the channel): a first line that is not `Name`,
@@ -487,8 +508,8 @@ fn parse_header<R: BufRead>(
         names.pop();
     }
     let time_cols: Vec<usize> = (0..names.len()).filter(|&p| names[p] == "Name").collect();
-    for p in 1..names.len() {
-        if names[p] == "Name" {
+    for (p, name) in names.iter().enumerate().skip(1) {
+        if name == "Name" {
             continue;
         }
         let time_col = *time_cols
@@ -497,7 +518,7 @@ fn parse_header<R: BufRead>(
             .find(|&&t| t < p)
             .expect("column 0 is a key");
         h.channels.push(ScopeChannel {
-            name: names[p].clone(),
+            name: name.clone(),
             time_col,
             value_col: p,
             header: Vec::new(),
@@ -604,6 +625,9 @@ impl Marks {
     }
 }
 
+/// A kept channel's file-unit value to SI, checked against the limits (the reason when not).
+type Convert<'a> = Box<dyn FnMut(f64) -> Result<f64, String> + 'a>;
+
 /// What the data pass does with the samples of each channel.
 struct DataPass<'a> {
     source: &'a str,
@@ -611,7 +635,7 @@ struct DataPass<'a> {
     /// Channels read (indices into the header's).
     wanted: Vec<usize>,
     /// Per wanted channel: file-unit values → checked SI samples (or counts only).
-    keep: Vec<Option<Box<dyn FnMut(f64) -> Result<f64, String> + 'a>>>,
+    keep: Vec<Option<Convert<'a>>>,
     channels: Vec<Channel>,
     counts: Vec<ChannelCounts>,
     rows: u64,
