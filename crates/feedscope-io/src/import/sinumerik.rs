@@ -1415,9 +1415,8 @@ impl Sink for ConvertSink<'_> {
 /// attribute, non-numeric or non-finite value, time not increasing, absurd magnitude);
 /// [`ImportError::UnknownAxis`] listing the recorded axes; [`ImportError::BadParam`] when
 /// several axes were recorded and none named; [`ImportError::Item`] when the axis has no
-/// position or effort signal or a named signal does not exist; [`ImportError::TooFewSamples`]
-/// and [`ImportError::NoInformation`]-free emptiness ([`ImportError::Item`]) when a converted
-/// signal has no valid sample.
+/// position or effort signal, a named signal does not exist, or a converted signal has no valid
+/// sample; [`ImportError::TooFewSamples`] when it has fewer than 4.
 pub fn read_sinumerik(
     path: &Path,
     params: &SinumerikParams,
