@@ -32,7 +32,7 @@
 //!   [`feedscope::trace::Trace`] (strictly, errors naming file and line or row, glitches
 //!   screened) and written from one; a corrupt Parquet file is an error, not a crash.
 //! - [`import`]: real controller exports: MTConnect SHDR logs with their `Devices.xml`, the
-//!   UMich CNC mill CSV.
+//!   UMich CNC mill CSV, SINUMERIK Operate servo traces, TwinCAT 3 Scope exports.
 //! - [`friction_csv`], [`compensation`], [`stribeck_table`]: the tables feedscope writes
 //!   (friction along the travel, friction-compensation tables) and reads (its own friction
 //!   CSV, steady-speed tables).

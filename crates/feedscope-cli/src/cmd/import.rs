@@ -1,5 +1,5 @@
-//! `feedscope import`: real controller exports (MTConnect SHDR logs, UMich mill CSV) into
-//! feedscope trace CSV.
+//! `feedscope import`: real controller exports (MTConnect SHDR logs, UMich mill CSV,
+//! SINUMERIK Operate servo traces, TwinCAT Scope exports) into feedscope trace CSV.
 use crate::output::out;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -8,7 +8,12 @@ use anyhow::{Context, Result};
 use clap::ValueEnum;
 use feedscope_io::import::devices::{Category, DeviceModel};
 use feedscope_io::import::shdr::{read_shdr, ShdrConvertParams, ShdrLog, TimeOrigin};
+use feedscope_io::import::sinumerik::{
+    list_sinumerik, read_sinumerik, SinumerikListing, SinumerikParams,
+};
+use feedscope_io::import::twincat::{list_twincat, read_twincat, TwincatListing, TwincatParams};
 use feedscope_io::import::umich::{read_umich, CurrentColumn, UmichParams, UmichTable};
+use feedscope_io::import::units::{EffortUnit, PositionUnit};
 use feedscope_io::import::{check_informative, write_trace_csv, ChannelReport, Imported};
 
 use super::BadInput;
@@ -16,15 +21,17 @@ use crate::output::AtomicFile;
 
 /// Convert a real controller export into a feedscope trace CSV.
 ///
-/// Two sources: `shdr`, an MTConnect adapter log with its device model (Devices.xml), and
-/// `umich`, the UMich SMART CNC mill CSV. One axis is converted per run into the long layout
+/// Four sources: `shdr`, an MTConnect adapter log with its device model (Devices.xml);
+/// `umich`, the UMich SMART CNC mill CSV; `sinumerik`, a SINUMERIK Operate servo trace (XML);
+/// `twincat`, a TwinCAT 3 Scope CSV export. One axis is converted per run into the long layout
 /// (`time_s,channel,value`) with `#` comment lines on top saying where the data came from and
 /// what time 0 is. `--list` prints the axes and data items found, with sample counts and time
 /// spans, instead of converting. The output file is written only when the whole conversion
 /// succeeded. See docs/import.md.
 ///
 /// Exit codes: 0 success; 2 bad input (unreadable or malformed file, with its line; unknown
-/// axis, listing the axes; missing columns; a load without --torque-per-load-nm; bad options).
+/// axis or channel, listing those that exist; missing columns; a load without
+/// --torque-per-load-nm; bad options).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(subcommand)]
@@ -46,6 +53,26 @@ pub enum Source {
     /// Position `A_ActualPosition` (mm) and current `A_CurrentFeedback` (A) of axis A; row k
     /// is at k / --rate-hz seconds. Lines may end in LF, CRLF or a bare CR.
     Umich(UmichArgs),
+    /// SINUMERIK Operate servo trace (XML, saved from Diagnostics > Trace).
+    ///
+    /// Position is the axis's actual position (measuring system 1 first: measPos1,
+    /// nckServoDataActPos1stEnc…), effort its actual current i(q) (nckServoDataActCurr…, A) or
+    /// else a torque signal (N·m). The axis is the number in the signals' brackets (7 for
+    /// `[u1, 7]`); with several axes recorded, --axis is required. Units come from the
+    /// description or the flags, else from unitsType (posn: mm, current: A). Values the control
+    /// left out because they repeat (change-only records) are put back on the signal's
+    /// interval, up to its datapointCount; values ≥ 9.2e18 (the control's invalid mark) are
+    /// dropped and counted. Times are seconds from the frame's startTime, written in a `#` line.
+    Sinumerik(SinumerikArgs),
+    /// TwinCAT 3 Scope export (CSV or TXT, Scope View > Export).
+    ///
+    /// The separator (tab, space, colon, semicolon, comma) is read from the first line, the
+    /// decimal mark from the data. Position and effort are the only channels with a length
+    /// unit and with a current or torque unit (or named …ActPos… and …Torque…/…Current…), or
+    /// --position and --effort. Values are taken as exported (TwinCAT applies ScaleFactor and
+    /// Offset when it exports). Times are the time column (ms) / 1000 from the start of the
+    /// export, whose FILETIME is written in a `#` line.
+    Twincat(TwincatArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -121,6 +148,116 @@ pub struct UmichArgs {
     pub keep_empty_channels: bool,
 }
 
+#[derive(Debug, clap::Args)]
+pub struct SinumerikArgs {
+    /// The trace file (XML).
+    pub file: PathBuf,
+    /// Machine axis number in the signals' brackets (`7` for `[u1, 7]`, or `u1,7`); required
+    /// when the trace records several axes.
+    #[arg(long)]
+    pub axis: Option<String>,
+    /// Position signal: its id (`f8`), key (`s12`), NCK path or variable name (`measPos2`)
+    /// [default: the axis's actual position, measuring system 1 first].
+    #[arg(long)]
+    pub position_signal: Option<String>,
+    /// Effort signal, named the same way [default: the axis's actual current, else a torque].
+    #[arg(long)]
+    pub effort_signal: Option<String>,
+    /// Unit of the position values [default: from the description, else mm for unitsType
+    /// posn; an inch machine needs `inch`].
+    #[arg(long, value_enum)]
+    pub position_unit: Option<PositionUnitArg>,
+    /// Unit of the effort values [default: from the description, else A for unitsType current,
+    /// N·m for a torque].
+    #[arg(long, value_enum)]
+    pub effort_unit: Option<EffortUnitArg>,
+    /// Output trace CSV.
+    #[arg(short, long, required_unless_present = "list")]
+    pub output: Option<PathBuf>,
+    /// List the frames, axes and signals (with counts of written, restored and invalid values
+    /// and time spans) instead of converting.
+    #[arg(long, conflicts_with = "output")]
+    pub list: bool,
+    /// Write the trace even when its effort is constant or its position never moves; without
+    /// it that is an error (exit 2).
+    #[arg(long)]
+    pub keep_empty_channels: bool,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct TwincatArgs {
+    /// The Scope export (CSV or TXT).
+    pub file: PathBuf,
+    /// Position channel: its Name or SymbolName [default: the only channel with a length unit,
+    /// or named …ActPos…].
+    #[arg(long)]
+    pub position: Option<String>,
+    /// Effort channel [default: the only channel with a current or torque unit, or named
+    /// …Torque… or …Current…].
+    #[arg(long)]
+    pub effort: Option<String>,
+    /// Unit of the position values [default: the channel's Unit row].
+    #[arg(long, value_enum)]
+    pub position_unit: Option<PositionUnitArg>,
+    /// Unit of the effort values [default: the channel's Unit row].
+    #[arg(long, value_enum)]
+    pub effort_unit: Option<EffortUnitArg>,
+    /// Output trace CSV.
+    #[arg(short, long, required_unless_present = "list")]
+    pub output: Option<PathBuf>,
+    /// List the channels (units, sample times, sample counts, time spans, ranges) instead of
+    /// converting.
+    #[arg(long, conflicts_with = "output")]
+    pub list: bool,
+    /// Write the trace even when its effort is constant or its position never moves; without
+    /// it that is an error (exit 2).
+    #[arg(long)]
+    pub keep_empty_channels: bool,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum PositionUnitArg {
+    /// Millimetre.
+    Mm,
+    /// Micrometre.
+    Um,
+    /// Metre.
+    M,
+    /// Inch.
+    Inch,
+}
+
+impl From<PositionUnitArg> for PositionUnit {
+    fn from(a: PositionUnitArg) -> Self {
+        match a {
+            PositionUnitArg::Mm => Self::Millimetre,
+            PositionUnitArg::Um => Self::Micrometre,
+            PositionUnitArg::M => Self::Metre,
+            PositionUnitArg::Inch => Self::Inch,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum EffortUnitArg {
+    /// Ampere (current_a).
+    A,
+    /// Milliampere (current_a).
+    Ma,
+    /// Newton-metre (torque_nm).
+    Nm,
+}
+
+impl From<EffortUnitArg> for EffortUnit {
+    fn from(a: EffortUnitArg) -> Self {
+        match a {
+            EffortUnitArg::A => Self::Ampere,
+            EffortUnitArg::Ma => Self::Milliampere,
+            EffortUnitArg::Nm => Self::NewtonMetre,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
 pub enum CurrentArg {
     /// A_CurrentFeedback.
@@ -133,7 +270,65 @@ pub fn run(args: Args) -> Result<()> {
     match args.source {
         Source::Shdr(a) => run_shdr(a),
         Source::Umich(a) => run_umich(a),
+        Source::Sinumerik(a) => run_sinumerik(a),
+        Source::Twincat(a) => run_twincat(a),
     }
+}
+
+fn run_sinumerik(a: SinumerikArgs) -> Result<()> {
+    if a.list {
+        let listing = list_sinumerik(&a.file)?;
+        out!("{}", list_sinumerik_text(&listing));
+        return Ok(());
+    }
+    let out = a
+        .output
+        .as_deref()
+        .expect("clap requires --output without --list");
+    let params = SinumerikParams {
+        axis: a.axis.clone(),
+        position_signal: a.position_signal.clone(),
+        effort_signal: a.effort_signal.clone(),
+        position_unit: a.position_unit.map(Into::into),
+        effort_unit: a.effort_unit.map(Into::into),
+    };
+    let imp = read_sinumerik(&a.file, &params)?;
+    if !a.keep_empty_channels {
+        check_informative(&imp.imported)?;
+    }
+    write_output(&imp.imported, out)?;
+    out!("{}", summary(&imp.imported, out));
+    warn(&imp.imported);
+    Ok(())
+}
+
+fn run_twincat(a: TwincatArgs) -> Result<()> {
+    if a.list {
+        let listing = list_twincat(&a.file)?;
+        out!("{}", list_twincat_text(&listing));
+        return Ok(());
+    }
+    let out = a
+        .output
+        .as_deref()
+        .expect("clap requires --output without --list");
+    let params = TwincatParams {
+        position: a.position.clone(),
+        effort: a.effort.clone(),
+        position_unit: a.position_unit.map(Into::into),
+        effort_unit: a.effort_unit.map(Into::into),
+    };
+    let imp = read_twincat(&a.file, &params)?;
+    if !a.keep_empty_channels {
+        check_informative(&imp.imported)?;
+    }
+    write_output(&imp.imported, out)?;
+    out!("{}", summary(&imp.imported, out));
+    for n in &imp.listing.header.notes {
+        eprintln!("note: {n}");
+    }
+    warn(&imp.imported);
+    Ok(())
 }
 
 fn run_shdr(a: ShdrArgs) -> Result<()> {
@@ -420,6 +615,199 @@ fn list_umich(t: &UmichTable, rate_hz: f64) -> String {
             let col = format!("{a}_{suffix}");
             let _ = writeln!(s, "    {col:<20} {} {unit}", range(&col));
         }
+    }
+    s
+}
+
+/// `a to b` with up to 6 significant figures, `-` when absent.
+fn range_text(r: Option<(f64, f64)>) -> String {
+    match r {
+        Some((a, b)) => format!("{} to {}", sig(a), sig(b)),
+        None => "-".into(),
+    }
+}
+
+/// A number with 6 significant figures, trailing zeros trimmed.
+fn sig(x: f64) -> String {
+    let s = format!(
+        "{x:.*}",
+        (5 - x.abs().max(1e-300).log10().floor() as i32).clamp(0, 9) as usize
+    );
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+fn span_text(s: Option<(f64, f64)>) -> String {
+    match s {
+        Some((a, b)) => format!("{a:.3} to {b:.3} s"),
+        None => "no sample".into(),
+    }
+}
+
+fn list_sinumerik_text(l: &SinumerikListing) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "SINUMERIK trace {}: version {}, session {}, {} data frame(s)",
+        l.source_name,
+        l.version.as_deref().unwrap_or("-"),
+        l.session_name
+            .as_deref()
+            .map_or("-".to_string(), |n| format!("`{n}`")),
+        l.frames.len()
+    );
+    for (k, f) in l.frames.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "frame {}: start {}, {} records, {} (stopInc {}), drop-outs {}",
+            k + 1,
+            f.start.map_or("-".to_string(), |t| t.to_string()),
+            f.records,
+            span_text(f.span_s),
+            f.stop_inc_s
+                .map_or("-".to_string(), |x| format!("{x:.3} s")),
+            f.drop_outs.map_or("-".to_string(), |x| x.to_string())
+        );
+        let axes = f.axes();
+        let mut groups: Vec<(Option<String>, Vec<usize>)> = axes
+            .iter()
+            .map(|(a, _)| {
+                (
+                    Some(a.clone()),
+                    (0..f.signals.len())
+                        .filter(|&i| f.signals[i].axis() == Some(a.as_str()))
+                        .collect(),
+                )
+            })
+            .collect();
+        let loose: Vec<usize> = (0..f.signals.len())
+            .filter(|&i| f.signals[i].axis().is_none())
+            .collect();
+        if !loose.is_empty() {
+            groups.push((None, loose));
+        }
+        let _ = writeln!(s, "  axes ({}):", axes.len());
+        for (axis, idx) in groups {
+            let (dp, de) = f.default_signals(axis.as_deref());
+            let name = |i: Option<usize>| i.map_or("none".to_string(), |i| f.signals[i].id.clone());
+            match &axis {
+                Some(a) => {
+                    let _ = writeln!(
+                        s,
+                        "  axis {a}: position {}, effort {} (by default)",
+                        name(dp),
+                        name(de)
+                    );
+                }
+                None => {
+                    let _ = writeln!(s, "  signals without an axis:");
+                }
+            }
+            for i in idx {
+                let d = &f.signals[i];
+                let st = &f.stats[i];
+                let _ = writeln!(
+                    s,
+                    "    {:<4} {:<8} {}  \"{}\"",
+                    d.id,
+                    d.units_type.as_deref().unwrap_or("-"),
+                    d.name,
+                    d.description
+                );
+                let _ = writeln!(
+                    s,
+                    "         every {}, {} declared: {} written + {} restored, {} invalid = {} \
+                     samples, {}, values {}",
+                    d.interval_s.map_or("-".to_string(), |x| format!("{x} s")),
+                    d.datapoint_count.map_or("-".to_string(), |x| x.to_string()),
+                    st.written,
+                    st.restored,
+                    st.invalid,
+                    st.samples(),
+                    span_text(st.span_s),
+                    range_text(st.range)
+                );
+            }
+        }
+    }
+    s
+}
+
+fn list_twincat_text(l: &TwincatListing) -> String {
+    let h = &l.header;
+    let mut s = String::new();
+    let _ =
+        writeln!(
+        s,
+        "TwinCAT Scope export {}: scope {}, separator {}, decimal mark {}, {} time columns, {} \
+         data rows{}",
+        h.source_name,
+        h.scope_name
+            .as_deref()
+            .map_or("-".to_string(), |n| format!("`{n}`")),
+        h.separator_name(),
+        l.decimal.map_or("-".to_string(), |c| format!("'{c}'")),
+        if h.shared_time() { "shared" } else { "separate" },
+        l.rows,
+        if l.eof_marker { ", EOF line" } else { "" }
+    );
+    let _ = writeln!(
+        s,
+        "start {}, end {} (Starttime/Endtime of export, FILETIME)",
+        h.start.map_or("-".to_string(), |t| t.to_string()),
+        h.end.map_or("-".to_string(), |t| t.to_string())
+    );
+    let (dp, de) = h.default_channels();
+    let _ = writeln!(s, "channels ({}):", h.channels.len());
+    for (k, c) in h.channels.iter().enumerate() {
+        let n = &l.counts[k];
+        let role = if dp == Some(k) {
+            "  <- position (by default)"
+        } else if de == Some(k) {
+            "  <- effort (by default)"
+        } else {
+            ""
+        };
+        let _ = writeln!(s, "  {}{role}", c.name);
+        let _ = writeln!(
+            s,
+            "    unit {}, sample time {} ms, {} samples, {}, values {}",
+            c.get("Unit").unwrap_or("-"),
+            c.sample_time_ms().map_or("-".to_string(), sig),
+            n.samples,
+            span_text(n.span_s),
+            range_text(n.range)
+        );
+        let mut extra = Vec::new();
+        if let Some(sym) = c.get("SymbolName").filter(|x| *x != c.name) {
+            extra.push(format!("symbol {sym}"));
+        }
+        if let Some(t) = c.get("Data-Type") {
+            extra.push(t.to_string());
+        }
+        if let Some(sc) = c.scaling() {
+            extra.push(format!("scaled on export: {sc}"));
+        }
+        if !extra.is_empty() {
+            let _ = writeln!(s, "    {}", extra.join(", "));
+        }
+    }
+    if dp.is_none() || de.is_none() {
+        let _ = writeln!(
+            s,
+            "no default {}: name the channel(s) with --position / --effort",
+            match (dp, de) {
+                (None, None) => "position or effort",
+                (None, _) => "position",
+                _ => "effort",
+            }
+        );
+    }
+    for n in &h.notes {
+        let _ = writeln!(s, "note: {n}");
     }
     s
 }

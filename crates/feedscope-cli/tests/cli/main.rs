@@ -8,6 +8,7 @@ mod glitch;
 mod history;
 mod identify;
 mod import;
+mod import_controllers;
 mod malformed;
 mod map;
 mod parquet;

@@ -47,7 +47,10 @@ use crate::trace::{write_csv, Layout};
 
 pub mod devices;
 pub mod shdr;
+pub mod sinumerik;
+pub mod twincat;
 pub mod umich;
+pub mod units;
 
 /// Why an export could not be imported. Every variant names the input and, where there is one,
 /// the 1-based line.
