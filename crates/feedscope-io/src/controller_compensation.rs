@@ -64,7 +64,7 @@ fn conversion_text(d: &DriveConversion) -> String {
 /// when given (e.g. amperes per newton).
 fn error_text(e: &InterpolationError, also: Option<(f64, &str)>) -> String {
     let with = |x: f64| match also {
-        Some((k, unit)) => format!("{x:.3} N = {:.4} {unit}", x * k),
+        Some((k, unit)) => format!("{x:.3} N = {:.6} {unit}", x * k),
         None => format!("{x:.3} N"),
     };
     format!(
@@ -224,8 +224,7 @@ pub fn write_velocity_table<W: Write>(
     for d in &t.directions {
         writeln!(
             w,
-            "{c} {}: {}; valid {} (the measured feeds; no row outside them); {} points; interpolation error against the curve: {}",
-            d.curve.direction().map_or("both", |x| x.as_str()),
+            "{c} {}; valid {} (the measured feeds; no row outside them); {} points; interpolation error against the curve: {}",
             d.curve.label(),
             range_text(&d.curve),
             d.placed.velocity_m_s.len(),

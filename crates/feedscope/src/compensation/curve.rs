@@ -273,6 +273,18 @@ impl FrictionCurve {
         }
     }
 
+    /// What kind of curve it is, without its direction: `a stribeck fit`, `a coulomb-viscous
+    /// fit`, `a map section at 40.000 mm`, `a mean of both directions`.
+    pub fn kind(&self) -> String {
+        match &self.source {
+            CurveSource::Stribeck { model, .. } => format!("a {} fit", model.code()),
+            CurveSource::MapSection { position_mm } => {
+                format!("a map section at {position_mm:.3} mm")
+            }
+            CurveSource::DirectionMean => "a mean of both directions".to_string(),
+        }
+    }
+
     /// What the curve is, for people: e.g. `forward Stribeck fit (Eq. 9)`,
     /// `backward map section at 40.000 mm`, `mean of both directions`.
     pub fn label(&self) -> String {

@@ -192,16 +192,16 @@ pub enum CompensationError {
     /// An operation needs a Stribeck curve (breakaway friction F_s, Stribeck velocity v_s)
     /// and the curve is not one.
     #[error(
-        "{what} needs the breakaway friction Fs and the Stribeck velocity vs of a Stribeck \
+        "{what} need the breakaway friction Fs and the Stribeck velocity vs of a Stribeck \
          curve; the {direction} curve is {model}: measure at least 4 distinct feeds per \
          direction, several below the Stribeck velocity"
     )]
     NeedsStribeck {
-        /// Which output (e.g. `the SINUMERIK starting values`).
+        /// Which output, plural (e.g. `the SINUMERIK starting values`).
         what: &'static str,
         /// Direction (`forward`, `backward`).
         direction: &'static str,
-        /// What the curve is instead.
+        /// What the curve is instead (e.g. `a coulomb-viscous fit`).
         model: String,
     },
     /// A parameter is out of its range.

@@ -157,7 +157,7 @@ impl SinumerikStartValues {
             let p = c.stribeck().ok_or_else(|| CompensationError::NeedsStribeck {
                 what: "the SINUMERIK starting values",
                 direction: d.as_str(),
-                model: c.label(),
+                model: c.kind(),
             })?;
             breakaway_n.push((d, p.fs_n));
             vs.push((d, p.vs_m_s));
