@@ -91,7 +91,11 @@ fn source_lines(w: &mut impl Write, prefix: &str, src: &ExportSource) -> std::io
 ///
 /// # Errors
 /// I/O errors of the writer.
-pub fn write_tf5200<W: Write>(t: &Tf5200Table, src: &ExportSource, mut w: W) -> std::io::Result<()> {
+pub fn write_tf5200<W: Write>(
+    t: &Tf5200Table,
+    src: &ExportSource,
+    mut w: W,
+) -> std::io::Result<()> {
     let (size, symbol) = t.params.out_unit.size_and_symbol();
     let first = t.entries.first().map_or(0, |e| e.in_um_s);
     let last = t.entries.last().map_or(0, |e| e.in_um_s);
@@ -126,7 +130,10 @@ pub fn write_tf5200<W: Write>(t: &Tf5200Table, src: &ExportSource, mut w: W) -> 
     writeln!(w, "{c} not set here, tune on the machine: frict_comp.position_delay (P-COMP-00043), frict_comp.reversal_lookahead (P-COMP-00044), frict_comp.delay_cycles (P-COMP-00058)")?;
     writeln!(w, "{c} not confirmed by the documentation: the unit of out; linear interpolation between entries; the output below the first and above the last entry; the sign for negative velocities")?;
     writeln!(w, "{c} load: paste into the axis compensation list of this axis (e.g. achskw1.lis), set lr_param.frict_comp 1 (P-AXIS-00522) in its axis parameter list, switch on in the NC program with X[COMP ON FRICT]")?;
-    writeln!(w, "{c} reference: {TF5200_REFERENCE} and the neighbouring P-COMP pages")?;
+    writeln!(
+        w,
+        "{c} reference: {TF5200_REFERENCE} and the neighbouring P-COMP pages"
+    )?;
     writeln!(w, "frict_comp.mode                 3")?;
     writeln!(w, "frict_comp.table_entries        {}", t.entries.len())?;
     writeln!(w, "frict_comp.scaling_factor       {}", t.scaling_factor)?;
@@ -199,7 +206,11 @@ pub fn write_sinumerik<W: Write>(
     writeln!(w, "$MA_FRICT_COMP_MODE[{axis_id}]=1")?;
     writeln!(w, "$MA_FRICT_COMP_ENABLE[{axis_id}]=1")?;
     writeln!(w, "$MA_FRICT_COMP_ADAPT_ENABLE[{axis_id}]=0")?;
-    writeln!(w, "$MA_FRICT_COMP_CONST_MAX[{axis_id}]={:.3}", s.const_max_mm_min)?;
+    writeln!(
+        w,
+        "$MA_FRICT_COMP_CONST_MAX[{axis_id}]={:.3}",
+        s.const_max_mm_min
+    )?;
     writeln!(w, "$MA_FRICT_COMP_TIME[{axis_id}]={:.4}", s.time_s)?;
     w.flush()
 }
@@ -231,7 +242,10 @@ pub fn write_velocity_table<W: Write>(
             error_text(&d.placed.error, None)
         )?;
     }
-    writeln!(w, "direction,velocity_mm_min,friction_n,torque_nm,current_a")?;
+    writeln!(
+        w,
+        "direction,velocity_mm_min,friction_n,torque_nm,current_a"
+    )?;
     for d in &t.directions {
         let dir = d.curve.direction().map_or("both", |x| x.as_str());
         for (&v, &f) in d.placed.velocity_m_s.iter().zip(&d.placed.friction_n) {
@@ -250,9 +264,7 @@ pub fn write_velocity_table<W: Write>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use feedscope::compensation::{
-        PlacementParams, SinumerikParams, Tf5200OutUnit, Tf5200Params,
-    };
+    use feedscope::compensation::{PlacementParams, SinumerikParams, Tf5200OutUnit, Tf5200Params};
     use feedscope::stribeck::StribeckParams;
     use feedscope::stroke::Direction;
     use feedscope::units::feed_mm_min_to_m_s;
@@ -278,7 +290,10 @@ mod tests {
     /// velocities, and only `# ` comments above.
     #[test]
     fn tf5200_block_shape() {
-        let (f, b) = (curve(Direction::Forward, 260.0), curve(Direction::Backward, 310.0));
+        let (f, b) = (
+            curve(Direction::Forward, 260.0),
+            curve(Direction::Backward, 310.0),
+        );
         let drive = DriveConversion::new(0.01, 1.82, 1.0).unwrap();
         let t = Tf5200Table::build(
             Some(&f),
@@ -292,12 +307,27 @@ mod tests {
         write_tf5200(&t, &SRC, &mut out).unwrap();
         let text = String::from_utf8(out).unwrap();
         let lines: Vec<&str> = text.lines().collect();
-        let body: Vec<&str> = lines.iter().copied().filter(|l| !l.starts_with("# ")).collect();
-        assert!(lines.iter().all(|l| !l.starts_with('#') || l.starts_with("# ")));
+        let body: Vec<&str> = lines
+            .iter()
+            .copied()
+            .filter(|l| !l.starts_with("# "))
+            .collect();
+        assert!(lines
+            .iter()
+            .all(|l| !l.starts_with('#') || l.starts_with("# ")));
         assert_eq!(body.len(), 3 + 2 * 12);
-        assert_eq!(body[0].split_whitespace().collect::<Vec<_>>(), ["frict_comp.mode", "3"]);
-        assert_eq!(body[1].split_whitespace().collect::<Vec<_>>(), ["frict_comp.table_entries", "12"]);
-        assert_eq!(body[2].split_whitespace().collect::<Vec<_>>(), ["frict_comp.scaling_factor", "1000"]);
+        assert_eq!(
+            body[0].split_whitespace().collect::<Vec<_>>(),
+            ["frict_comp.mode", "3"]
+        );
+        assert_eq!(
+            body[1].split_whitespace().collect::<Vec<_>>(),
+            ["frict_comp.table_entries", "12"]
+        );
+        assert_eq!(
+            body[2].split_whitespace().collect::<Vec<_>>(),
+            ["frict_comp.scaling_factor", "1000"]
+        );
         let ins: Vec<i64> = body[3..]
             .iter()
             .step_by(2)
@@ -311,10 +341,14 @@ mod tests {
 
     #[test]
     fn sinumerik_lines_and_velocity_table_columns() {
-        let (f, b) = (curve(Direction::Forward, 260.0), curve(Direction::Backward, 310.0));
+        let (f, b) = (
+            curve(Direction::Forward, 260.0),
+            curve(Direction::Backward, 310.0),
+        );
         let axis = feedscope::sim::SimConfig::default().axis;
-        let s = SinumerikStartValues::compute(Some(&f), Some(&b), &axis, &SinumerikParams::default())
-            .unwrap();
+        let s =
+            SinumerikStartValues::compute(Some(&f), Some(&b), &axis, &SinumerikParams::default())
+                .unwrap();
         let mut out = Vec::new();
         write_sinumerik(&s, "AX3", &SRC, &mut out).unwrap();
         let text = String::from_utf8(out).unwrap();
@@ -330,14 +364,20 @@ mod tests {
         write_velocity_table(&t, &SRC, &mut out).unwrap();
         let text = String::from_utf8(out).unwrap();
         let rows: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).collect();
-        assert_eq!(rows[0], "direction,velocity_mm_min,friction_n,torque_nm,current_a");
+        assert_eq!(
+            rows[0],
+            "direction,velocity_mm_min,friction_n,torque_nm,current_a"
+        );
         assert_eq!(rows.len(), 1 + 10);
         assert!(rows[1].starts_with("forward,9.000000,"), "{}", rows[1]);
         assert!(rows[10].starts_with("backward,900.000000,"), "{}", rows[10]);
         // current = friction·p/(2π)/k_e on every row
         for r in &rows[1..] {
             let x: Vec<f64> = r.split(',').skip(1).map(|s| s.parse().unwrap()).collect();
-            assert!((x[3] - x[1] * 0.01 / (2.0 * std::f64::consts::PI) / 1.82).abs() < 2e-6, "{r}");
+            assert!(
+                (x[3] - x[1] * 0.01 / (2.0 * std::f64::consts::PI) / 1.82).abs() < 2e-6,
+                "{r}"
+            );
         }
     }
 }

@@ -135,13 +135,48 @@ impl ExportArgs {
         if kinds.is_empty() && self.export_points.is_some() {
             return Err(bad("--export-points is used only with --export".into()));
         }
-        given("--tf5200-out-unit-a", self.tf5200_out_unit_a.is_some(), ExportKind::Tf5200, "tf5200")?;
-        given("--tf5200-out-unit-nm", self.tf5200_out_unit_nm.is_some(), ExportKind::Tf5200, "tf5200")?;
-        given("--tf5200-max-points", self.tf5200_max_points.is_some(), ExportKind::Tf5200, "tf5200")?;
-        given("--sinumerik-axis", self.sinumerik_axis.is_some(), ExportKind::Sinumerik, "sinumerik")?;
-        given("--speed-loop-hz", self.speed_loop_hz.is_some(), ExportKind::Sinumerik, "sinumerik")?;
-        given("--circle-radius-mm", self.circle_radius_mm.is_some(), ExportKind::Sinumerik, "sinumerik")?;
-        given("--circle-feed-mm-min", self.circle_feed_mm_min.is_some(), ExportKind::Sinumerik, "sinumerik")?;
+        given(
+            "--tf5200-out-unit-a",
+            self.tf5200_out_unit_a.is_some(),
+            ExportKind::Tf5200,
+            "tf5200",
+        )?;
+        given(
+            "--tf5200-out-unit-nm",
+            self.tf5200_out_unit_nm.is_some(),
+            ExportKind::Tf5200,
+            "tf5200",
+        )?;
+        given(
+            "--tf5200-max-points",
+            self.tf5200_max_points.is_some(),
+            ExportKind::Tf5200,
+            "tf5200",
+        )?;
+        given(
+            "--sinumerik-axis",
+            self.sinumerik_axis.is_some(),
+            ExportKind::Sinumerik,
+            "sinumerik",
+        )?;
+        given(
+            "--speed-loop-hz",
+            self.speed_loop_hz.is_some(),
+            ExportKind::Sinumerik,
+            "sinumerik",
+        )?;
+        given(
+            "--circle-radius-mm",
+            self.circle_radius_mm.is_some(),
+            ExportKind::Sinumerik,
+            "sinumerik",
+        )?;
+        given(
+            "--circle-feed-mm-min",
+            self.circle_feed_mm_min.is_some(),
+            ExportKind::Sinumerik,
+            "sinumerik",
+        )?;
         if kinds.is_empty() {
             return Ok(None);
         }
@@ -336,7 +371,11 @@ pub fn build(
         files.push(ExportFile {
             name: ExportKind::Table.file_name(),
             bytes,
-            summary: format!("{} points per direction, error {}", cfg.points, errs.join("; ")),
+            summary: format!(
+                "{} points per direction, error {}",
+                cfg.points,
+                errs.join("; ")
+            ),
         });
     }
     Ok(files)

@@ -450,7 +450,9 @@ pub fn run(args: Args) -> Result<()> {
             return Err(bad(format!(
                 "--lead-mm {l} disagrees with lead_mm = {} of {}",
                 a.lead_mm,
-                args.axis.as_ref().map_or(String::new(), |p| p.display().to_string())
+                args.axis
+                    .as_ref()
+                    .map_or(String::new(), |p| p.display().to_string())
             )))
         }
         (Some(a), _) => Some(a.lead_mm),

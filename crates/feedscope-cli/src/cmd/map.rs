@@ -112,7 +112,11 @@ pub struct Args {
     pub export: ExportArgs,
     /// Position (mm) whose friction the exports tabulate [default: the middle of the span
     /// both directions share].
-    #[arg(long, allow_negative_numbers = true, help_heading = "Controller export")]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        help_heading = "Controller export"
+    )]
     pub export_position_mm: Option<f64>,
     /// Curve the exported tables follow at that position: the Stribeck fit (Eq. 9, smooth)
     /// or the map's section (Eq. 6 and 8, the measured means' feed polynomial).
@@ -184,7 +188,9 @@ fn validate(args: &Args) -> Result<Config> {
         }
     }
     if let Some(z) = args.export_position_mm.filter(|z| !z.is_finite()) {
-        return Err(bad(format!("--export-position-mm: {z} is not a finite position")));
+        return Err(bad(format!(
+            "--export-position-mm: {z} is not a finite position"
+        )));
     }
     let params = MapParams {
         breaks_mm: args.breaks.clone(),
@@ -343,7 +349,10 @@ fn export_files(
     index: &str,
 ) -> Result<Vec<ExportFile>> {
     let dirs = &study.map.directions;
-    let lo = dirs.iter().map(|d| d.start_mm).fold(f64::NEG_INFINITY, f64::max);
+    let lo = dirs
+        .iter()
+        .map(|d| d.start_mm)
+        .fold(f64::NEG_INFINITY, f64::max);
     let hi = dirs.iter().map(|d| d.end_mm).fold(f64::INFINITY, f64::min);
     let z = match args.export_position_mm {
         Some(z) => z,
@@ -353,7 +362,12 @@ fn export_files(
                 "--export: the directions' mapped spans do not overlap ({}); give \
                  --export-position-mm",
                 dirs.iter()
-                    .map(|d| format!("{} {:.3}-{:.3} mm", dir_name(d.direction), d.start_mm, d.end_mm))
+                    .map(|d| format!(
+                        "{} {:.3}-{:.3} mm",
+                        dir_name(d.direction),
+                        d.start_mm,
+                        d.end_mm
+                    ))
                     .collect::<Vec<_>>()
                     .join(", ")
             ))
@@ -376,8 +390,9 @@ fn export_files(
             .with_context(|| format!("--export: the {} fit at {z:.3} mm", dir_name(d.direction)))?;
         table.push(match args.export_curve {
             ExportCurveArg::Stribeck => s.clone(),
-            ExportCurveArg::Map => FrictionCurve::from_map_section(d, z)
-                .context("--export-position-mm")?,
+            ExportCurveArg::Map => {
+                FrictionCurve::from_map_section(d, z).context("--export-position-mm")?
+            }
         });
         stribeck.push(s);
     }

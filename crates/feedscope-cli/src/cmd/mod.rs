@@ -69,10 +69,10 @@ pub struct BadInput(pub String);
 /// that does not parse (TOML, JSON) are bad input.
 fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
     use feedscope::{
-        axis::AxisError, compensation::CompensationError, dynamics::DynamicsError, estimate::EstimateError, history::HistoryError,
-        ident::IdentError, lugre::LuGreError, map::MapError, nc::NcError, order::OrderError,
-        plan::PlanError, profile::ProfileError, sim::SimError, spline::SplineError,
-        stribeck::StribeckError, study::StudyError,
+        axis::AxisError, compensation::CompensationError, dynamics::DynamicsError,
+        estimate::EstimateError, history::HistoryError, ident::IdentError, lugre::LuGreError,
+        map::MapError, nc::NcError, order::OrderError, plan::PlanError, profile::ProfileError,
+        sim::SimError, spline::SplineError, stribeck::StribeckError, study::StudyError,
     };
     use feedscope_io::{
         axis::AxisFileError, friction_csv::FrictionCsvError, import::ImportError,

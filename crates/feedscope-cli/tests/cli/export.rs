@@ -44,8 +44,15 @@ fn fit_export(dir: &Path, table: &str, extra: &[&str]) -> std::process::Output {
     std::fs::write(dir.join("t.csv"), table).unwrap();
     std::fs::write(dir.join("axis.toml"), axis_toml()).unwrap();
     let mut c = feedscope(dir);
-    c.args(["fit-stribeck", "t.csv", "--out", "out", "--axis", "axis.toml"])
-        .args(extra);
+    c.args([
+        "fit-stribeck",
+        "t.csv",
+        "--out",
+        "out",
+        "--axis",
+        "axis.toml",
+    ])
+    .args(extra);
     run(c)
 }
 
@@ -111,9 +118,16 @@ fn fit_stribeck_round_trip_within_the_fit_accuracy() {
     for k in 0..18 {
         let f = 5.0 * 120f64.powf(k as f64 / 17.0);
         let ripple = if k % 2 == 0 { 1.0 } else { -1.0 };
-        s.push_str(&format!("{f:.4},{:.4}\n", 260.0 + velocity_term_n(f) + ripple));
+        s.push_str(&format!(
+            "{f:.4},{:.4}\n",
+            260.0 + velocity_term_n(f) + ripple
+        ));
     }
-    let o = fit_export(d.path(), &s, &["--export", "table", "--export-points", "12"]);
+    let o = fit_export(
+        d.path(),
+        &s,
+        &["--export", "table", "--export-points", "12"],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let rows = table_rows(&d.path().join("out/frict_comp_table.csv"));
     assert_eq!(rows.len(), 12);
@@ -211,7 +225,16 @@ fn twin_set(dir: &Path) {
 }
 
 fn map_args<'a>(out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
-    let mut a = vec!["map", "index.csv", "--axis", "axis.toml", "--out", out, "--positions", "35"];
+    let mut a = vec![
+        "map",
+        "index.csv",
+        "--axis",
+        "axis.toml",
+        "--out",
+        out,
+        "--positions",
+        "35",
+    ];
     a.extend_from_slice(extra);
     a
 }
@@ -273,15 +296,41 @@ fn map_round_trip_and_refusals() {
 
     // Refusals: exit 2, the flag named, nothing new written.
     let p = d.path();
-    expect_bad_input(p, &map_args("x1", &["--export", "table", "--export-position-mm", "80"]), &["--export-position-mm"]);
-    expect_bad_input(p, &map_args("x2", &["--export", "table", "--export-points", "1"]), &["--export-points 1"]);
     expect_bad_input(
         p,
-        &map_args("x3", &["--export", "tf5200", "--tf5200-out-unit-a", "0.001", "--export-points", "21"]),
+        &map_args("x1", &["--export", "table", "--export-position-mm", "80"]),
+        &["--export-position-mm"],
+    );
+    expect_bad_input(
+        p,
+        &map_args("x2", &["--export", "table", "--export-points", "1"]),
+        &["--export-points 1"],
+    );
+    expect_bad_input(
+        p,
+        &map_args(
+            "x3",
+            &[
+                "--export",
+                "tf5200",
+                "--tf5200-out-unit-a",
+                "0.001",
+                "--export-points",
+                "21",
+            ],
+        ),
         &["P-COMP-00062", "--tf5200-max-points"],
     );
-    expect_bad_input(p, &map_args("x4", &["--export", "tf5200"]), &["--tf5200-out-unit-a"]);
-    expect_bad_input(p, &map_args("x5", &["--export-position-mm", "35"]), &["used only with --export"]);
+    expect_bad_input(
+        p,
+        &map_args("x4", &["--export", "tf5200"]),
+        &["--tf5200-out-unit-a"],
+    );
+    expect_bad_input(
+        p,
+        &map_args("x5", &["--export-position-mm", "35"]),
+        &["used only with --export"],
+    );
     for x in ["x1", "x2", "x3", "x4", "x5"] {
         assert!(!p.join(x).exists(), "{x} was written");
     }
@@ -307,12 +356,26 @@ fn fit_stribeck_export_refusals() {
     );
     expect_bad_input(
         p,
-        &with(&["--axis", "axis.toml", "--export", "tf5200", "--tf5200-out-unit-a", "1000"]),
+        &with(&[
+            "--axis",
+            "axis.toml",
+            "--export",
+            "tf5200",
+            "--tf5200-out-unit-a",
+            "1000",
+        ]),
         &["--export tf5200", "too coarse"],
     );
     expect_bad_input(
         p,
-        &with(&["--axis", "axis.toml", "--lead-mm", "12", "--export", "table"]),
+        &with(&[
+            "--axis",
+            "axis.toml",
+            "--lead-mm",
+            "12",
+            "--export",
+            "table",
+        ]),
         &["--lead-mm 12 disagrees with lead_mm = 10"],
     );
     // An axis file without the torque constant: the key is named.
@@ -331,12 +394,39 @@ fn fit_stribeck_export_refusals() {
     .unwrap();
     expect_bad_input(
         p,
-        &["fit-stribeck", "two.csv", "--out", "o", "--axis", "axis.toml", "--export", "sinumerik"],
-        &["--export sinumerik", "breakaway friction", "coulomb-viscous"],
+        &[
+            "fit-stribeck",
+            "two.csv",
+            "--out",
+            "o",
+            "--axis",
+            "axis.toml",
+            "--export",
+            "sinumerik",
+        ],
+        &[
+            "--export sinumerik",
+            "breakaway friction",
+            "coulomb-viscous",
+        ],
     );
-    assert!(!p.join("o").join("stribeck.json").exists(), "outputs written on a refusal");
+    assert!(
+        !p.join("o").join("stribeck.json").exists(),
+        "outputs written on a refusal"
+    );
     let mut c = feedscope(p);
-    c.args(["fit-stribeck", "two.csv", "--out", "o2", "--axis", "axis.toml", "--export", "table", "--export-points", "3"]);
+    c.args([
+        "fit-stribeck",
+        "two.csv",
+        "--out",
+        "o2",
+        "--axis",
+        "axis.toml",
+        "--export",
+        "table",
+        "--export-points",
+        "3",
+    ]);
     let o = run(c);
     assert!(o.status.success(), "{}", stderr(&o));
     let rows = table_rows(&p.join("o2/frict_comp_table.csv"));

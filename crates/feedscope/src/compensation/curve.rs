@@ -68,7 +68,10 @@ impl FrictionCurve {
     /// [`Termination::MaxIterations`]; [`CompensationError::NoRange`] when its speeds do not
     /// span a range (one distinct speed); [`CompensationError::BadParameter`] for a parameter
     /// that is not finite.
-    pub fn from_stribeck(direction: Direction, fit: &StribeckFit) -> Result<Self, CompensationError> {
+    pub fn from_stribeck(
+        direction: Direction,
+        fit: &StribeckFit,
+    ) -> Result<Self, CompensationError> {
         let stalled = fit
             .warnings
             .iter()
@@ -130,7 +133,10 @@ impl FrictionCurve {
     /// # Errors
     /// [`CompensationError::BadParameter`] for a position outside the mapped span (named
     /// `position_mm`); [`CompensationError::NoRange`] for a map of one feed.
-    pub fn from_map_section(map: &DirectionMap, position_mm: f64) -> Result<Self, CompensationError> {
+    pub fn from_map_section(
+        map: &DirectionMap,
+        position_mm: f64,
+    ) -> Result<Self, CompensationError> {
         if map.check_position(position_mm).is_err() || !position_mm.is_finite() {
             return Err(CompensationError::BadParameter {
                 name: "position_mm",
@@ -149,7 +155,11 @@ impl FrictionCurve {
                     coeffs_n: feed
                         .coeffs
                         .iter()
-                        .map(|cj| cj.iter().map(|b| b.get(r).copied().unwrap_or(0.0)).collect())
+                        .map(|cj| {
+                            cj.iter()
+                                .map(|b| b.get(r).copied().unwrap_or(0.0))
+                                .collect()
+                        })
                         .collect(),
                 }
                 .value_n(position_mm * 1e-3)
@@ -219,7 +229,10 @@ impl FrictionCurve {
             hi_m_s,
         };
         // Two speeds closer than 1 ppm are one feed written with rounding, not a range.
-        if !(lo_m_s.is_finite() && hi_m_s.is_finite() && lo_m_s > 0.0 && hi_m_s > lo_m_s * (1.0 + 1e-6))
+        if !(lo_m_s.is_finite()
+            && hi_m_s.is_finite()
+            && lo_m_s > 0.0
+            && hi_m_s > lo_m_s * (1.0 + 1e-6))
         {
             return Err(CompensationError::NoRange {
                 curve: me.label(),
@@ -240,7 +253,12 @@ impl FrictionCurve {
                 let mut p = [0.0; 32];
                 let m = coeffs_n.len().min(p.len());
                 legendre(feed.u(feed_m_s_to_mm_min(v)), &mut p[..m]);
-                coeffs_n.iter().zip(&p[..m]).map(|(d, p)| d * p).sum::<f64>().abs()
+                coeffs_n
+                    .iter()
+                    .zip(&p[..m])
+                    .map(|(d, p)| d * p)
+                    .sum::<f64>()
+                    .abs()
             }
             Shape::Mean(a, b) => 0.5 * (a.magnitude_n(v) + b.magnitude_n(v)),
         }

@@ -169,7 +169,9 @@ pub enum CompensationError {
         reason: String,
     },
     /// The curve gives a value that is not a positive finite force.
-    #[error("{curve}: friction {value_n} N at {velocity_mm_min} mm/min is not a positive finite force")]
+    #[error(
+        "{curve}: friction {value_n} N at {velocity_mm_min} mm/min is not a positive finite force"
+    )]
     BadValue {
         /// Which curve.
         curve: String,

@@ -143,7 +143,8 @@ impl SinumerikStartValues {
             return Err(CompensationError::BadParameter {
                 name: "inertia_kgm2",
                 value: axis.inertia_kgm2,
-                expected: "the axis inertia (and table mass): the equivalent mass sets the amplitude",
+                expected:
+                    "the axis inertia (and table mass): the equivalent mass sets the amplitude",
             });
         }
         let mut breakaway_n = Vec::new();
@@ -154,11 +155,13 @@ impl SinumerikStartValues {
                 value: f64::NAN,
                 expected: "a curve of one direction",
             })?;
-            let p = c.stribeck().ok_or_else(|| CompensationError::NeedsStribeck {
-                what: "the SINUMERIK starting values",
-                direction: d.as_str(),
-                model: c.kind(),
-            })?;
+            let p = c
+                .stribeck()
+                .ok_or_else(|| CompensationError::NeedsStribeck {
+                    what: "the SINUMERIK starting values",
+                    direction: d.as_str(),
+                    model: c.kind(),
+                })?;
             breakaway_n.push((d, p.fs_n));
             vs.push((d, p.vs_m_s));
         }

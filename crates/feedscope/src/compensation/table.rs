@@ -1,6 +1,8 @@
 //! The generic table: velocity → friction force, motor torque and current, per direction.
 
-use super::{place_points, CompensationError, DriveConversion, FrictionCurve, PlacedTable, PlacementParams};
+use super::{
+    place_points, CompensationError, DriveConversion, FrictionCurve, PlacedTable, PlacementParams,
+};
 
 /// The most points of a [`VelocityTable`]: a quarter of the default placement grid.
 pub const VELOCITY_TABLE_MAX_POINTS: usize = 512;

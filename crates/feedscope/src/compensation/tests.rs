@@ -39,7 +39,11 @@ fn dense_error(c: &FrictionCurve, v: &[f64], y: &[f64], n: usize) -> (f64, f64) 
     let (mut sq, mut prev) = (0.0, None::<f64>);
     let h = (b / a).ln() / (n - 1) as f64;
     for i in 0..n {
-        let x = if i == n - 1 { b } else { a * (h * i as f64).exp() };
+        let x = if i == n - 1 {
+            b
+        } else {
+            a * (h * i as f64).exp()
+        };
         let j = v.partition_point(|&t| t <= x).clamp(1, v.len() - 1);
         let lin = y[j - 1] + (y[j] - y[j - 1]) * (x - v[j - 1]) / (v[j] - v[j - 1]);
         let e = lin - c.magnitude_n(x);
@@ -59,14 +63,24 @@ fn stated_error_is_the_dense_measured_error() {
         let t = place_points(&c, n, &PlacementParams::default()).unwrap();
         assert_eq!(t.velocity_m_s.len(), n);
         let (lo, hi) = c.range_m_s();
-        assert!((t.velocity_m_s[0] - lo).abs() < 1e-18 && (t.velocity_m_s[n - 1] - hi).abs() < 1e-18);
+        assert!(
+            (t.velocity_m_s[0] - lo).abs() < 1e-18 && (t.velocity_m_s[n - 1] - hi).abs() < 1e-18
+        );
         assert!(t.velocity_m_s.windows(2).all(|w| w[1] > w[0]));
         let (max, rms) = dense_error(&c, &t.velocity_m_s, &t.friction_n, 400_001);
         // The stated max is sampled at 256 points per interval, the reference at 4e5 over the
         // range: the error is flat at its peaks, so they agree to the square of the sampling
         // step (≈ 1e-5 relative); the RMS (trapezoid on both) likewise.
-        assert!((t.error.max_n - max).abs() <= 1e-4 * max, "N={n}: {} vs {max}", t.error.max_n);
-        assert!((t.error.rms_n - rms).abs() <= 1e-3 * rms, "N={n}: {} vs {rms}", t.error.rms_n);
+        assert!(
+            (t.error.max_n - max).abs() <= 1e-4 * max,
+            "N={n}: {} vs {max}",
+            t.error.max_n
+        );
+        assert!(
+            (t.error.rms_n - rms).abs() <= 1e-3 * rms,
+            "N={n}: {} vs {rms}",
+            t.error.rms_n
+        );
         // The stated max is refined between samples: never below the dense reference.
         assert!(t.error.max_n >= max * (1.0 - 1e-12), "N={n}");
         // The grid's minimax level is the same maximum seen at the candidates only.
@@ -95,7 +109,12 @@ fn placement_beats_uniform_and_is_dense_where_the_curve_bends() {
             .collect();
         let y: Vec<f64> = v.iter().map(|&v| c.magnitude_n(v)).collect();
         let e = interpolation_error(&c, &v, &y, &p).unwrap();
-        assert!(t.error.max_n < 0.5 * e.max_n, "{spacing}: {} vs {}", t.error.max_n, e.max_n);
+        assert!(
+            t.error.max_n < 0.5 * e.max_n,
+            "{spacing}: {} vs {}",
+            t.error.max_n,
+            e.max_n
+        );
     }
     // Half the points lie below 3·v_s (135 mm/min), a fifth of the range in ln v.
     let below = t
@@ -105,7 +124,11 @@ fn placement_beats_uniform_and_is_dense_where_the_curve_bends() {
         .count();
     assert!(below >= 10, "{below} of 20 below 3 vs");
     // On the test twin: 20 points cost well under 1 N (0.1 % of ~300 N).
-    assert!(t.error.max_n < 0.3 && t.error.max_pct < 0.1, "{:?}", t.error);
+    assert!(
+        t.error.max_n < 0.3 && t.error.max_pct < 0.1,
+        "{:?}",
+        t.error
+    );
 }
 
 /// A straight curve (the Coulomb + viscous line) is tabulated exactly with any N.
@@ -167,7 +190,12 @@ fn force_to_torque_and_current_by_hand() {
     let axis = twin_axis();
     let d = DriveConversion::from_axis(&axis, 1.0).unwrap();
     // 2π/p·k_e·i = F (paper 000 Eq. 5 at steady speed)
-    assert!((axis.force_per_torque_n_per_nm() * axis.torque_constant_nm_per_a * d.current_a(250.0) - 250.0).abs() < 1e-9);
+    assert!(
+        (axis.force_per_torque_n_per_nm() * axis.torque_constant_nm_per_a * d.current_a(250.0)
+            - 250.0)
+            .abs()
+            < 1e-9
+    );
 }
 
 fn twin_axis() -> AxisParams {
@@ -190,7 +218,10 @@ fn stroke(dir: Direction, feed: f64) -> StrokeFriction {
         z.reverse();
     }
     let n = z.len();
-    let fr: Vec<f64> = z.iter().map(|&x| dir.sign() * smooth(x * 1e3, feed)).collect();
+    let fr: Vec<f64> = z
+        .iter()
+        .map(|&x| dir.sign() * smooth(x * 1e3, feed))
+        .collect();
     StrokeFriction {
         summary: StrokeSummary {
             stroke: 0,
@@ -239,7 +270,10 @@ fn small_map() -> crate::map::FrictionMap {
                 feed_mm_min: f,
                 repeat: 1,
             },
-            strokes: vec![stroke(Direction::Forward, f), stroke(Direction::Backward, f)],
+            strokes: vec![
+                stroke(Direction::Forward, f),
+                stroke(Direction::Backward, f),
+            ],
             warnings: vec![],
         })
         .collect();
@@ -254,13 +288,20 @@ fn map_section_equals_the_map() {
         let z = 27.3;
         let c = FrictionCurve::from_map_section(d, z).unwrap();
         let (lo, hi) = c.range_m_s();
-        assert!((feed_m_s_to_mm_min(lo) - 10.0).abs() < 1e-9 && (feed_m_s_to_mm_min(hi) - 320.0).abs() < 1e-9);
+        assert!(
+            (feed_m_s_to_mm_min(lo) - 10.0).abs() < 1e-9
+                && (feed_m_s_to_mm_min(hi) - 320.0).abs() < 1e-9
+        );
         for f in [10.0, 13.7, 40.0, 99.0, 320.0] {
             let want = d.friction_n(z, f, false).unwrap().abs();
             let got = c.magnitude_n(feed_mm_min_to_m_s(f));
             assert!((got - want).abs() < 1e-9 * want, "{f}: {got} vs {want}");
         }
-        assert!(c.label().contains("map section at 27.300 mm"), "{}", c.label());
+        assert!(
+            c.label().contains("map section at 27.300 mm"),
+            "{}",
+            c.label()
+        );
         let e = FrictionCurve::from_map_section(d, 80.0).unwrap_err();
         assert!(e.to_string().contains("position_mm"), "{e}");
     }
@@ -290,27 +331,51 @@ fn tf5200_block_of_both_directions() {
     }
     // The stated error is the error of the written integers.
     let v: Vec<f64> = t.entries.iter().map(|e| e.in_um_s as f64 * 1e-6).collect();
-    let y: Vec<f64> = t.entries.iter().map(|e| e.out as f64 * t.n_per_unit()).collect();
+    let y: Vec<f64> = t
+        .entries
+        .iter()
+        .map(|e| e.out as f64 * t.n_per_unit())
+        .collect();
     let (max, _) = dense_error(&t.curve, &v, &y, 200_001);
-    assert!((t.error.max_n - max).abs() <= 1e-3 * max, "{} vs {max}", t.error.max_n);
+    assert!(
+        (t.error.max_n - max).abs() <= 1e-3 * max,
+        "{} vs {max}",
+        t.error.max_n
+    );
     // Against each direction: the asymmetry (25 N each way) dominates.
     assert_eq!(t.direction_errors.len(), 2);
     for (_, e) in &t.direction_errors {
         assert!((e.max_n - 25.0).abs() < 1.0, "{e:?}");
     }
     // Limits: P-COMP-00062, and a unit given inverted.
-    let e = Tf5200Table::build(Some(&fwd), None, drive, &Tf5200Params::new(21, Tf5200OutUnit::Ampere(0.001)), &p)
-        .unwrap_err();
+    let e = Tf5200Table::build(
+        Some(&fwd),
+        None,
+        drive,
+        &Tf5200Params::new(21, Tf5200OutUnit::Ampere(0.001)),
+        &p,
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("P-COMP-00062"), "{e}");
-    let e = Tf5200Table::build(Some(&fwd), None, drive, &Tf5200Params::new(20, Tf5200OutUnit::Ampere(1000.0)), &p)
-        .unwrap_err();
+    let e = Tf5200Table::build(
+        Some(&fwd),
+        None,
+        drive,
+        &Tf5200Params::new(20, Tf5200OutUnit::Ampere(1000.0)),
+        &p,
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("too coarse"), "{e}");
     let mut more = Tf5200Params::new(40, Tf5200OutUnit::NewtonMetre(1e-4));
     more.max_points = 40;
     let t = Tf5200Table::build(None, Some(&bwd), drive, &more, &p).unwrap();
     assert_eq!(t.entries.len(), 40);
     // 1e-4 N·m is 0.063 N: the rounding adds at most half of it to the interpolation.
-    assert!(t.direction_errors[0].1.max_n < 0.1, "{:?}", t.direction_errors);
+    assert!(
+        t.direction_errors[0].1.max_n < 0.1,
+        "{:?}",
+        t.direction_errors
+    );
 }
 
 // ---------- SINUMERIK ----------
@@ -324,24 +389,46 @@ fn tf5200_block_of_both_directions() {
 fn sinumerik_start_values_by_hand() {
     let fwd = curve(Direction::Forward, &params(260.0, 85.0, 45.0, 7000.0));
     let bwd = curve(Direction::Backward, &params(310.0, 85.0, 45.0, 7000.0));
-    let s = SinumerikStartValues::compute(Some(&fwd), Some(&bwd), &twin_axis(), &SinumerikParams::default())
-        .unwrap();
+    let s = SinumerikStartValues::compute(
+        Some(&fwd),
+        Some(&bwd),
+        &twin_axis(),
+        &SinumerikParams::default(),
+    )
+    .unwrap();
     assert!((s.equivalent_mass_kg - 2004.1367).abs() < 1e-3);
-    assert!((s.breakaway_step_n - 740.0).abs() < 1e-6, "{}", s.breakaway_step_n);
-    assert!((s.const_max_mm_min - 70.519).abs() < 1e-3, "{}", s.const_max_mm_min);
+    assert!(
+        (s.breakaway_step_n - 740.0).abs() < 1e-6,
+        "{}",
+        s.breakaway_step_n
+    );
+    assert!(
+        (s.const_max_mm_min - 70.519).abs() < 1e-3,
+        "{}",
+        s.const_max_mm_min
+    );
     assert!((s.quadrant_accel_m_s2 - 0.027_777_78).abs() < 1e-8);
     assert!((s.time_s - 0.027).abs() < 1e-9, "{}", s.time_s);
     // K_p = J·ω_c = m_eq·(p/2π)²·2π·50 = 2004.137·2.533e-6·314.16 = 1.5950 N·m·s/rad
-    assert!((s.speed_gain_nms_per_rad - 1.5950).abs() < 1e-3, "{}", s.speed_gain_nms_per_rad);
+    assert!(
+        (s.speed_gain_nms_per_rad - 1.5950).abs() < 1e-3,
+        "{}",
+        s.speed_gain_nms_per_rad
+    );
     // One direction: the step is twice its breakaway friction.
-    let one = SinumerikStartValues::compute(Some(&fwd), None, &twin_axis(), &SinumerikParams::default())
-        .unwrap();
+    let one =
+        SinumerikStartValues::compute(Some(&fwd), None, &twin_axis(), &SinumerikParams::default())
+            .unwrap();
     assert!((one.breakaway_step_n - 690.0).abs() < 1e-6);
     // A Coulomb + viscous line has no breakaway friction to start from.
-    let line = FrictionCurve::from_stribeck(Direction::Forward, &fit_of(&params(250.0, 0.0, 45.0, 5000.0), 10.0, 600.0, 2))
-        .unwrap();
-    let e = SinumerikStartValues::compute(Some(&line), None, &twin_axis(), &SinumerikParams::default())
-        .unwrap_err();
+    let line = FrictionCurve::from_stribeck(
+        Direction::Forward,
+        &fit_of(&params(250.0, 0.0, 45.0, 5000.0), 10.0, 600.0, 2),
+    )
+    .unwrap();
+    let e =
+        SinumerikStartValues::compute(Some(&line), None, &twin_axis(), &SinumerikParams::default())
+            .unwrap_err();
     assert!(matches!(e, CompensationError::NeedsStribeck { .. }), "{e}");
 }
 

@@ -246,7 +246,10 @@ impl Tf5200Table {
         let velocity_m_s: Vec<f64> = in_um_s.iter().map(|&x| x as f64 * 1e-6).collect();
         let mut entries = Vec::with_capacity(in_um_s.len());
         for (&v, &inn) in velocity_m_s.iter().zip(&in_um_s) {
-            let units = params.out_unit.units_of_n(&drive, curve.checked_n(v)?).round();
+            let units = params
+                .out_unit
+                .units_of_n(&drive, curve.checked_n(v)?)
+                .round();
             if units.abs() > i32::MAX as f64 {
                 return Err(CompensationError::DoesNotFit {
                     name: "frict_comp.table[i].out",
