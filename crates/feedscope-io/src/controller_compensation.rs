@@ -68,7 +68,7 @@ fn error_text(e: &InterpolationError, also: Option<(f64, &str)>) -> String {
         None => format!("{x:.3} N"),
     };
     format!(
-        "max {} ({:.3} %) at {:.3} mm/min, RMS {} ({:.3} %)",
+        "max {} ({:.3} %) at {:.3} mm/min, RMS over ln v {} ({:.3} %)",
         with(e.max_n),
         e.max_pct,
         mm_min(e.max_at_m_s),

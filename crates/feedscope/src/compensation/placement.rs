@@ -295,7 +295,10 @@ pub fn interpolation_error(
     if velocity_m_s.len() < 2 {
         return Err(bad(format!("{} points; at least 2", velocity_m_s.len())));
     }
-    if let Some(w) = velocity_m_s.windows(2).find(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater)) {
+    if let Some(w) = velocity_m_s
+        .windows(2)
+        .find(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+    {
         return Err(bad(format!(
             "velocities not strictly increasing ({} then {} mm/min)",
             feed_m_s_to_mm_min(w[0]),

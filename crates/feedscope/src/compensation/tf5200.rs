@@ -146,8 +146,9 @@ pub struct Tf5200Table {
     /// Error of the written (rounded) table against `curve`, in N (divide by
     /// N per `out` unit for the unit of `out`).
     pub error: InterpolationError,
-    /// Error of the written table against each measured direction's own curve (mean table:
-    /// the interpolation and the asymmetry of the directions together).
+    /// For a table of both directions (their mean): the error of the written table against
+    /// each direction's own curve, the interpolation and the asymmetry of the directions
+    /// together. Empty for a table of one direction.
     pub direction_errors: Vec<(Direction, InterpolationError)>,
 }
 
@@ -278,13 +279,16 @@ impl Tf5200Table {
             .map(|e| params.out_unit.n_of_units(&drive, e.out as f64))
             .collect();
         let error = interpolation_error(&curve, &velocity_m_s, &written_n, placement)?;
+        // A mean table: its error against each direction's own curve too.
         let mut direction_errors = Vec::new();
-        for c in [forward, backward].into_iter().flatten() {
-            if let Some(d) = c.direction() {
-                direction_errors.push((
-                    d,
-                    interpolation_error(c, &velocity_m_s, &written_n, placement)?,
-                ));
+        if let (Some(f), Some(b)) = (forward, backward) {
+            for c in [f, b] {
+                if let Some(d) = c.direction() {
+                    direction_errors.push((
+                        d,
+                        interpolation_error(c, &velocity_m_s, &written_n, placement)?,
+                    ));
+                }
             }
         }
         Ok(Self {
