@@ -36,6 +36,9 @@
 //! - [`friction_csv`], [`compensation`], [`stribeck_table`]: the tables feedscope writes
 //!   (friction along the travel, friction-compensation tables) and reads (its own friction
 //!   CSV, steady-speed tables).
+//! - [`controller_compensation`]: friction compensation in the controllers' own files (the
+//!   Beckhoff TF5200 `frict_comp` block, SINUMERIK starting values) and a generic velocity
+//!   table.
 //! - [`axis`], [`nc`], [`sim`], [`test_set`]: files named on the command line: axis
 //!   descriptions, NC programs, simulator configs (with their program file), the index of a
 //!   test set and its traces.
@@ -50,6 +53,7 @@
 
 pub mod axis;
 pub mod compensation;
+pub mod controller_compensation;
 pub mod fixed;
 pub mod friction_csv;
 pub mod import;

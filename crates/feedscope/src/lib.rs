@@ -10,6 +10,7 @@
 
 pub mod axis;
 pub mod calendar;
+pub mod compensation;
 pub mod diag;
 pub mod dynamics;
 pub mod error;

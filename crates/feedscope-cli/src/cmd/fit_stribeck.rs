@@ -3,6 +3,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
+use feedscope::compensation::{DriveConversion, FrictionCurve};
 use feedscope::estimate::Direction;
 use feedscope::stribeck::{
     detect_nonconventional, DeltaMode, FitWarning, FrictionModel, NonConventional,
@@ -13,7 +14,9 @@ use feedscope_io::stribeck_table::{self, EffortColumn, SpeedPoints, TableOptions
 use serde::Serialize;
 
 use super::estimate::Format;
+use super::export::{ExportArgs, ExportCurves};
 use super::BadInput;
+use crate::output::OutputSet;
 use crate::plot;
 
 /// Fit Stribeck curves to a steady-speed table (paper 000 Eq. 9, paper 001 Eq. 15).
@@ -32,13 +35,22 @@ use crate::plot;
 /// non-physical values, the fit falls back to δ = 2 (after δ free), then to Coulomb + viscous
 /// (F = Fc + σ·|v|, from 2 distinct feeds); the model and the reason are printed on stderr
 /// and kept in the JSON. A direction with a single distinct feed is refused (exit 2).
+///
+/// With --export (and --axis for the motor's lead and torque constant) the fitted curves go
+/// into the controllers' own files as well: a Beckhoff TF5200 frict_comp block, SINUMERIK
+/// starting values, a generic velocity table (docs/friction-map.md says how to load them).
+/// The output files are written together or not at all.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Steady-speed table (CSV with header).
     pub table: PathBuf,
-    /// Screw lead p (mm), > 0; needed for a `torque_nm` table.
+    /// Screw lead p (mm), > 0; needed for a `torque_nm` table (or taken from --axis).
     #[arg(long)]
     pub lead_mm: Option<f64>,
+    /// Axis parameters (TOML or JSON): the lead, and for --export the torque constant (and
+    /// the masses for sinumerik).
+    #[arg(long)]
+    pub axis: Option<PathBuf>,
     /// Transmission efficiency η in (0, 1]; F = 2π·η·T/p (η < 1 attributes 1 − η of the torque
     /// to losses in the screw itself).
     #[arg(long, default_value_t = 1.0)]
@@ -56,6 +68,8 @@ pub struct Args {
     /// What to print on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     pub format: Format,
+    #[command(flatten)]
+    pub export: ExportArgs,
 }
 
 fn parse_delta(s: &str) -> Result<DeltaMode, String> {
@@ -416,10 +430,38 @@ pub fn run(args: Args) -> Result<()> {
             return Err(bad(format!("--noise-n must be >= 0, got {s}")));
         }
     }
+    let export = args.export.validate()?;
+    if export.is_some() && args.axis.is_none() {
+        return Err(bad(
+            "--export needs --axis AXIS.toml: its lead_mm and torque_constant_nm_per_a turn \
+             friction into motor torque and current (and table_mass_kg, inertia_kgm2 set the \
+             SINUMERIK amplitude)"
+                .into(),
+        ));
+    }
+    let axis = args
+        .axis
+        .as_ref()
+        .map(|p| feedscope_io::axis::load(p))
+        .transpose()?;
+    // One lead: the axis file's, or --lead-mm, and they must agree when both are given.
+    let lead_mm = match (&axis, args.lead_mm) {
+        (Some(a), Some(l)) if (a.lead_mm - l).abs() > 1e-9 * a.lead_mm.abs() => {
+            return Err(bad(format!(
+                "--lead-mm {l} disagrees with lead_mm = {} of {}",
+                a.lead_mm,
+                args.axis
+                    .as_ref()
+                    .map_or(String::new(), |p| p.display().to_string())
+            )))
+        }
+        (Some(a), _) => Some(a.lead_mm),
+        (None, l) => l,
+    };
     let table = stribeck_table::read(
         &args.table,
         &TableOptions {
-            lead_mm: args.lead_mm,
+            lead_mm,
             efficiency: args.efficiency,
         },
     )?;
@@ -437,6 +479,7 @@ pub fn run(args: Args) -> Result<()> {
         ..NonConventionalParams::default()
     };
     let mut directions = Vec::new();
+    let mut curves = Vec::new();
     for (dir, pts) in [(Direction::Forward, &fwd), (Direction::Backward, &bwd)] {
         if pts.speed_m_s.is_empty() {
             continue;
@@ -461,11 +504,38 @@ pub fn run(args: Args) -> Result<()> {
         let nc = detect_nonconventional(&pts.speed_m_s, &pts.friction_n, &fit, &nc_params)
             .map_err(|e| bad(format!("{name}: {} direction: {e}", dir.as_str())))?;
         directions.push(direction_fit(dir, pts, &fit, &nc));
+        if export.is_some() {
+            curves.push(
+                FrictionCurve::from_stribeck(dir, &fit)
+                    .with_context(|| format!("{name}: --export"))?,
+            );
+        }
     }
+    let exports = match (&export, &axis) {
+        (Some(cfg), Some(axis)) => {
+            let drive = DriveConversion::from_axis(axis, args.efficiency)
+                .context("--export: the axis file and --efficiency")?;
+            let source = format!("feedscope fit-stribeck {name}");
+            super::export::build(
+                cfg,
+                &ExportCurves {
+                    table: &curves,
+                    stribeck: &curves,
+                },
+                axis,
+                drive,
+                &feedscope_io::controller_compensation::ExportSource {
+                    source: &source,
+                    axis_name: axis.name.as_deref(),
+                },
+            )?
+        }
+        _ => Vec::new(),
+    };
     let report = Report {
         source: name,
         input,
-        lead_mm: args.lead_mm,
+        lead_mm,
         efficiency: args.efficiency,
         delta: match args.delta {
             DeltaMode::Free => "free".to_string(),
@@ -479,8 +549,14 @@ pub fn run(args: Args) -> Result<()> {
         .with_context(|| format!("creating {}", args.out.display()))?;
     let json_path = args.out.join("stribeck.json");
     let svg_path = args.out.join("stribeck.svg");
-    crate::output::write_atomic(&json_path, json.as_bytes())?;
-    crate::output::write_atomic(&svg_path, svg.as_bytes())?;
+    // All or nothing: the files replace the previous run's together at the end.
+    let mut outputs = OutputSet::new();
+    outputs.write(&json_path, json.as_bytes())?;
+    outputs.write(&svg_path, svg.as_bytes())?;
+    for f in &exports {
+        outputs.write(&args.out.join(f.name), &f.bytes)?;
+    }
+    outputs.commit()?;
     match args.format {
         Format::Json => {
             writeln!(std::io::stdout().lock(), "{json}")?;
@@ -490,6 +566,9 @@ pub fn run(args: Args) -> Result<()> {
             print_table(&report)?;
             eprintln!("wrote {}, {}", json_path.display(), svg_path.display());
         }
+    }
+    for f in &exports {
+        eprintln!("wrote {}: {}", args.out.join(f.name).display(), f.summary);
     }
     Ok(())
 }

@@ -5,10 +5,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use clap::ValueEnum;
+use feedscope::compensation::{DriveConversion, FrictionCurve};
 use feedscope::estimate::{Direction, EstimateParams};
 use feedscope::map::{
-    FeedScale, FrictionMap, MapParams, NonConventionalSpan, StribeckAtPosition, StribeckProfile,
-    TestSet,
+    stribeck_profile, FeedScale, FrictionMap, MapParams, NonConventionalSpan, StribeckAtPosition,
+    StribeckProfile, TestSet,
 };
 use feedscope::stribeck::{FitWarning, FrictionModel, ParamEstimate, Reduction, M_S_PER_MM_MIN};
 use feedscope::study::{map_grid, map_study, MapStudy, MapStudyParams, StudyError};
@@ -18,6 +19,7 @@ use feedscope_io::trace::ReadOptions;
 use serde::Serialize;
 
 use super::estimate::Format;
+use super::export::{ExportArgs, ExportConfig, ExportCurves, ExportFile};
 use super::BadInput;
 use crate::output::{bar, AtomicFile, OutputSet};
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
@@ -48,10 +50,14 @@ use crate::plot::{self, Heatmap, LineChart, Series, Style};
 /// at the positions, map heat maps, repeats and their mean at one feed, mean curves of
 /// several feeds). Friction is signed: positive forward, negative backward.
 ///
+/// With --export, the friction compensation at one position (--export-position-mm) goes
+/// into the controllers' own files as well: a Beckhoff TF5200 frict_comp block, SINUMERIK
+/// starting values, a generic velocity table (docs/friction-map.md says how to load them).
+///
 /// Exit codes: 0 success, also when some runs failed (they are listed); 1 when every run
 /// failed, or when any run failed with --strict (the outputs are still written); 2 bad input
 /// (unreadable index or axis, a position outside the mapped travel, a table feed outside the
-/// measured feeds without --extrapolate, bad options).
+/// measured feeds without --extrapolate, an export the fits do not allow, bad options).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Index CSV of the test set (`file,feed_mm_min,repeat`).
@@ -102,6 +108,30 @@ pub struct Args {
     /// What to print on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     pub format: Format,
+    #[command(flatten)]
+    pub export: ExportArgs,
+    /// Position (mm) whose friction the exports tabulate [default: the middle of the span
+    /// both directions share].
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        help_heading = "Controller export"
+    )]
+    pub export_position_mm: Option<f64>,
+    /// Curve the exported tables follow at that position: the Stribeck fit (Eq. 9, smooth)
+    /// or the map's section (Eq. 6 and 8, the measured means' feed polynomial).
+    #[arg(long, value_enum, default_value_t = ExportCurveArg::Stribeck, help_heading = "Controller export")]
+    pub export_curve: ExportCurveArg,
+}
+
+/// The curve `--export` tabulates.
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum ExportCurveArg {
+    /// The Stribeck fit at the position (Eq. 9; the reduced model where the feeds do not
+    /// determine one).
+    Stribeck,
+    /// The map's section at the position (Eq. 6 with the feed polynomial of Eq. 8).
+    Map,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
@@ -124,6 +154,7 @@ impl From<FeedScale> for ScaleArg {
 /// Validated settings (before any I/O).
 struct Config {
     params: MapStudyParams,
+    export: Option<ExportConfig>,
 }
 
 fn validate(args: &Args) -> Result<Config> {
@@ -146,6 +177,20 @@ fn validate(args: &Args) -> Result<Config> {
     }
     if args.samples_per_lead < 16 {
         return Err(bad("--samples-per-lead must be at least 16".into()));
+    }
+    let export = args.export.validate()?;
+    if export.is_none() {
+        if args.export_position_mm.is_some() {
+            return Err(bad("--export-position-mm is used only with --export".into()));
+        }
+        if args.export_curve != ExportCurveArg::Stribeck {
+            return Err(bad("--export-curve is used only with --export".into()));
+        }
+    }
+    if let Some(z) = args.export_position_mm.filter(|z| !z.is_finite()) {
+        return Err(bad(format!(
+            "--export-position-mm: {z} is not a finite position"
+        )));
     }
     let params = MapParams {
         breaks_mm: args.breaks.clone(),
@@ -177,6 +222,7 @@ fn validate(args: &Args) -> Result<Config> {
             extrapolate: args.extrapolate,
             ..MapStudyParams::default()
         },
+        export,
     })
 }
 
@@ -184,14 +230,15 @@ pub fn run(args: Args) -> Result<()> {
     let cfg = validate(&args)?;
     let axis = feedscope_io::axis::load(&args.axis)?;
     // A position outside the declared travel is wrong whatever the data say.
-    if let (Some(p), Some(lo), Some(hi)) = (&args.positions, axis.travel_min_mm, axis.travel_max_mm)
-    {
-        if let Some(x) = p.iter().find(|&&x| x < lo || x > hi) {
-            return Err(BadInput(format!(
-                "--positions: {x} mm is outside the axis travel [{lo}, {hi}] mm"
-            ))
-            .into());
-        }
+    if let (Some(lo), Some(hi)) = (axis.travel_min_mm, axis.travel_max_mm) {
+        let outside = |flag: &str, xs: &[f64]| match xs.iter().find(|&&x| x < lo || x > hi) {
+            Some(x) => Err(BadInput(format!(
+                "{flag}: {x} mm is outside the axis travel [{lo}, {hi}] mm"
+            ))),
+            None => Ok(()),
+        };
+        outside("--positions", args.positions.as_deref().unwrap_or(&[]))?;
+        outside("--export-position-mm", args.export_position_mm.as_slice())?;
     }
     let set = read_index(&args.index).map_err(|e| BadInput(e.to_string()))?;
     let est_params = EstimateParams {
@@ -235,6 +282,10 @@ pub fn run(args: Args) -> Result<()> {
         &study.profiles,
         &study.nonconventional,
     );
+    let exports = match &cfg.export {
+        Some(e) => export_files(e, &args, &axis, &study, &cfg.params.map, &set.source_name)?,
+        None => Vec::new(),
+    };
 
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
@@ -260,7 +311,13 @@ pub fn run(args: Args) -> Result<()> {
         .as_bytes(),
     )?;
     write_plots(&mut outputs, out, &study, &args)?;
+    for f in &exports {
+        outputs.write(&out.join(f.name), &f.bytes)?;
+    }
     outputs.commit()?;
+    for f in &exports {
+        eprintln!("wrote {}: {}", out.join(f.name).display(), f.summary);
+    }
 
     print_models(at_positions);
     let stdout = std::io::stdout();
@@ -278,6 +335,88 @@ pub fn run(args: Args) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// The `--export` files of the map at `--export-position-mm` (default: the middle of the span
+/// both directions share): per direction the Stribeck fit there (Eq. 9, also what the
+/// SINUMERIK values need) and, with `--export-curve map`, the map's section for the tables.
+fn export_files(
+    cfg: &ExportConfig,
+    args: &Args,
+    axis: &feedscope::axis::AxisParams,
+    study: &MapStudy,
+    params: &MapParams,
+    index: &str,
+) -> Result<Vec<ExportFile>> {
+    let dirs = &study.map.directions;
+    let lo = dirs
+        .iter()
+        .map(|d| d.start_mm)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let hi = dirs.iter().map(|d| d.end_mm).fold(f64::INFINITY, f64::min);
+    let z = match args.export_position_mm {
+        Some(z) => z,
+        None if hi >= lo => 0.5 * (lo + hi),
+        None => {
+            return Err(BadInput(format!(
+                "--export: the directions' mapped spans do not overlap ({}); give \
+                 --export-position-mm",
+                dirs.iter()
+                    .map(|d| format!(
+                        "{} {:.3}-{:.3} mm",
+                        dir_name(d.direction),
+                        d.start_mm,
+                        d.end_mm
+                    ))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))
+            .into())
+        }
+    };
+    let mut table = Vec::new();
+    let mut stribeck = Vec::new();
+    for d in dirs {
+        let profile = stribeck_profile(d, &[z], params).context("--export-position-mm")?;
+        let at = &profile.positions[0];
+        let fit = at.fit.as_ref().ok_or_else(|| {
+            BadInput(format!(
+                "--export: the {} Stribeck fit at {z:.3} mm failed: {}",
+                dir_name(d.direction),
+                at.error.clone().unwrap_or_default()
+            ))
+        })?;
+        let s = FrictionCurve::from_stribeck(d.direction, fit)
+            .with_context(|| format!("--export: the {} fit at {z:.3} mm", dir_name(d.direction)))?;
+        table.push(match args.export_curve {
+            ExportCurveArg::Stribeck => s.clone(),
+            ExportCurveArg::Map => {
+                FrictionCurve::from_map_section(d, z).context("--export-position-mm")?
+            }
+        });
+        stribeck.push(s);
+    }
+    let drive = DriveConversion::from_axis(axis, 1.0).context("--export: the axis file")?;
+    let source = format!(
+        "feedscope map {index} at {z:.3} mm, {}",
+        match args.export_curve {
+            ExportCurveArg::Stribeck => "Stribeck fit at the position",
+            ExportCurveArg::Map => "map section at the position",
+        }
+    );
+    super::export::build(
+        cfg,
+        &ExportCurves {
+            table: &table,
+            stribeck: &stribeck,
+        },
+        axis,
+        drive,
+        &feedscope_io::controller_compensation::ExportSource {
+            source: &source,
+            axis_name: axis.name.as_deref(),
+        },
+    )
 }
 
 /// On stderr, per direction: the model at the chosen positions (once when it is the same

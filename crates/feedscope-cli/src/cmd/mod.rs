@@ -10,6 +10,7 @@ mod demo;
 mod dynamics;
 mod effort;
 mod estimate;
+mod export;
 mod fit_stribeck;
 pub(crate) mod history;
 mod identify;
@@ -68,10 +69,10 @@ pub struct BadInput(pub String);
 /// that does not parse (TOML, JSON) are bad input.
 fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
     use feedscope::{
-        axis::AxisError, dynamics::DynamicsError, estimate::EstimateError, history::HistoryError,
-        ident::IdentError, lugre::LuGreError, map::MapError, nc::NcError, order::OrderError,
-        plan::PlanError, profile::ProfileError, sim::SimError, spline::SplineError,
-        stribeck::StribeckError, study::StudyError,
+        axis::AxisError, compensation::CompensationError, dynamics::DynamicsError,
+        estimate::EstimateError, history::HistoryError, ident::IdentError, lugre::LuGreError,
+        map::MapError, nc::NcError, order::OrderError, plan::PlanError, profile::ProfileError,
+        sim::SimError, spline::SplineError, stribeck::StribeckError, study::StudyError,
     };
     use feedscope_io::{
         axis::AxisFileError, friction_csv::FrictionCsvError, import::ImportError,
@@ -87,6 +88,7 @@ fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
     }
     kind_if!(
         AxisError,
+        CompensationError,
         DynamicsError,
         EstimateError,
         HistoryError,

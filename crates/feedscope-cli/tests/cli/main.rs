@@ -3,6 +3,7 @@ mod analyze;
 mod dynamics;
 mod edges;
 mod estimate;
+mod export;
 mod fit_stribeck;
 mod glitch;
 mod history;
