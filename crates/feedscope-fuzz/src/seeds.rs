@@ -25,6 +25,19 @@ pub const UMICH: &[&str] = &[
     include_str!("../../feedscope-cli/tests/data/import/umich_experiment_12_head120.csv"),
 ];
 
+/// The SINUMERIK servo trace fixture (two axes, the structure of a real trace).
+pub const SINUMERIK: &str =
+    include_str!("../../feedscope-cli/tests/data/controllers/sinumerik_2axes_structure.xml");
+
+/// Real TwinCAT Scope CSV export excerpts (BSD-3-Clause, see the fixtures' README): comma,
+/// shared time column, CRLF, and an `EOF` line.
+pub const TWINCAT: &[&str] = &[
+    include_str!("../../feedscope-cli/tests/data/controllers/tc3_scope_comma_head60.csv"),
+    include_str!("../../feedscope-cli/tests/data/controllers/tc3_scope_default_head60_eof.csv"),
+    include_str!("../../feedscope-cli/tests/data/controllers/tc3_scope_noOS_crlf_head60.csv"),
+    include_str!("../../feedscope-cli/tests/data/controllers/tc3_scope_shared_time_head60.csv"),
+];
+
 /// The example configs of the repository.
 pub const DRIVE_EXAMPLE: &str = include_str!("../../../examples/drive.toml");
 /// The simulator example (with its axis, friction and motion tables).

@@ -172,6 +172,25 @@ pub fn all() -> Vec<Target> {
             run: run_umich,
         },
         Target {
+            name: "sinumerik",
+            about: "SINUMERIK Operate servo trace XML (list, then read per axis)",
+            seeds: || vec![seeds::SINUMERIK.as_bytes().to_vec()],
+            mutator: text,
+            run: run_sinumerik,
+        },
+        Target {
+            name: "twincat",
+            about: "TwinCAT Scope CSV export (list, then read two named channels)",
+            seeds: || {
+                seeds::TWINCAT
+                    .iter()
+                    .map(|s| s.as_bytes().to_vec())
+                    .collect()
+            },
+            mutator: text,
+            run: run_twincat,
+        },
+        Target {
             name: "axis_toml",
             about: "axis file, TOML (feedscope_io::axis::load)",
             seeds: seeds::axis_toml,
@@ -393,6 +412,54 @@ fn run_umich(b: &[u8], _: &Ctx) -> Result<Verdict, Finding> {
         }
     }
     Ok(verdict)
+}
+
+fn run_sinumerik(b: &[u8], _: &Ctx) -> Result<Verdict, Finding> {
+    use feedscope_io::import::sinumerik::{list_sinumerik_from, parse_sinumerik, SinumerikParams};
+    let listing = match list_sinumerik_from(b, "trace.xml") {
+        Ok(l) => l,
+        Err(e) => return refused(e.kind(), e.to_string()),
+    };
+    let mut verdict = Verdict::Rejected;
+    for (axis, _) in listing.axes().into_iter().take(4) {
+        let params = SinumerikParams {
+            axis: Some(axis.clone()),
+            ..Default::default()
+        };
+        match parse_sinumerik(b, "trace.xml", &params) {
+            Ok(imp) => {
+                check_trace(&imp.imported.trace).map_err(|f| format!("axis {axis}: {f}"))?;
+                verdict = Verdict::Accepted;
+            }
+            Err(e) => {
+                refused(e.kind(), e.to_string())?;
+            }
+        }
+    }
+    Ok(verdict)
+}
+
+fn run_twincat(b: &[u8], _: &Ctx) -> Result<Verdict, Finding> {
+    use feedscope_io::import::twincat::{list_twincat_from, parse_twincat, TwincatParams};
+    use feedscope_io::import::units::{EffortUnit, PositionUnit};
+    if let Err(e) = list_twincat_from(b, "scope.csv") {
+        return refused(e.kind(), e.to_string());
+    }
+    // The real excerpts are pytcs's test recordings, not a drive: their channels are named
+    // (as `feedscope import twincat --position var_REAL64 --effort func_scaled` would).
+    let params = TwincatParams {
+        position: Some("var_REAL64".into()),
+        position_unit: Some(PositionUnit::Millimetre),
+        effort: Some("func_scaled".into()),
+        effort_unit: Some(EffortUnit::NewtonMetre),
+    };
+    match parse_twincat(b, "scope.csv", &params) {
+        Ok(imp) => {
+            check_trace(&imp.imported.trace)?;
+            Ok(Verdict::Accepted)
+        }
+        Err(e) => refused(e.kind(), e.to_string()),
+    }
 }
 
 /// True when a value, serialised into TOML values, holds no NaN or infinity. The walk is over

@@ -968,7 +968,9 @@ fn scan<R: BufRead, S: Sink>(
                         ));
                     }
                 }
-                let in_frame = stack.last().is_some_and(|s| s == "dataFrame");
+                // A frame is open only when a <dataFrame> in <traceData> started one.
+                let in_frame = stack.last().is_some_and(|s| s == "dataFrame")
+                    && !pass.listing.frames.is_empty();
                 match name.as_str() {
                     "traceSession" => {
                         for a in e.attributes().flatten() {
@@ -990,6 +992,9 @@ fn scan<R: BufRead, S: Sink>(
                         if empty {
                             pass.end_frame(line)?;
                         }
+                    }
+                    "dataFrame" => {
+                        return Err(pass.bad(line, "<dataFrame> outside <traceData>"));
                     }
                     "frameHeader" if in_frame => pass.frame_header(e, line)?,
                     "dataSignal" if in_frame => pass.data_signal(e, line)?,
