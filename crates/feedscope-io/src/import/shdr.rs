@@ -32,6 +32,9 @@ use super::{LineEndings, Timestamp};
 use feedscope::diag::Diagnostic;
 use feedscope::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 
+/// Data items named in full in a message; the rest are counted.
+const SHOWN_ITEMS: usize = 16;
+
 /// Observations of one key.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct KeySeries {
@@ -545,18 +548,33 @@ impl ShdrLog {
             axis: ax.label().to_string(),
             reason,
         };
-        let list = |v: &[usize]| {
-            v.iter()
-                .map(|&k| dev.items[k].key())
+        // Names in a message: each once, at most SHOWN_ITEMS, then a count (a model may
+        // declare thousands of items on an axis).
+        let shown = |names: Vec<String>| {
+            let mut seen = std::collections::HashSet::new();
+            let unique: Vec<String> = names
+                .into_iter()
+                .filter(|n| seen.insert(n.clone()))
+                .collect();
+            let more = unique.len().saturating_sub(SHOWN_ITEMS);
+            let mut text = unique
+                .into_iter()
+                .take(SHOWN_ITEMS)
                 .collect::<Vec<_>>()
-                .join(", ")
+                .join(", ");
+            if more > 0 {
+                text.push_str(&format!(" and {more} more"));
+            }
+            text
         };
+        let list = |v: &[usize]| shown(v.iter().map(|&k| dev.items[k].key().to_string()).collect());
         let all_items = || {
-            ax.items
-                .iter()
-                .map(|&k| format!("{} ({})", dev.items[k].key(), dev.items[k].type_label()))
-                .collect::<Vec<_>>()
-                .join(", ")
+            shown(
+                ax.items
+                    .iter()
+                    .map(|&k| format!("{} ({})", dev.items[k].key(), dev.items[k].type_label()))
+                    .collect(),
+            )
         };
         let pick = |wanted: &Option<String>,
                     what: &str,
