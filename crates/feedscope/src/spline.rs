@@ -259,32 +259,32 @@ pub fn smoothing_moments(
         return Ok(m);
     }
     let nn = n - 2; // unknowns γ_1..γ_{n−2}
-                    // Seven work arrays, reused per thread: allocating them afresh for every stroke costs more
+                    // Six work arrays, reused per thread: allocating them afresh for every stroke costs more
                     // in page faults than the solve itself.
     SMOOTH_SCRATCH.with_borrow_mut(|work| {
-        let [hs, ih, d, inv_d, u, v, w] = work;
+        let [hs, ih, inv_d, u, v, w] = work;
         hs.clear();
         hs.extend(x.windows(2).map(|p| p[1] - p[0]));
         ih.clear();
         ih.extend(hs.iter().map(|h| 1.0 / h));
         // Not cleared: the solve writes every element before reading it (except u[0], v[0]
         // and v[1], which it never reads), so zeroing them again for each stroke is wasted.
-        for a in [&mut *d, &mut *inv_d, &mut *u, &mut *v, &mut *w] {
+        for a in [&mut *inv_d, &mut *u, &mut *v, &mut *w] {
             a.resize(nn, 0.0);
         }
-        smooth_solve(x.len(), y, alpha, hs, ih, d, inv_d, u, v, w, g, &mut m);
+        smooth_solve(x.len(), y, alpha, hs, ih, inv_d, u, v, w, g, &mut m);
     });
     Ok(m)
 }
 
 thread_local! {
-    static SMOOTH_SCRATCH: std::cell::RefCell<[Vec<f64>; 7]> =
-        const { std::cell::RefCell::new([const { Vec::new() }; 7]) };
+    static SMOOTH_SCRATCH: std::cell::RefCell<[Vec<f64>; 6]> =
+        const { std::cell::RefCell::new([const { Vec::new() }; 6]) };
 }
 
 /// The banded solve of [`smoothing_moments`]: one forward pass builds row i of
 /// A = R + α QᵀQ, factors it (LDLᵀ with sub-diagonals u, v) and forward-substitutes; one
-/// backward pass solves for γ; a last pass forms g. `d`, `inv_d`, `u`, `v`, `w` have length
+/// backward pass solves for γ; a last pass forms g. `inv_d`, `u`, `v`, `w` have length
 /// n − 2; `hs`, `ih` (spacings and their reciprocals) n − 1.
 #[allow(clippy::too_many_arguments)]
 fn smooth_solve(
@@ -293,7 +293,6 @@ fn smooth_solve(
     alpha: f64,
     hs: &[f64],
     ih: &[f64],
-    d: &mut [f64],
     inv_d: &mut [f64],
     u: &mut [f64],
     v: &mut [f64],
@@ -303,31 +302,68 @@ fn smooth_solve(
 ) {
     let nn = n - 2;
     // Unknown i is γ at knot j = i + 1; column j of Q holds a_j = 1/h_{j−1},
-    // b_j = −a_j − c_j, c_j = 1/h_j at rows j−1, j, j+1.
-    for i in 0..nn {
-        let j = i + 1;
+    // b_j = −a_j − c_j, c_j = 1/h_j at rows j−1, j, j+1. Row i needs d, 1/d and w of the two
+    // rows before it and u of the one before: they ride in registers (as the back
+    // substitution's γ do), so the chain from one row's pivot to the next waits for no
+    // store. Rows 0 and 1 lack the bands that reach before the matrix and are done first.
+    // Row i = j − 1 of A's diagonal, with b_j and the right-hand side (Qᵀy)_j.
+    #[inline(always)]
+    fn diag(j: usize, hs: &[f64], ih: &[f64], y: &[f64], alpha: f64) -> (f64, f64, f64) {
         let (a, c) = (ih[j - 1], ih[j]);
         let b = -a - c;
-        let mut di = (hs[j - 1] + hs[j]) / 3.0 + alpha * (a * a + b * b + c * c);
-        let mut r = a * y[j - 1] + b * y[j] + c * y[j + 1];
-        if i >= 1 {
-            // A_{i,i−1} = h_{j−1}/6 + α (b_{j−1} a_j + c_{j−1} b_j)
-            let (a0, c0) = (ih[j - 2], ih[j - 1]);
-            let mut num = hs[j - 1] / 6.0 + alpha * ((-a0 - c0) * a + c0 * b);
-            if i >= 2 {
-                // A_{i,i−2} = α c_{j−2} a_j
-                v[i] = alpha * ih[j - 2] * ih[j - 1] * inv_d[i - 2];
-                num -= v[i] * u[i - 1] * d[i - 2];
-                di -= v[i] * v[i] * d[i - 2];
-                r -= v[i] * w[i - 2];
-            }
-            u[i] = num * inv_d[i - 1];
-            di -= u[i] * u[i] * d[i - 1];
-            r -= u[i] * w[i - 1];
-        }
-        d[i] = di;
-        inv_d[i] = 1.0 / di;
+        let di = (hs[j - 1] + hs[j]) / 3.0 + alpha * (a * a + b * b + c * c);
+        let r = a * y[j - 1] + b * y[j] + c * y[j + 1];
+        (b, di, r)
+    }
+    // A_{i,i−1} = h_{j−1}/6 + α (b_{j−1} a_j + c_{j−1} b_j) for j = i + 1.
+    #[inline(always)]
+    fn off1(j: usize, b: f64, hs: &[f64], ih: &[f64], alpha: f64) -> f64 {
+        let (a0, c0) = (ih[j - 2], ih[j - 1]);
+        hs[j - 1] / 6.0 + alpha * ((-a0 - c0) * ih[j - 1] + c0 * b)
+    }
+    let diag = |j: usize| diag(j, hs, ih, y, alpha);
+    let off1 = |j: usize, b: f64| off1(j, b, hs, ih, alpha);
+    let (_, d0, r0) = diag(1);
+    let id0 = 1.0 / d0;
+    inv_d[0] = id0;
+    w[0] = r0;
+    // (d, 1/d, w) of rows i−1 and i−2, and u of row i−1.
+    let (mut d1, mut id1, mut w1) = (d0, id0, r0);
+    let (mut d2, mut id2, mut w2) = (0.0, 0.0, 0.0);
+    let mut u1 = 0.0;
+    if nn >= 2 {
+        let (b, mut di, mut r) = diag(2);
+        let ui = off1(2, b) * id1;
+        u[1] = ui;
+        di -= ui * ui * d1;
+        r -= ui * w1;
+        let idi = 1.0 / di;
+        inv_d[1] = idi;
+        w[1] = r;
+        (d2, id2, w2) = (d1, id1, w1);
+        (d1, id1, w1) = (di, idi, r);
+        u1 = ui;
+    }
+    for i in 2..nn {
+        let j = i + 1;
+        let (b, mut di, mut r) = diag(j);
+        let mut num = off1(j, b);
+        // A_{i,i−2} = α c_{j−2} a_j
+        let vi = alpha * ih[j - 2] * ih[j - 1] * id2;
+        v[i] = vi;
+        num -= vi * u1 * d2;
+        di -= vi * vi * d2;
+        r -= vi * w2;
+        let ui = num * id1;
+        u[i] = ui;
+        di -= ui * ui * d1;
+        r -= ui * w1;
+        let idi = 1.0 / di;
+        inv_d[i] = idi;
         w[i] = r;
+        (d2, id2, w2) = (d1, id1, w1);
+        (d1, id1, w1) = (di, idi, r);
+        u1 = ui;
     }
     // Back substitution: γ_i = w_i/d_i − u_{i+1} γ_{i+1} − v_{i+2} γ_{i+2}. The last two γ
     // ride in registers: read back from `m`, each row waited for the store of the one before.
@@ -344,9 +380,9 @@ fn smooth_solve(
         (g2, g1) = (g1, x);
     }
     // g = y − α Q γ; row k of Q touches columns k−1, k, k+1 (interior knots only). Written
-    // straight into `g` (no copy of y first).
-    g.clear();
-    g.extend((0..n).map(|k| {
+    // straight into `g` (no copy of y first). The rows near the ends miss terms; the rest
+    // run without a branch (and vectorise), each summed in the same order as the ends.
+    let row = |k: usize| {
         let mut qg = 0.0;
         if k >= 2 {
             qg += ih[k - 1] * m[k - 1];
@@ -358,7 +394,25 @@ fn smooth_solve(
             qg += ih[k] * m[k + 1];
         }
         y[k] - alpha * qg
-    }));
+    };
+    g.clear();
+    if n < 5 {
+        g.extend((0..n).map(row));
+        return;
+    }
+    g.extend((0..2).map(row));
+    // Rows 2..n−2: all three terms; windows of m and ih start at k − 1.
+    g.extend(
+        m[1..n - 1]
+            .windows(3)
+            .zip(ih[1..n - 2].windows(2))
+            .zip(&y[2..n - 2])
+            .map(|((mw, iw), &yk)| {
+                let qg = 0.0 + iw[0] * mw[0] - (iw[0] + iw[1]) * mw[1] + iw[1] * mw[2];
+                yk - alpha * qg
+            }),
+    );
+    g.extend((n - 2..n).map(row));
 }
 
 /// α for [`smoothing_moments`] that puts the smoother's half-power point at `cutoff_hz`, for
