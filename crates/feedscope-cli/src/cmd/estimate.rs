@@ -46,6 +46,9 @@ pub enum SignArg {
     Signed,
     /// A magnitude (drive load): friction takes the sign of the direction of motion.
     Magnitude,
+    /// A signed current or torque counted against the position (negative for motion towards
+    /// +z, as some drives record it): turned, then friction as Eq. 5.
+    Negated,
 }
 
 impl From<SignArg> for EffortSign {
@@ -54,6 +57,7 @@ impl From<SignArg> for EffortSign {
             SignArg::Auto => EffortSign::Auto,
             SignArg::Signed => EffortSign::Signed,
             SignArg::Magnitude => EffortSign::Magnitude,
+            SignArg::Negated => EffortSign::Negated,
         }
     }
 }

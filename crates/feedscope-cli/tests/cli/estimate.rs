@@ -444,3 +444,75 @@ fn closed_stdout_ends_quietly() {
     assert!(!err.contains("panicked"), "{err}");
     assert!(d.path().join("f.json").exists() && d.path().join("f.svg").exists());
 }
+
+/// A current counted against the position (negated here): `estimate` says so in the verdict
+/// (`effort-sign-reversed`, in its printed verdict too) and `--effort-sign negated` gives back, to the
+/// last printed digit, the friction of the correctly signed trace.
+#[test]
+fn effort_counted_against_the_position() {
+    let d = tempfile::tempdir().unwrap();
+    let good = good_long_trace();
+    let negated: String = good
+        .lines()
+        .map(|l| match l.split_once(",current_a,") {
+            Some((t, v)) => format!("{t},current_a,{}\n", -v.parse::<f64>().unwrap()),
+            None => format!("{l}\n"),
+        })
+        .collect();
+    setup(d.path(), good.as_bytes());
+    std::fs::write(d.path().join("neg.csv"), negated).unwrap();
+    let est = |trace: &str, out: &str, extra: &[&str]| {
+        let mut c = feedscope(d.path());
+        c.args(["estimate", trace, "--axis", "axis.toml", "-o", out]);
+        c.args(extra);
+        let o = run(c);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let json: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(d.path().join(out.replace(".csv", ".json"))).unwrap(),
+        )
+        .unwrap();
+        // No `reasons` key when there are none.
+        let codes: Vec<String> = json["verdict"]["reasons"]
+            .as_array()
+            .map(|rs| {
+                rs.iter()
+                    .map(|r| r["code"].as_str().unwrap().to_string())
+                    .collect()
+            })
+            .unwrap_or_default();
+        let csv = std::fs::read_to_string(d.path().join(out)).unwrap();
+        (codes, csv, format!("{}{}", stdout(&o), stderr(&o)))
+    };
+    let (codes, right, _) = est("trace.csv", "right.csv", &[]);
+    assert!(
+        !codes.contains(&"effort-sign-reversed".to_string()),
+        "{codes:?}"
+    );
+    let (codes, _, err) = est("neg.csv", "wrong.csv", &[]);
+    assert!(
+        codes.contains(&"effort-sign-reversed".to_string()),
+        "{codes:?}"
+    );
+    assert!(err.contains("--effort-sign negated"), "{err}");
+    let (codes, turned, _) = est("neg.csv", "turned.csv", &["--effort-sign", "negated"]);
+    assert!(
+        !codes.contains(&"effort-sign-reversed".to_string()),
+        "{codes:?}"
+    );
+    // Every column as printed, but the current, which is the file's own (negated) one.
+    let (r, t): (Vec<&str>, Vec<&str>) = (right.lines().collect(), turned.lines().collect());
+    assert_eq!(r.len(), t.len());
+    assert_eq!(r[0], t[0]);
+    let current = r[0].split(',').position(|c| c == "current_a").unwrap();
+    for (lr, lt) in r[1..].iter().zip(&t[1..]) {
+        let (fr, ft): (Vec<&str>, Vec<&str>) = (lr.split(',').collect(), lt.split(',').collect());
+        for (k, (a, b)) in fr.iter().zip(&ft).enumerate() {
+            if k == current {
+                let (a, b): (f64, f64) = (a.parse().unwrap(), b.parse().unwrap());
+                assert!((a + b).abs() <= 1e-6, "current {a} against {b}");
+            } else {
+                assert_eq!(a, b, "column {k}: {lr} against {lt}");
+            }
+        }
+    }
+}

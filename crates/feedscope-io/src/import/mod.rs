@@ -1,12 +1,16 @@
 //! Importing real controller exports into feedscope [`Trace`]s.
 //!
-//! Two sources are read:
+//! Four sources are read:
 //! - **MTConnect SHDR** adapter logs ([`shdr`]) with the device model `Devices.xml`
 //!   ([`devices`]): pipe-separated `timestamp|key|value|key|value…` lines, change-only and
 //!   asynchronous. Axis position is a `POSITION` sample (mm) and the drive's effort a `LOAD`
 //!   sample in percent, so a torque needs the user's N·m at 100 % load.
 //! - **UMich SMART CNC mill** CSV files ([`umich`]): 10 Hz rows without timestamps, position (mm)
 //!   and motor current (A) per axis.
+//! - **SINUMERIK Operate servo traces** ([`sinumerik`]): XML `traceData` frames of `rec`
+//!   records, change-only, the signals named by NCK path; units from the descriptions.
+//! - **TwinCAT 3 Scope CSV exports** ([`twincat`]): a header block per channel, then time and
+//!   value columns; separators and decimal marks as the export wrote them.
 //!
 //! Everything returned is SI (position in metres), as in the rest of the library; the times of
 //! an SHDR log are relative to a chosen origin ([`shdr::TimeOrigin`]) whose absolute value is

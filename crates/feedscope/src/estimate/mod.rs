@@ -104,6 +104,9 @@ pub enum EffortSign {
     Signed,
     /// A magnitude (a drive load reading): friction takes the sign of the direction of motion.
     Magnitude,
+    /// A signed current or torque counted against the position (negative for motion towards
+    /// +z, as some drives record it): its sign is turned, then friction as Eq. 5.
+    Negated,
 }
 
 /// Estimation settings.
@@ -563,7 +566,7 @@ fn check_effort_informative(trace: &Trace, planned: &Plan) -> Result<(), Estimat
 /// How the friction of `trace` gets its sign under `params`.
 pub fn friction_sign(trace: &Trace, params: &EstimateParams) -> FrictionSign {
     let magnitude = match params.effort_sign {
-        EffortSign::Signed => false,
+        EffortSign::Signed | EffortSign::Negated => false,
         EffortSign::Magnitude => true,
         EffortSign::Auto => trace.facts.effort_signed == Some(false),
     };
@@ -574,15 +577,74 @@ pub fn friction_sign(trace: &Trace, params: &EstimateParams) -> FrictionSign {
     }
 }
 
+/// The measuring strokes' mean friction per direction, weighted by stroke length.
+#[derive(Debug, Default)]
+struct DirectionMeans {
+    /// (Σ mean·length, Σ length) of forward and of backward strokes.
+    forward: (f64, f64),
+    backward: (f64, f64),
+}
+
+impl DirectionMeans {
+    fn add(&mut self, dir: Direction, mean_n: f64, length_mm: f64) {
+        let slot = match dir {
+            Direction::Forward => &mut self.forward,
+            Direction::Backward => &mut self.backward,
+        };
+        slot.0 += mean_n * length_mm;
+        slot.1 += length_mm;
+    }
+
+    fn forward_mean_n(&self) -> f64 {
+        self.forward.0 / self.forward.1
+    }
+
+    fn backward_mean_n(&self) -> f64 {
+        self.backward.0 / self.backward.1
+    }
+
+    /// Both directions measured, and friction along the motion in each.
+    fn assist_both_ways(&self) -> bool {
+        self.forward.1 > 0.0
+            && self.backward.1 > 0.0
+            && self.forward_mean_n() < 0.0
+            && self.backward_mean_n() > 0.0
+    }
+}
+
 /// What limits a whole recording, from its facts and its samples (the per-stroke reasons are
 /// in each stroke's verdict).
 fn recording_reasons(
     trace: &Trace,
     params: &EstimateParams,
     backward_positive: bool,
+    means: &DirectionMeans,
 ) -> Vec<Diagnostic> {
     let mut out = Vec::new();
     let f = &trace.facts;
+    if friction_sign(trace, params) == FrictionSign::Signed && means.assist_both_ways() {
+        // A constant force (gravity, a counterweight) adds the same sign to both directions,
+        // so it can make one direction's friction look negative, never both: friction that
+        // pushes the table along in both directions is an effort counted against the position.
+        let hint = if params.effort_sign == EffortSign::Negated {
+            "the effort was negated (`--effort-sign negated`) but already counted with the \
+             position: estimate with `--effort-sign signed`"
+        } else {
+            "the drive counts its current or torque against the position (negative for motion \
+             towards +z): estimate with `--effort-sign negated`"
+        };
+        out.push(Diagnostic::new(
+            "effort-sign-reversed",
+            format!(
+                "friction pushes the table along in both directions (mean {:.1} N on forward \
+                 strokes, {:+.1} N on backward ones, where friction opposes the motion): {hint}; \
+                 until then every friction value here has the wrong sign and the inertia term \
+                 the wrong weight against it",
+                means.forward_mean_n(),
+                means.backward_mean_n()
+            ),
+        ));
+    }
     if friction_sign(trace, params) == FrictionSign::FromDirection {
         out.push(Diagnostic::new(
             "effort-unsigned",
@@ -693,6 +755,7 @@ pub fn estimate_stroke(
     let s = dir.sign();
     // A magnitude takes the sign of the motion; the noise terms use |gain|.
     let force_gain = match friction_sign(trace, params) {
+        FrictionSign::Signed if params.effort_sign == EffortSign::Negated => -gain,
         FrictionSign::Signed => gain,
         FrictionSign::FromDirection => gain * s,
     };
@@ -1255,6 +1318,7 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
     let mut any = false;
     let mut verdicts = Vec::new();
     let mut any_backward_positive = false;
+    let mut means = DirectionMeans::default();
     let batch = batch.max(1);
     let label = |mut s: StrokeFriction, span: &StrokeSpan| {
         let m = &planned.moves[span.move_index];
@@ -1276,6 +1340,11 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
                             s.summary.verdict.clone(),
                             s.summary.direction == Direction::Backward
                                 && s.summary.mean_friction_n > 0.0,
+                            (s.summary.kind == MoveKind::Measuring).then_some((
+                                s.summary.direction,
+                                s.summary.mean_friction_n,
+                                s.summary.length_mm,
+                            )),
                         );
                         Ok((seen, map(s)))
                     }
@@ -1285,10 +1354,13 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
             .collect();
         for (k, r) in results.into_iter().enumerate() {
             match r? {
-                Ok(((verdict, backward_positive), t)) => {
+                Ok(((verdict, backward_positive, measuring), t)) => {
                     any = true;
                     verdicts.extend(verdict);
                     any_backward_positive |= backward_positive;
+                    if let Some((dir, mean_n, length_mm)) = measuring {
+                        means.add(dir, mean_n, length_mm);
+                    }
                     sink(t)?;
                 }
                 Err(why) => {
@@ -1329,7 +1401,7 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
         verdict: DataVerdict::from_strokes(
             &verdicts,
             friction_sign(trace, params),
-            recording_reasons(trace, params, any_backward_positive),
+            recording_reasons(trace, params, any_backward_positive, &means),
         ),
     })
 }

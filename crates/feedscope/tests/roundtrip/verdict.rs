@@ -487,3 +487,58 @@ fn effort_without_information_is_refused() {
     assert!(refused(0.0, &fwd.trace));
     assert!(!refused(0.8, &fwd.trace));
 }
+
+/// A drive that counts its current against the position (as the real SINUMERIK trace in
+/// docs/import.md does): the negated current, estimated as signed, gives friction along the
+/// motion in both directions and the recording reason `effort-sign-reversed`; with
+/// `EffortSign::Negated` every friction value is bit for bit the one from the true sign, and
+/// the reason is gone. Negating a correctly signed current is caught the same way.
+#[test]
+fn effort_counted_against_the_position_is_caught_and_turned() {
+    let out = run(&drive(1500.0));
+    let params = EstimateParams::default();
+    let right = est(&out);
+    let codes = |e: &Estimate| -> Vec<String> {
+        e.verdict.reasons.iter().map(|r| r.code.clone()).collect()
+    };
+    assert!(!codes(&right).contains(&"effort-sign-reversed".to_string()));
+    let mut neg = out.trace.clone();
+    for v in &mut neg.effort.value {
+        *v = -*v;
+    }
+    let wrong = estimate(&neg, &out.truth.axis, &params).expect("estimate");
+    let rec = codes(&wrong);
+    assert!(rec.contains(&"effort-sign-reversed".to_string()), "{rec:?}");
+    let said = &wrong
+        .verdict
+        .reasons
+        .iter()
+        .find(|r| r.code == "effort-sign-reversed");
+    assert!(said.unwrap().message.contains("--effort-sign negated"));
+    let turned = EstimateParams {
+        effort_sign: feedscope::estimate::EffortSign::Negated,
+        ..EstimateParams::default()
+    };
+    let fixed = estimate(&neg, &out.truth.axis, &turned).expect("estimate");
+    assert!(!codes(&fixed).contains(&"effort-sign-reversed".to_string()));
+    assert_eq!(fixed.verdict.friction_sign, FrictionSign::Signed);
+    assert_eq!(fixed.strokes.len(), right.strokes.len());
+    for (f, r) in fixed.strokes.iter().zip(&right.strokes) {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&f.friction_n), bits(&r.friction_n));
+        assert_eq!(f.summary.noise_floor, r.summary.noise_floor);
+    }
+    // Turning a current that was right to begin with: caught, with the other hint.
+    let double = estimate(&out.trace, &out.truth.axis, &turned).expect("estimate");
+    let said = double
+        .verdict
+        .reasons
+        .iter()
+        .find(|r| r.code == "effort-sign-reversed")
+        .expect("caught");
+    assert!(
+        said.message.contains("--effort-sign signed"),
+        "{}",
+        said.message
+    );
+}
