@@ -1,0 +1,51 @@
+"""feedscope: sensorless friction of CNC ball-screw feed drives, from controller traces.
+
+The Python face of the feedscope library (Rust). Every function calls the same library code as
+the ``feedscope`` binary's subcommand of the same name, with the same defaults, so numbers agree
+with the binary's to the last printed digit. Units are in the names: ``position_mm``,
+``time_s``, ``velocity_mm_s``, ``friction_n``, ``feed_mm_min``.
+
+>>> import feedscope
+>>> sim = feedscope.simulate()                        # the digital twin, known friction
+>>> result = feedscope.estimate(sim.trace, sim.axis)  # paper 000, Eq. 5
+>>> s = result.strokes[0]; s.position_mm, s.friction_n  # numpy arrays (mm, N)
+
+Errors are ``FeedscopeError`` subclasses, one per kind of the library's errors:
+``BadInputError`` (the binary's exit code 2: the message names the file, line or key),
+``IoError`` and ``InternalError`` (exit code 1). Wrong Python types and numpy dtypes or shapes
+raise ``TypeError``; unknown option words raise ``ValueError``.
+"""
+
+from ._feedscope import (
+    Axis,
+    BadInputError,
+    EstimateResult,
+    FeedscopeError,
+    InternalError,
+    IoError,
+    Simulation,
+    Stroke,
+    Trace,
+    __version__,
+    default_sim_config,
+    estimate,
+    read_trace,
+    simulate,
+)
+
+__all__ = [
+    "Axis",
+    "BadInputError",
+    "EstimateResult",
+    "FeedscopeError",
+    "InternalError",
+    "IoError",
+    "Simulation",
+    "Stroke",
+    "Trace",
+    "__version__",
+    "default_sim_config",
+    "estimate",
+    "read_trace",
+    "simulate",
+]
