@@ -122,6 +122,16 @@ def test_to_pandas(twin):
     assert isinstance(df, pd.DataFrame)
 
 
+def test_to_pandas_without_pandas(twin, monkeypatch):
+    """pandas is optional: without it, to_pandas() says what to install."""
+    import sys
+
+    r = python_estimate(twin)
+    monkeypatch.setitem(sys.modules, "pandas", None)  # `import pandas` now fails
+    with pytest.raises(ImportError, match="pip install pandas"):
+        r.to_pandas()
+
+
 def test_trace_from_arrays_gives_the_same_estimate(torque_twin):
     """A trace built from numpy arrays of a file's numbers estimates exactly as the file (the
     same mm → m conversion as the reader; Python's float() and the reader both round
