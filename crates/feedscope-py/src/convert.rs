@@ -10,7 +10,10 @@ use crate::errors::py_err;
 /// A serde value as plain Python objects (dict, list, float, int, str, bool, None), through
 /// JSON: the same keys and numbers as the JSON files the binary writes (serde_json writes the
 /// shortest text that reads back to the same `f64`, so nothing is rounded).
-pub fn to_py<'py, T: Serialize + ?Sized>(py: Python<'py>, value: &T) -> PyResult<Bound<'py, PyAny>> {
+pub fn to_py<'py, T: Serialize + ?Sized>(
+    py: Python<'py>,
+    value: &T,
+) -> PyResult<Bound<'py, PyAny>> {
     let text = serde_json::to_string(value).map_err(py_err)?;
     py.import("json")?.call_method1("loads", (text,))
 }

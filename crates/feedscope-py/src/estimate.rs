@@ -15,7 +15,7 @@ use pyo3::types::{PyDict, PyFloat, PyInt, PyString};
 use serde_json::json;
 
 use crate::axis::Axis;
-use crate::convert::{scaled, to_py};
+use crate::convert::{array, scaled, to_py};
 use crate::errors::{bad_input, py_err};
 use crate::trace::Trace;
 
@@ -147,16 +147,20 @@ pub struct Stroke {
 impl Stroke {
     /// The stroke from the library's result, its vectors moved into numpy (positions,
     /// velocities and accelerations scaled from m to mm in place, as the binary's CSV does).
-    pub fn from_friction(py: Python<'_>, s: StrokeFriction, effort_kind: EffortKind) -> PyResult<Self> {
+    pub fn from_friction(
+        py: Python<'_>,
+        s: StrokeFriction,
+        effort_kind: EffortKind,
+    ) -> PyResult<Self> {
         Ok(Self {
             summary: s.summary,
             effort_kind,
             position_mm: scaled(py, s.position_m, 1e3)?,
-            time_s: scaled(py, s.time_s, 1.0)?,
+            time_s: array(py, s.time_s)?.unbind(),
             velocity_mm_s: scaled(py, s.velocity_m_s, 1e3)?,
             accel_mm_s2: scaled(py, s.accel_m_s2, 1e3)?,
-            effort: scaled(py, s.effort, 1.0)?,
-            friction_n: scaled(py, s.friction_n, 1.0)?,
+            effort: array(py, s.effort)?.unbind(),
+            friction_n: array(py, s.friction_n)?.unbind(),
         })
     }
 
@@ -373,9 +377,9 @@ impl EstimateResult {
     /// `position_mm`, `time_s`, `velocity_mm_s`, `accel_mm_s2`, `current_a`|`torque_nm`,
     /// `friction_n`). Needs pandas, which feedscope does not otherwise require.
     fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let pd = py.import("pandas").map_err(|_| {
-            PyImportError::new_err("to_pandas() needs pandas: pip install pandas")
-        })?;
+        let pd = py
+            .import("pandas")
+            .map_err(|_| PyImportError::new_err("to_pandas() needs pandas: pip install pandas"))?;
         let np = py.import("numpy")?;
         let cols = PyDict::new(py);
         let n = |s: &Stroke| s.summary.points;
@@ -495,7 +499,9 @@ pub fn estimate(
         }
     }
     let a = &axis.inner;
-    let est = py.detach(|| run_estimate(&t.inner, a, &p)).map_err(py_err)?;
+    let est = py
+        .detach(|| run_estimate(&t.inner, a, &p))
+        .map_err(py_err)?;
     let rest = json!({
         "source": t.source,
         "effort": est.effort_kind,

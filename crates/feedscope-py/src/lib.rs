@@ -17,10 +17,12 @@
 
 use pyo3::prelude::*;
 
+mod analyze;
 mod axis;
 mod convert;
 pub mod errors;
 mod estimate;
+mod plan;
 mod sim;
 mod trace;
 
@@ -48,5 +50,11 @@ fn _feedscope(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sim::Simulation>()?;
     m.add_function(wrap_pyfunction!(sim::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(sim::default_sim_config, m)?)?;
+    m.add_class::<analyze::StrokeProfile>()?;
+    m.add_class::<analyze::AnalyzeResult>()?;
+    m.add_function(wrap_pyfunction!(analyze::analyze, m)?)?;
+    m.add_class::<plan::Plan>()?;
+    m.add_function(wrap_pyfunction!(plan::plan_strokes, m)?)?;
+    m.add_function(wrap_pyfunction!(plan::plan_triangle, m)?)?;
     Ok(())
 }

@@ -105,7 +105,7 @@ fn channel(
     time_s: Vec<f64>,
     value_name: &str,
     value: Vec<f64>,
-    scale: f64,
+    scale: Option<f64>,
 ) -> PyResult<Channel> {
     if time_s.len() != value.len() {
         return Err(bad_input(format!(
@@ -138,10 +138,9 @@ fn channel(
             time_s.len()
         )));
     }
-    let value = if scale == 1.0 {
-        value
-    } else {
-        value.into_iter().map(|x| x * scale).collect()
+    let value = match scale {
+        None => value,
+        Some(f) => value.into_iter().map(|x| x * f).collect(),
     };
     Ok(Channel { time_s, value })
 }
@@ -230,11 +229,14 @@ impl Trace {
                 "Trace needs time stamps (s): time_s= for both channels, or {own_name}="
             ))),
         };
-        let (pt_name, pt) = pick(opt_vec("position_time_s", position_time_s)?, "position_time_s")?;
+        let (pt_name, pt) = pick(
+            opt_vec("position_time_s", position_time_s)?,
+            "position_time_s",
+        )?;
         let (et_name, et) = pick(opt_vec("effort_time_s", effort_time_s)?, "effort_time_s")?;
         drop(time);
-        let position_m = channel(pt_name, pt, "position_mm", position, 1e-3)?;
-        let effort = channel(et_name, et, effort_name, effort, 1.0)?;
+        let position_m = channel(pt_name, pt, "position_mm", position, Some(1e-3))?;
+        let effort = channel(et_name, et, effort_name, effort, None)?;
         let (inner, report) = py.detach(|| screen(position_m, effort, effort_kind))?;
         Ok(Self {
             inner,
@@ -252,25 +254,25 @@ impl Trace {
     /// Position sample times (s), a copy.
     #[getter]
     fn position_time_s<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        ro(py, &self.inner.position_m.time_s, 1.0)
+        ro(py, &self.inner.position_m.time_s, None)
     }
 
     /// Positions (mm), a copy.
     #[getter]
     fn position_mm<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        ro(py, &self.inner.position_m.value, 1e3)
+        ro(py, &self.inner.position_m.value, Some(1e3))
     }
 
     /// Effort sample times (s), a copy.
     #[getter]
     fn effort_time_s<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        ro(py, &self.inner.effort.time_s, 1.0)
+        ro(py, &self.inner.effort.time_s, None)
     }
 
     /// Effort values: current (A) or torque (N·m) as `effort_kind` says, a copy.
     #[getter]
     fn effort<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        ro(py, &self.inner.effort.value, 1.0)
+        ro(py, &self.inner.effort.value, None)
     }
 
     /// Motor current (A), or None for a torque trace.
@@ -356,12 +358,11 @@ impl Trace {
     }
 }
 
-/// A read-only copy of `v` scaled by `factor`.
-fn ro<'py>(py: Python<'py>, v: &[f64], factor: f64) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let a = if factor == 1.0 {
-        PyArray1::from_slice(py, v)
-    } else {
-        PyArray1::from_iter(py, v.iter().map(|x| x * factor))
+/// A read-only copy of `v`, scaled by `factor` when given.
+fn ro<'py>(py: Python<'py>, v: &[f64], factor: Option<f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let a = match factor {
+        None => PyArray1::from_slice(py, v),
+        Some(f) => PyArray1::from_iter(py, v.iter().map(|x| x * f)),
     };
     readonly(&a)?;
     Ok(a)

@@ -17,6 +17,12 @@ raise ``TypeError``; unknown option words raise ``ValueError``.
 """
 
 from ._feedscope import (
+    Plan,
+    plan_strokes,
+    plan_triangle,
+    AnalyzeResult,
+    StrokeProfile,
+    analyze,
     Axis,
     BadInputError,
     EstimateResult,
@@ -34,6 +40,13 @@ from ._feedscope import (
 )
 
 __all__ = [
+    "Plan",
+    "plan",
+    "plan_strokes",
+    "plan_triangle",
+    "AnalyzeResult",
+    "StrokeProfile",
+    "analyze",
     "Axis",
     "BadInputError",
     "EstimateResult",
@@ -49,3 +62,14 @@ __all__ = [
     "read_trace",
     "simulate",
 ]
+
+
+def plan(test, **kwargs):
+    """The NC program of a friction test, as ``feedscope plan strokes|triangle``:
+    ``plan("strokes", from_mm=..., to_mm=..., feeds_mm_min=[...], ...)`` is
+    ``plan_strokes(...)``, ``plan("triangle", ...)`` is ``plan_triangle(...)``."""
+    if test == "strokes":
+        return plan_strokes(**kwargs)
+    if test == "triangle":
+        return plan_triangle(**kwargs)
+    raise ValueError(f'test must be "strokes" or "triangle", not {test!r}')
