@@ -24,6 +24,7 @@ pub mod errors;
 mod estimate;
 mod plan;
 mod sim;
+mod stribeck;
 mod trace;
 
 // The binary uses mimalloc for the same reason (estimation frees and reallocates
@@ -56,5 +57,7 @@ fn _feedscope(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<plan::Plan>()?;
     m.add_function(wrap_pyfunction!(plan::plan_strokes, m)?)?;
     m.add_function(wrap_pyfunction!(plan::plan_triangle, m)?)?;
+    m.add_class::<stribeck::StribeckResult>()?;
+    m.add_function(wrap_pyfunction!(stribeck::fit_stribeck, m)?)?;
     Ok(())
 }

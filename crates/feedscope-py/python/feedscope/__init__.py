@@ -17,6 +17,8 @@ raise ``TypeError``; unknown option words raise ``ValueError``.
 """
 
 from ._feedscope import (
+    StribeckResult,
+    fit_stribeck,
     Plan,
     plan_strokes,
     plan_triangle,
@@ -40,6 +42,8 @@ from ._feedscope import (
 )
 
 __all__ = [
+    "StribeckResult",
+    "fit_stribeck",
     "Plan",
     "plan",
     "plan_strokes",

@@ -393,3 +393,31 @@ def plan_triangle(
 
 def plan(test: str, **kwargs: Any) -> Plan:
     """plan("strokes", ...) is plan_strokes(...); plan("triangle", ...) is plan_triangle(...)."""
+
+class StribeckResult:
+    """Stribeck fits per direction; to_dict() is the binary's stribeck.json. Parameters in
+    user units: fc_n (N), fs_n (N), vs_mm_min (mm/min), sigma_n_s_per_m (N·s/m), delta."""
+
+    @property
+    def directions(self) -> List[Dict[str, Any]]: ...
+    def direction(self, name: str) -> Optional[Dict[str, Any]]:
+        """The fit of "forward" or "backward", None when absent."""
+    def to_dict(self) -> Dict[str, Any]: ...
+
+def fit_stribeck(
+    table: Optional[_Path] = None,
+    *,
+    feed_mm_min: Optional[_F64] = None,
+    force_n: Optional[_F64] = None,
+    torque_nm: Optional[_F64] = None,
+    direction: Optional[Sequence[str]] = None,
+    lead_mm: Optional[float] = None,
+    axis: Optional[Axis] = None,
+    efficiency: float = 1.0,
+    delta: Union[None, float, str] = None,
+    noise_n: Optional[float] = None,
+) -> StribeckResult:
+    """F(v) = Fc + (Fs − Fc)·exp(−(|v|/vs)^δ) + σ·|v| per direction (paper 000 Eq. 9), as
+    `feedscope fit-stribeck`: from a CSV table or arrays (feed_mm_min in mm/min; force_n in N
+    or torque_nm in N·m with lead_mm/axis and efficiency, Eq. 15). delta: a number (default
+    2) or "free"; noise_n (N) for the non-conventional check."""
