@@ -41,9 +41,31 @@ impl Axis {
     }
 
     /// Read an axis file (TOML, or JSON with a `.json` extension), as `--axis FILE` does.
+    /// With `for_identification=True`, `inertia_kgm2` and `damping_nms_per_rad` may be left
+    /// out, as `feedscope identify` reads its axis (the test identifies them).
     #[staticmethod]
-    fn load(path: PathBuf) -> PyResult<Self> {
-        let inner = feedscope_io::axis::load(&path).map_err(py_err)?;
+    #[pyo3(signature = (path, *, for_identification=false))]
+    fn load(path: PathBuf, for_identification: bool) -> PyResult<Self> {
+        let inner = if for_identification {
+            feedscope_io::axis::load_for_identification(&path)
+        } else {
+            feedscope_io::axis::load(&path)
+        }
+        .map_err(py_err)?;
+        Ok(Self { inner })
+    }
+
+    /// `Axis(**keys)` for `identify`: `inertia_kgm2` and `damping_nms_per_rad` may be left
+    /// out.
+    #[staticmethod]
+    #[pyo3(signature = (**keys))]
+    fn for_identification(keys: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let text = match keys {
+            Some(k) => to_json(k.as_any())?,
+            None => "{}".to_string(),
+        };
+        let inner = AxisParams::parse_for_identification(&text, ConfigFormat::Json, "Axis(...)")
+            .map_err(py_err)?;
         Ok(Self { inner })
     }
 

@@ -41,6 +41,15 @@ pub fn array<'py>(py: Python<'py>, v: Vec<f64>) -> PyResult<Bound<'py, PyArray1<
     Ok(a)
 }
 
+/// A bool vector moved into a read-only numpy array.
+pub fn readonly_bool(py: Python<'_>, v: Vec<bool>) -> PyResult<Bound<'_, PyArray1<bool>>> {
+    let a = PyArray1::from_vec(py, v);
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("write", false)?;
+    a.call_method("setflags", (), Some(&kwargs))?;
+    Ok(a)
+}
+
 /// `a.setflags(write=False)`.
 pub fn readonly(a: &Bound<'_, PyArray1<f64>>) -> PyResult<()> {
     let kwargs = PyDict::new(a.py());

@@ -22,6 +22,7 @@ mod axis;
 mod convert;
 pub mod errors;
 mod estimate;
+mod ident;
 mod plan;
 mod sim;
 mod stribeck;
@@ -59,5 +60,7 @@ fn _feedscope(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(plan::plan_triangle, m)?)?;
     m.add_class::<stribeck::StribeckResult>()?;
     m.add_function(wrap_pyfunction!(stribeck::fit_stribeck, m)?)?;
+    m.add_class::<ident::IdentifyResult>()?;
+    m.add_function(wrap_pyfunction!(ident::identify, m)?)?;
     Ok(())
 }

@@ -17,6 +17,8 @@ raise ``TypeError``; unknown option words raise ``ValueError``.
 """
 
 from ._feedscope import (
+    IdentifyResult,
+    identify,
     StribeckResult,
     fit_stribeck,
     Plan,
@@ -42,6 +44,8 @@ from ._feedscope import (
 )
 
 __all__ = [
+    "IdentifyResult",
+    "identify",
     "StribeckResult",
     "fit_stribeck",
     "Plan",

@@ -47,8 +47,12 @@ class Axis:
 
     def __init__(self, **keys: Any) -> None: ...
     @staticmethod
-    def load(path: _Path) -> "Axis":
-        """Read an axis file (TOML, or JSON with a .json extension)."""
+    def load(path: _Path, *, for_identification: bool = False) -> "Axis":
+        """Read an axis file (TOML, or JSON with a .json extension); for_identification lets
+        inertia_kgm2 and damping_nms_per_rad be absent (identify finds them)."""
+    @staticmethod
+    def for_identification(**keys: Any) -> "Axis":
+        """Axis(**keys) without inertia_kgm2/damping_nms_per_rad, for identify()."""
     @property
     def lead_mm(self) -> float:
         """Screw lead (mm)."""
@@ -421,3 +425,48 @@ def fit_stribeck(
     `feedscope fit-stribeck`: from a CSV table or arrays (feed_mm_min in mm/min; force_n in N
     or torque_nm in N·m with lead_mm/axis and efficiency, Eq. 15). delta: a number (default
     2) or "free"; noise_n (N) for the non-conventional check."""
+
+class IdentifyResult:
+    """One-test identification (paper 002); to_dict() is the binary's ident.json.
+    motor: j_total_kgm2 (kg·m²), tc_nm, ts_nm (N·m), vs_mm_min (mm/min), sigma_nm_s_per_m
+    (N·m·s/m), offset_nm (N·m), delta; force: fc_n, fs_n (N), sigma_n_s_per_m (N·s/m),
+    equivalent_mass_kg (kg)."""
+
+    time_s: _F64
+    """Times of the kernel averages (s)."""
+    measured_torque_nm: _F64
+    """Kernel-averaged measured motor torque (N·m)."""
+    computed_torque_nm: _F64
+    """Torque of the fitted model, J·θ'' + T_f(v) (N·m)."""
+    used: npt.NDArray[np.bool_]
+    """Rows used in the fit."""
+    @property
+    def motor(self) -> Dict[str, float]: ...
+    @property
+    def std_error(self) -> Dict[str, float]: ...
+    @property
+    def force(self) -> Dict[str, float]: ...
+    @property
+    def diagnostics(self) -> Dict[str, Any]: ...
+    @property
+    def warnings(self) -> List[str]: ...
+    @property
+    def compare(self) -> Optional[Dict[str, Any]]: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+
+def identify(
+    trace: Trace,
+    axis: Axis,
+    *,
+    kernel_s: Optional[float] = None,
+    min_speed_mm_min: float = 1.0,
+    guard_s: Optional[float] = None,
+    delta: float = 2.0,
+    vs_min_mm_min: float = 0.5,
+    vs_max_mm_min: float = 5000.0,
+    fit_offset: bool = True,
+    compare: Optional[Trace] = None,
+) -> IdentifyResult:
+    """J, Tc, Ts, vs, σ (and T0) from one triangular-wave test (paper 002), as
+    `feedscope identify`; compare: a constant-feed stroke trace fitted for comparison.
+    Releases the GIL."""
