@@ -84,8 +84,8 @@ def main():
     if not BIN.exists():
         subprocess.run(["cargo", "build", "--release", "-q", "-p", "feedscope-cli"], cwd=ROOT,
                        check=True)
-    samples = sum(1 for _ in open(DATA, "rb")) - 1
-    print(f"trace: {DATA} ({DATA.stat().st_size / 1e6:.0f} MB, {samples} samples)")
+    rows = sum(1 for _ in open(DATA, "rb")) - 1
+    print(f"trace: {DATA} ({DATA.stat().st_size / 1e6:.0f} MB, {rows} rows: both channels)")
     out = Path(tempfile.mkdtemp())
     best = {}
     try:

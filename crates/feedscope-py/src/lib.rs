@@ -20,6 +20,7 @@ use pyo3::prelude::*;
 mod analyze;
 mod axis;
 mod convert;
+mod dynamics;
 pub mod errors;
 mod estimate;
 mod ident;
@@ -62,5 +63,7 @@ fn _feedscope(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(stribeck::fit_stribeck, m)?)?;
     m.add_class::<ident::IdentifyResult>()?;
     m.add_function(wrap_pyfunction!(ident::identify, m)?)?;
+    m.add_class::<dynamics::DynamicsResult>()?;
+    m.add_function(wrap_pyfunction!(dynamics::dynamics, m)?)?;
     Ok(())
 }

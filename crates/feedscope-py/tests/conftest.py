@@ -52,7 +52,8 @@ def cli_error(*args):
     """The message and exit code of a failing CLI run: stderr's `error: ...` line."""
     p = run_cli(*args, check=False)
     assert p.returncode != 0, f"expected feedscope {args} to fail"
-    # The message runs from `error: ` to the end (some span lines, e.g. TOML's caret display).
+    # The message runs from `error: ` to the end (some span lines, e.g. TOML's caret display);
+    # trailing line ends are dropped (compare with the exception's text, right-stripped too).
     at = p.stderr.find("error: ")
     assert at >= 0, p.stderr
     return p.stderr[at + len("error: "):].rstrip("\n"), p.returncode

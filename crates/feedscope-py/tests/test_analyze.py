@@ -79,4 +79,4 @@ def test_analyze_options_and_errors(twin, tmp_path):
                               "--breaks", "900", "--orders", "3,4")
     with pytest.raises(feedscope.BadInputError) as info:
         feedscope.analyze(trace, axis, breaks_mm=[900.0], orders=[3, 4])
-    assert str(info.value) == message and code == 2
+    assert str(info.value).rstrip("\n") == message and code == 2

@@ -34,7 +34,7 @@ def same_error(tmp_path, trace_name, content, exc=feedscope.BadInputError, axis=
     with pytest.raises(exc) as info:
         a = feedscope.Axis.load(tmp_path / axis)
         feedscope.estimate(feedscope.read_trace(path, axis=a), a)
-    assert str(info.value) == message
+    assert str(info.value).rstrip("\n") == message
     assert isinstance(info.value, feedscope.FeedscopeError)
     return message, code
 

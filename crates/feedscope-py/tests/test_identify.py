@@ -93,7 +93,7 @@ def test_identify_options_and_compare_match_cli(triangle, twin, tmp_path):
     one_feed = feedscope.read_trace(twin / "sim" / "trace.csv", axis=axis)
     with pytest.raises(feedscope.BadInputError) as info:
         feedscope.identify(trace, axis, compare=one_feed)
-    assert str(info.value) == message and code == 2
+    assert str(info.value).rstrip("\n") == message and code == 2
 
 
 def test_identify_error_matches_cli(twin, tmp_path):
@@ -104,4 +104,4 @@ def test_identify_error_matches_cli(twin, tmp_path):
     trace = feedscope.read_trace(twin / "sim" / "trace.csv", axis=axis)
     with pytest.raises(feedscope.BadInputError) as info:
         feedscope.identify(trace, axis)
-    assert str(info.value) == message and code == 2
+    assert str(info.value).rstrip("\n") == message and code == 2

@@ -47,7 +47,7 @@ def test_plan_errors_match_cli(tmp_path):
                               "50000", "--feed-limit", "30000", "-o", tmp_path / "x.nc")
     with pytest.raises(feedscope.BadInputError) as info:
         feedscope.plan_strokes(0, 100, [50000], feed_limit_mm_min=30000)
-    assert str(info.value) == message and code == 2
+    assert str(info.value).rstrip("\n") == message and code == 2
     with pytest.raises(feedscope.BadInputError, match="feed_max_mm_min or feed_limit_mm_min"):
         feedscope.plan_triangle(from_mm=0, to_mm=100)
     with pytest.raises(ValueError, match="dialect"):

@@ -66,7 +66,7 @@ def test_bad_config_names_the_key(tmp_path):
     message, code = cli_error("simulate", "--config", tmp_path / "bad.toml", "--out", tmp_path / "o")
     with pytest.raises(feedscope.BadInputError) as info:
         feedscope.simulate(tmp_path / "bad.toml")
-    assert str(info.value) == message and code == 2 and "feed_inch" in message
+    assert str(info.value).rstrip("\n") == message and code == 2 and "feed_inch" in message
     with pytest.raises(feedscope.BadInputError, match="feed_inch"):
         feedscope.simulate({"motion": {"feed_inch": 3}})
     assert "[sampling.position]" in feedscope.default_sim_config()

@@ -17,6 +17,8 @@ raise ``TypeError``; unknown option words raise ``ValueError``.
 """
 
 from ._feedscope import (
+    DynamicsResult,
+    dynamics,
     IdentifyResult,
     identify,
     StribeckResult,
@@ -44,6 +46,8 @@ from ._feedscope import (
 )
 
 __all__ = [
+    "DynamicsResult",
+    "dynamics",
     "IdentifyResult",
     "identify",
     "StribeckResult",

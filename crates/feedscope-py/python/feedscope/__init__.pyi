@@ -470,3 +470,36 @@ def identify(
     """J, Tc, Ts, vs, σ (and T0) from one triangular-wave test (paper 002), as
     `feedscope identify`; compare: a constant-feed stroke trace fitted for comparison.
     Releases the GIL."""
+
+class DynamicsResult:
+    """Modal analysis of a feed drive; to_dict() is the binary's dynamics.json."""
+
+    @property
+    def static_first_hz(self) -> float:
+        """First natural frequency at rest (Hz)."""
+    @property
+    def breakaway_first_hz(self) -> float:
+        """First natural frequency just after breakaway (Hz)."""
+    @property
+    def peak_first_hz(self) -> float:
+        """Highest first natural frequency over the feed sweep (Hz)."""
+    @property
+    def peak_feed_mm_min(self) -> float:
+        """Feed of that peak (mm/min)."""
+    @property
+    def bearing_unload(self) -> Optional[Dict[str, Any]]: ...
+    @property
+    def resonances(self) -> List[Dict[str, Any]]:
+        """Ripple resonance risks: harmonic, feed_mm_min, frequency_hz, mode, margin_hz, ..."""
+    @property
+    def feed_mm_min(self) -> _F64:
+        """Feeds of the sweep (mm/min)."""
+    @property
+    def frequency_vs_feed_hz(self) -> npt.NDArray[np.float64]:
+        """Natural frequencies (Hz), one row per feed, one column per mode."""
+    def to_dict(self) -> Dict[str, Any]: ...
+
+def dynamics(config: Union[_Path, Dict[str, Any]]) -> DynamicsResult:
+    """Natural frequency vs feed rate and nut position, torque-ripple resonances, as
+    `feedscope dynamics --config FILE`: the drive file's path or a dict of its keys
+    (examples/drive.toml). Releases the GIL."""
