@@ -50,6 +50,7 @@ fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
         axis::AxisFileError, friction_csv::FrictionCsvError, import::ImportError,
         stribeck_table::TableError, thresholds::ThresholdsError, trace::TraceError,
     };
+    use feedscope_store::{BackendErrorKind, StoreError};
     macro_rules! kind_if {
         ($($t:ty),* $(,)?) => {
             $(if let Some(x) = e.downcast_ref::<$t>() {
@@ -80,7 +81,14 @@ fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
         TableError,
         ThresholdsError,
         TraceError,
+        StoreError,
     );
+    if let Some(b) = e.downcast_ref::<feedscope_store::BackendError>() {
+        return Some(match b.kind() {
+            BackendErrorKind::NotADatabase | BackendErrorKind::Corrupt => ErrorKind::BadInput,
+            _ => ErrorKind::Io,
+        });
+    }
     if e.is::<BadInput>() || e.is::<toml::de::Error>() || e.is::<serde_json::Error>() {
         return Some(ErrorKind::BadInput);
     }

@@ -23,6 +23,7 @@ mod convert;
 mod dynamics;
 pub mod errors;
 mod estimate;
+mod history;
 mod ident;
 mod plan;
 mod sim;
@@ -65,5 +66,8 @@ fn _feedscope(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ident::identify, m)?)?;
     m.add_class::<dynamics::DynamicsResult>()?;
     m.add_function(wrap_pyfunction!(dynamics::dynamics, m)?)?;
+    m.add_class::<history::History>()?;
+    m.add_class::<history::HistoryEntry>()?;
+    m.add_class::<history::TrendResult>()?;
     Ok(())
 }

@@ -318,6 +318,44 @@ impl Trace {
         to_py(py, &self.inner.facts)
     }
 
+    /// Write the trace to a file as `feedscope simulate` writes its trace: CSV (6 decimals:
+    /// 1 µs, 1 nm, 1 µA or 1 µN·m), or Parquet at full precision when the name ends in
+    /// `.parquet`; `layout` `"long"` (`time_s,channel,value`) or `"wide"` (one row per time;
+    /// both channels on the same time stamps only).
+    #[pyo3(signature = (path, layout="long"))]
+    fn write(&self, py: Python<'_>, path: PathBuf, layout: &str) -> PyResult<()> {
+        use feedscope_io::trace::{write_csv, write_parquet, Layout};
+        let layout = match layout {
+            "long" => Layout::Long,
+            "wide" => Layout::Wide,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "layout must be \"long\" or \"wide\", not {other:?}"
+                )))
+            }
+        };
+        if layout == Layout::Wide && self.inner.position_m.time_s != self.inner.effort.time_s {
+            return Err(bad_input(
+                "layout=\"wide\" needs both channels on the same time stamps; use \"long\"",
+            ));
+        }
+        let parquet = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("parquet"));
+        let result = py.detach(|| -> anyhow::Result<()> {
+            let file = std::fs::File::create(&path).map_err(|e| {
+                anyhow::Error::new(e).context(format!("creating {}", path.display()))
+            })?;
+            if parquet {
+                write_parquet(&self.inner, file, layout)?;
+            } else {
+                write_csv(&self.inner, file, layout)?;
+            }
+            Ok(())
+        });
+        result.map_err(|e| crate::errors::to_py(e.context(format!("writing {}", path.display()))))
+    }
+
     /// The trace as a dict of arrays (SI time, mm, A or N·m) and its facts.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);

@@ -94,3 +94,22 @@ def test_round_trip_recovers_the_true_friction():
             assert np.std(truth) > 3 * rms
         sign = 1 if s.direction == "forward" else -1
         assert sign * s.mean_friction_n > 200
+
+
+def test_trace_write_is_the_cli_file(twin, torque_twin, tmp_path):
+    """Trace.write gives the binary's trace file byte for byte (long CSV, wide CSV), and a
+    Parquet file that reads back to the same trace."""
+    sim = feedscope.simulate()
+    sim.trace.write(tmp_path / "long.csv")
+    assert (tmp_path / "long.csv").read_bytes() == (twin / "sim" / "trace.csv").read_bytes()
+    tsim = feedscope.simulate(torque_twin / "sim.toml")
+    tsim.trace.write(tmp_path / "wide.csv", layout="wide")
+    assert (tmp_path / "wide.csv").read_bytes() == (torque_twin / "sim" / "trace.csv").read_bytes()
+    sim.trace.write(tmp_path / "t.parquet")
+    back = feedscope.read_trace(tmp_path / "t.parquet")
+    assert np.array_equal(back.position_mm, sim.trace.position_mm)
+    assert np.array_equal(back.current_a, sim.trace.current_a)
+    with pytest.raises(feedscope.BadInputError, match="same time stamps"):
+        sim.trace.write(tmp_path / "w.csv", layout="wide")
+    with pytest.raises(ValueError, match="layout"):
+        sim.trace.write(tmp_path / "w.csv", layout="tall")

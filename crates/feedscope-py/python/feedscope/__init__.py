@@ -17,6 +17,9 @@ raise ``TypeError``; unknown option words raise ``ValueError``.
 """
 
 from ._feedscope import (
+    History,
+    HistoryEntry,
+    TrendResult,
     DynamicsResult,
     dynamics,
     IdentifyResult,
@@ -46,6 +49,9 @@ from ._feedscope import (
 )
 
 __all__ = [
+    "History",
+    "HistoryEntry",
+    "TrendResult",
     "DynamicsResult",
     "dynamics",
     "IdentifyResult",

@@ -503,3 +503,66 @@ def dynamics(config: Union[_Path, Dict[str, Any]]) -> DynamicsResult:
     """Natural frequency vs feed rate and nut position, torque-ripple resonances, as
     `feedscope dynamics --config FILE`: the drive file's path or a dict of its keys
     (examples/drive.toml). Releases the GIL."""
+
+class HistoryEntry:
+    """What History.add stored; to_dict() is the binary's `history add --format json`."""
+
+    id: int
+    duplicate: bool
+    @property
+    def indicators(self) -> List[Dict[str, Any]]:
+        """Indicator values of the test: indicator, value (in its unit), std_error."""
+    def to_dict(self) -> Dict[str, Any]: ...
+
+class TrendResult:
+    """Trends and diagnosis of an axis; to_dict() is the binary's `history trend --format
+    json`; warning is True when any indicator is not ok."""
+
+    warning: bool
+    @property
+    def trends(self) -> List[Dict[str, Any]]: ...
+    @property
+    def diagnosis(self) -> List[str]: ...
+    @property
+    def profiles(self) -> Optional[Dict[str, Any]]: ...
+    @property
+    def tests(self) -> List[Dict[str, Any]]: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+
+class History:
+    """The condition history in an SQLite database (created when missing), as
+    `feedscope history --db PATH`."""
+
+    def __init__(self, path: _Path) -> None: ...
+    def add(
+        self,
+        trace: _Path,
+        axis: Union[Axis, _Path],
+        kind: str,
+        *,
+        time: Optional[str] = None,
+        machine: str = "machine",
+        axis_name: Optional[str] = None,
+        program: Optional[str] = None,
+        compensation: Optional[str] = None,
+        reference: bool = False,
+        interval_mm: Optional[float] = None,
+    ) -> HistoryEntry:
+        """Analyse a test trace file ("strokes" or "triangle") and store it; time is RFC 3339
+        (default: the file's modification time); interval_mm (mm) the width of the
+        mean-friction intervals. Releases the GIL."""
+    def list(self, *, machine: Optional[str] = None, axis_name: Optional[str] = None) -> List[Dict[str, Any]]:
+        """The stored tests."""
+    def trend(
+        self,
+        *,
+        machine: str = "machine",
+        axis_name: Optional[str] = None,
+        baseline_tests: Optional[int] = None,
+        thresholds: Optional[_Path] = None,
+        profile_baseline_tests: Optional[int] = None,
+        profile_limit_sigma: Optional[float] = None,
+        component_false_alarm: Optional[float] = None,
+    ) -> TrendResult:
+        """Trends of every indicator of an axis and their diagnosis (defaults as the
+        binary's: baseline of the first 5 tests, ...)."""
