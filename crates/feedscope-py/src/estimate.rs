@@ -420,7 +420,7 @@ impl EstimateResult {
         self.strokes.len()
     }
 
-    fn __repr__(&self, py: Python<'_>) -> String {
+    fn __repr__(&self) -> String {
         let head = self.rest["verdict"]["support"]
             .as_str()
             .unwrap_or("-")
@@ -436,7 +436,6 @@ impl EstimateResult {
         } else {
             String::new()
         };
-        let _ = py;
         format!(
             "EstimateResult({} strokes, {}, data support: {head}\n{}{more})",
             self.strokes.len(),
@@ -452,7 +451,10 @@ impl EstimateResult {
 /// (`"not-a-knot"` or `"natural"`), `time_of_position` (`"invert"` or `"knot-spline"`),
 /// `position_cutoff_hz` (`"auto"`, `"off"` or Hz), `include_rapids`, `effort_sign` (`"auto"`,
 /// `"signed"`, `"magnitude"`), `program` (the NC program file that made the trace) and
-/// `program_axis` (its axis letter). The GIL is released while estimating.
+/// `program_axis` (its axis letter). Each `Stroke` of the result holds numpy arrays on the
+/// resampling grid: `position_mm` (mm), `time_s` (s), `velocity_mm_s` (mm/s), `accel_mm_s2`
+/// (mm/s²), `current_a` (A) or `torque_nm` (N·m), `friction_n` (N, signed as Eq. 5). The GIL
+/// is released while estimating.
 #[pyfunction]
 #[pyo3(signature = (trace, axis, *, samples_per_lead=1024, end_condition="not-a-knot",
                     time_of_position="invert", position_cutoff_hz=None, include_rapids=false,

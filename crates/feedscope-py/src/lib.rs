@@ -40,6 +40,17 @@ static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 #[pymodule]
 fn _feedscope(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
+    // As the binary's `main`: a damaged Parquet file can make the decoder panic; the reader
+    // catches that panic and returns an error naming the file, so the default hook's message
+    // on stderr would only look like a crash. Any other panic is reported as usual (and PyO3
+    // raises it as `pyo3_runtime.PanicException` instead of unwinding into Python). The hook
+    // belongs to this extension's own Rust runtime, not to the interpreter.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !feedscope_io::trace::decoding_untrusted_parquet() {
+            default_hook(info);
+        }
+    }));
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("FeedscopeError", py.get_type::<errors::FeedscopeError>())?;
     m.add("BadInputError", py.get_type::<errors::BadInputError>())?;

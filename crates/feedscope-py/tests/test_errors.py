@@ -192,3 +192,16 @@ def test_glitch_is_dropped_and_a_jump_refused():
     j[200:] += 1e5  # a jump that stays
     with pytest.raises(feedscope.BadInputError, match="does not come back"):
         feedscope.Trace(time_s=t, position_mm=j, current_a=np.ones(400))
+
+
+def test_damaged_parquet_is_bad_input(tmp_path):
+    """A cut Parquet file is refused as by the binary (its decoder's panics are caught by the
+    reader and reported as errors naming the file)."""
+    t = np.arange(5000) * 0.001
+    tr = feedscope.Trace(time_s=t, position_mm=20.0 * t, current_a=np.sin(t))
+    tr.write(tmp_path / "t.parquet")
+    data = (tmp_path / "t.parquet").read_bytes()
+    (tmp_path / "cut.parquet").write_bytes(data[: len(data) // 2] + data[-8:])
+    (tmp_path / "axis.toml").write_text(GOOD_AXIS)
+    message, code = same_error(tmp_path, "cut.parquet", None)
+    assert code == 2 and "cut.parquet" in message

@@ -171,3 +171,24 @@ def test_separate_channel_clocks(twin):
     assert len(a.strokes) == len(b.strokes) == 2
     for s, u in zip(a.strokes, b.strokes):
         assert np.array_equal(s.friction_n, u.friction_n)
+
+
+def test_estimate_with_program_matches_cli(tmp_path):
+    """`program=` labels the strokes with the NC program's blocks, as `--program`."""
+    from conftest import run_cli
+
+    run_cli("plan", "strokes", "--from", "10", "--to", "100", "--feeds", "500,1500",
+            "--repeats", "1", "--sample-rate-hz", "500", "-o", tmp_path / "p.nc")
+    (tmp_path / "sim.toml").write_text(
+        '[motion]\nstart_mm = 10.0\nprogram_file = "p.nc"\n\n[sampling]\n'
+        'mode = "synchronous"\neffort_kind = "torque_nm"\nsynchronous_rate_hz = 500.0\n')
+    run_cli("simulate", "--config", tmp_path / "sim.toml", "--out", tmp_path / "sim")
+    run_cli("estimate", tmp_path / "sim" / "trace.csv", "--axis", tmp_path / "sim" / "axis.toml",
+            "-o", tmp_path / "f.csv", "--no-plot", "--program", tmp_path / "p.nc")
+    axis = feedscope.Axis.load(tmp_path / "sim" / "axis.toml")
+    trace = feedscope.read_trace(tmp_path / "sim" / "trace.csv", axis=axis)
+    r = feedscope.estimate(trace, axis, program=tmp_path / "p.nc")
+    assert r.to_dict() == json.loads((tmp_path / "f.json").read_text())
+    assert all(s.summary.get("program_line") for s in r.strokes)
+    with pytest.raises(feedscope.BadInputError, match="no block moves axis X"):
+        feedscope.estimate(trace, axis, program=tmp_path / "p.nc", program_axis="X")

@@ -119,6 +119,10 @@ class Trace:
     @property
     def facts(self) -> Dict[str, Any]:
         """What the recording's source declared (effort_quantum, effort_signed, ...)."""
+    def write(self, path: _Path, layout: str = "long") -> None:
+        """Write the trace as `feedscope simulate` does: CSV (1 µs, 1 nm, 1 µA / 1 µN·m), or
+        Parquet at full precision for a *.parquet name; layout "long" or "wide" (wide needs
+        both channels on the same time stamps)."""
     def to_dict(self) -> Dict[str, Any]: ...
 
 def read_trace(path: _Path, axis: Optional[Axis] = None, effort: Optional[str] = None) -> Trace:
