@@ -25,6 +25,7 @@ pub mod errors;
 mod estimate;
 mod history;
 mod ident;
+mod map;
 mod plan;
 mod sim;
 mod stribeck;
@@ -80,5 +81,7 @@ fn _feedscope(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<history::History>()?;
     m.add_class::<history::HistoryEntry>()?;
     m.add_class::<history::TrendResult>()?;
+    m.add_class::<map::MapResult>()?;
+    m.add_function(wrap_pyfunction!(map::map, m)?)?;
     Ok(())
 }

@@ -17,6 +17,8 @@ raise ``TypeError``; unknown option words raise ``ValueError``.
 """
 
 from ._feedscope import (
+    MapResult,
+    map,
     History,
     HistoryEntry,
     TrendResult,
@@ -49,6 +51,8 @@ from ._feedscope import (
 )
 
 __all__ = [
+    "MapResult",
+    "map",
     "History",
     "HistoryEntry",
     "TrendResult",

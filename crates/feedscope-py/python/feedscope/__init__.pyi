@@ -570,3 +570,36 @@ class History:
     ) -> TrendResult:
         """Trends of every indicator of an axis and their diagnosis (defaults as the
         binary's: baseline of the first 5 tests, ...)."""
+
+class MapResult:
+    """The friction map of a test set (paper 000, Section 4.2); to_dict() is the binary's
+    map.json, stribeck() its stribeck.json (fc_n, fs_n in N, vs_mm_min in mm/min,
+    sigma_n_s_per_m in N·s/m at each position)."""
+
+    @property
+    def summary(self) -> Dict[str, Any]:
+        """Runs, failed runs, per direction span (mm), breakpoints, feeds (mm/min), misfits (N)."""
+    @property
+    def failed(self) -> List[Dict[str, str]]:
+        """Runs that could not be estimated: file, error."""
+    def stribeck(self) -> Dict[str, Any]: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+
+def map(
+    index: _Path,
+    axis: Axis,
+    *,
+    positions_mm: Optional[Sequence[float]] = None,
+    breaks_mm: Optional[Sequence[float]] = None,
+    orders: Optional[Sequence[int]] = None,
+    feed_order: Optional[int] = None,
+    feed_scale: str = "log",
+    position_step_mm: Optional[float] = None,
+    table_feeds_mm_min: Optional[Sequence[float]] = None,
+    extrapolate: bool = False,
+    margin_mm: Optional[float] = None,
+    samples_per_lead: int = 1024,
+) -> MapResult:
+    """Friction map F(z, v) of a test set (index CSV: file,feed_mm_min,repeat), as `feedscope
+    map` (map.json and stribeck.json; no CSV tables, plots or --export files). positions_mm,
+    breaks_mm, margin_mm, position_step_mm in mm; feeds in mm/min. Releases the GIL."""
