@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use feedscope::estimate::{
-    estimate as run_estimate, EffortSign, EstimateParams, PositionSmoothing, StrokeFriction,
+    estimate_streaming, EffortSign, Estimate, EstimateParams, PositionSmoothing, StrokeFriction,
     StrokeSummary, TimeOfPosition,
 };
 use feedscope::spline::EndCondition;
@@ -501,8 +501,27 @@ pub fn estimate(
         }
     }
     let a = &axis.inner;
+    // The binary's path (`estimate_map_streaming` in batches of twice the worker threads): the
+    // strokes' work arrays are reused from batch to batch instead of all being live at once,
+    // which `estimate::estimate` (one batch of every stroke) would do. Same numbers either way.
     let est = py
-        .detach(|| run_estimate(&t.inner, a, &p))
+        .detach(|| -> Result<Estimate, feedscope::estimate::EstimateError> {
+            let mut strokes = Vec::new();
+            let batch = 2 * rayon::current_num_threads();
+            let outline = estimate_streaming(&t.inner, a, &p, batch, |s| {
+                strokes.push(s);
+                Ok::<(), feedscope::estimate::EstimateError>(())
+            })?;
+            Ok(Estimate {
+                effort_kind: t.inner.effort_kind,
+                strokes,
+                zones: outline.zones,
+                moves: outline.moves,
+                skipped: outline.skipped,
+                notes: outline.notes,
+                verdict: outline.verdict,
+            })
+        })
         .map_err(py_err)?;
     let rest = json!({
         "source": t.source,
