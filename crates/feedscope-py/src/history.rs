@@ -1,0 +1,551 @@
+//! `feedscope.History`: the condition history (SQLite), as `feedscope history add|list|trend`.
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::Duration;
+
+use anyhow::Context;
+use feedscope::history::{LocalParams, Status, Threshold};
+use feedscope::study::{
+    analyze_test, StrokeStudyParams, TestAnalysis, TestKind, TestStudyParams, TrendStudyParams,
+};
+use feedscope::trace::GlitchParams;
+use feedscope_io::trace::{read_trace_file_with, ReadOptions};
+use feedscope_store::time::{format_rfc3339, parse_rfc3339};
+use feedscope_store::{
+    AddOutcome, AxisSeries, Filter, NewTest, OpenOptions, SqliteStore, Store, StoreError,
+};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use serde_json::{json, Value};
+
+use crate::axis::Axis;
+use crate::convert::to_py;
+use crate::errors::{py_err, to_py as err_to_py, BadInput};
+
+/// The environment variable of the CLI's busy timeout (seconds), honoured here too.
+const BUSY_TIMEOUT_VAR: &str = "FEEDSCOPE_BUSY_TIMEOUT_S";
+
+/// A store error with the CLI's context (`store_err` of `cmd/history.rs`).
+fn store_err(e: StoreError, path: &Path) -> anyhow::Error {
+    match &e {
+        StoreError::Backend(_) | StoreError::NoSuchTest(_) if e.is_bad_input() => {
+            anyhow::Error::new(e).context(path.display().to_string())
+        }
+        _ if e.is_bad_input() => anyhow::Error::new(e),
+        _ => anyhow::Error::new(e).context(format!("database {}", path.display())),
+    }
+}
+
+/// `"a" (3 tests)`, as the CLI names an axis series.
+fn one(a: &AxisSeries) -> String {
+    format!(
+        "{:?} ({} test{})",
+        a.axis,
+        a.tests,
+        if a.tests == 1 { "" } else { "s" }
+    )
+}
+
+/// The CLI's `check_known`: refuse a machine or axis the store does not hold, listing those it
+/// does (keywords instead of flags).
+fn check_known(store: &dyn Store, machine: &str, axis: Option<&str>) -> anyhow::Result<()> {
+    let all = store.axes()?;
+    if all.is_empty() {
+        return Err(BadInput(
+            "the database holds no tests yet; store one with History.add(trace, axis, kind)"
+                .to_string(),
+        )
+        .into());
+    }
+    let mine: Vec<&AxisSeries> = all.iter().filter(|a| a.machine == machine).collect();
+    if mine.is_empty() {
+        let mut machines: Vec<String> = Vec::new();
+        for a in &all {
+            let axes: Vec<String> = all
+                .iter()
+                .filter(|b| b.machine == a.machine)
+                .map(one)
+                .collect();
+            let line = format!("{:?} (axes {})", a.machine, axes.join(", "));
+            if !machines.contains(&line) {
+                machines.push(line);
+            }
+        }
+        let hint = if machines.len() == 1 && all[0].machine == "machine" {
+            "; it is the only one, the default when machine= is not given".to_string()
+        } else if machines.len() == 1 {
+            format!("; it is the only one: give machine={:?}", all[0].machine)
+        } else {
+            "; choose one with machine=".to_string()
+        };
+        return Err(BadInput(format!(
+            "no machine {machine:?} in the database; machines stored: {}{hint}",
+            machines.join("; ")
+        ))
+        .into());
+    }
+    match axis {
+        Some(ax) if !mine.iter().any(|a| a.axis == ax) => {
+            let hint = if mine.len() == 1 {
+                "; it is the only one, the default when axis_name= is not given"
+            } else {
+                "; choose one with axis_name="
+            };
+            Err(BadInput(format!(
+                "machine {machine:?} has no axis {ax:?}; axes stored: {}{hint}",
+                mine.iter().map(|a| one(a)).collect::<Vec<_>>().join(", ")
+            ))
+            .into())
+        }
+        _ => Ok(()),
+    }
+}
+
+/// What `History.add` stored: `id`, `duplicate` (the same trace content was stored before),
+/// `indicators` (name, value in its unit, standard error); `to_dict()` is the binary's
+/// `history add --format json`.
+#[pyclass(module = "feedscope", frozen)]
+pub struct HistoryEntry {
+    /// Test id in the database.
+    #[pyo3(get)]
+    id: i64,
+    /// True when the same trace content was already stored (nothing was added).
+    #[pyo3(get)]
+    duplicate: bool,
+    report: Value,
+}
+
+#[pymethods]
+impl HistoryEntry {
+    /// The indicator values of the test (list of dicts).
+    #[getter]
+    fn indicators<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.report["indicators"])
+    }
+    /// `{"id", "duplicate", "indicators"}`.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.report)
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "HistoryEntry(id={}, duplicate={}, {} indicators)",
+            self.id,
+            if self.duplicate { "True" } else { "False" },
+            self.report["indicators"].as_array().map_or(0, |a| a.len())
+        )
+    }
+}
+
+/// The trends of an axis: `trends` (one dict per indicator: baseline, points, change,
+/// status), `diagnosis` (sentences), `profiles` (the position-resolved comparison), `tests`;
+/// `warning` is True when any indicator is not `ok` (the binary's `--fail-on-warning`);
+/// `to_dict()` is the binary's `history trend --format json`.
+#[pyclass(module = "feedscope", frozen)]
+pub struct TrendResult {
+    report: Value,
+    /// True when any indicator's status is not `ok`.
+    #[pyo3(get)]
+    warning: bool,
+}
+
+#[pymethods]
+impl TrendResult {
+    /// One dict per indicator with enough tests.
+    #[getter]
+    fn trends<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.report["trends"])
+    }
+    /// Diagnosis sentences (list of str).
+    #[getter]
+    fn diagnosis<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.report["diagnosis"])
+    }
+    /// The stroke tests' friction compared with their baseline position by position (dict or
+    /// None).
+    #[getter]
+    fn profiles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.report["profiles"])
+    }
+    /// The tests of the axis in time order (list of dicts).
+    #[getter]
+    fn tests<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.report["tests"])
+    }
+    /// The binary's `history trend --format json` as a dict.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.report)
+    }
+    fn __repr__(&self) -> String {
+        let r = &self.report;
+        let mut lines = Vec::new();
+        for t in r["trends"].as_array().into_iter().flatten() {
+            lines.push(format!(
+                "  {}: {} ({:+.1} %)",
+                t["indicator"].as_str().unwrap_or("-"),
+                t["status"].as_str().unwrap_or("-"),
+                t["change_percent"].as_f64().unwrap_or(f64::NAN)
+            ));
+        }
+        format!(
+            "TrendResult({} {}: {} tests, {} indicators{}\n{})",
+            r["machine"].as_str().unwrap_or("-"),
+            r["axis"].as_str().unwrap_or("-"),
+            r["tests"].as_array().map_or(0, |a| a.len()),
+            lines.len(),
+            if self.warning { ", WARNING" } else { "" },
+            lines.join("\n")
+        )
+    }
+}
+
+/// The condition history of a machine's axes in an SQLite database, as `feedscope history
+/// --db PATH`: `add` a test, `list` the tests, `trend` an axis. The file is created when
+/// missing. `FEEDSCOPE_BUSY_TIMEOUT_S` sets how long to wait for another writer (default 30 s).
+#[pyclass(module = "feedscope", frozen)]
+pub struct History {
+    path: PathBuf,
+    store: Mutex<SqliteStore>,
+}
+
+impl History {
+    fn with_store<T>(
+        &self,
+        f: impl FnOnce(&mut SqliteStore) -> anyhow::Result<T>,
+    ) -> anyhow::Result<T> {
+        let mut guard = self
+            .store
+            .lock()
+            .map_err(|_| anyhow::anyhow!("the history store was poisoned by a panic"))?;
+        f(&mut guard)
+    }
+}
+
+#[pymethods]
+impl History {
+    #[new]
+    fn new(path: PathBuf) -> PyResult<Self> {
+        let timeout = match std::env::var(BUSY_TIMEOUT_VAR).ok() {
+            None => 30.0,
+            Some(v) => match v.trim().parse::<f64>() {
+                Ok(s) if (0.0..=86_400.0).contains(&s) => s,
+                _ => {
+                    return Err(py_err(BadInput(format!(
+                        "{BUSY_TIMEOUT_VAR}={v:?} is not a number of seconds from 0 to 86400"
+                    ))))
+                }
+            },
+        };
+        let opts = OpenOptions::default().busy_timeout(Duration::from_secs_f64(timeout));
+        let store =
+            SqliteStore::open_with(&path, &opts).map_err(|e| err_to_py(store_err(e, &path)))?;
+        Ok(Self {
+            path,
+            store: Mutex::new(store),
+        })
+    }
+
+    /// Analyse a test and store it, as `feedscope history add TRACE --axis AXIS --kind KIND`:
+    /// `trace` is the trace file (its content identifies duplicates), `axis` an axis file path
+    /// or an `Axis` (then `axis_name=` or the axis' `name` names it), `kind` `"strokes"` or
+    /// `"triangle"`; `time` an RFC 3339 time (default: the trace file's modification time);
+    /// `machine`, `axis_name`, `program`, `compensation`, `reference`, and `interval_mm` (mm)
+    /// the width of the mean-friction intervals. The GIL is released while analysing.
+    #[pyo3(signature = (trace, axis, kind, *, time=None, machine="machine", axis_name=None,
+                        program=None, compensation=None, reference=false, interval_mm=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn add(
+        &self,
+        py: Python<'_>,
+        trace: PathBuf,
+        axis: &Bound<'_, PyAny>,
+        kind: &str,
+        time: Option<&str>,
+        machine: &str,
+        axis_name: Option<String>,
+        program: Option<String>,
+        compensation: Option<String>,
+        reference: bool,
+        interval_mm: Option<f64>,
+    ) -> PyResult<HistoryEntry> {
+        let kind = match kind {
+            "strokes" => TestKind::Strokes,
+            "triangle" => TestKind::Triangle,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "kind must be \"strokes\" or \"triangle\", not {other:?}"
+                )))
+            }
+        };
+        let interval_mm = interval_mm.unwrap_or(StrokeStudyParams::default().interval_mm);
+        if !(interval_mm.is_finite() && interval_mm > 0.0) {
+            return Err(py_err(BadInput(
+                "interval_mm must be a positive length".into(),
+            )));
+        }
+        let time_given = match time {
+            Some(s) => Some(parse_rfc3339(s).ok_or_else(|| {
+                py_err(BadInput(format!(
+                    "time {s:?} is not an RFC 3339 time such as 2026-11-21T14:30:00Z"
+                )))
+            })?),
+            None => None,
+        };
+        // The triangle test identifies J and B: its axis file may leave them out.
+        let (mut axis_params, default_name) = if let Ok(a) = axis.cast::<Axis>() {
+            let a = a.get().inner.clone();
+            let name = a.name.clone();
+            (a, name)
+        } else if let Ok(path) = axis.extract::<PathBuf>() {
+            let a = match kind {
+                TestKind::Triangle => feedscope_io::axis::load_for_identification(&path),
+                _ => feedscope_io::axis::load(&path),
+            }
+            .map_err(py_err)?;
+            let name = a
+                .name
+                .clone()
+                .or_else(|| path.file_stem().map(|s| s.to_string_lossy().into_owned()));
+            (a, name)
+        } else {
+            return Err(PyTypeError::new_err(
+                "axis must be an Axis or the path of an axis file",
+            ));
+        };
+        let axis_label = axis_name
+            .or(default_name)
+            .unwrap_or_else(|| "axis".to_string());
+        let machine = machine.to_string();
+        let db = self.path.clone();
+        let outcome = py.detach(|| -> anyhow::Result<(NewTest, AddOutcome)> {
+            let bytes =
+                std::fs::read(&trace).with_context(|| format!("reading {}", trace.display()))?;
+            let time_s = match time_given {
+                Some(t) => t,
+                None => std::fs::metadata(&trace)?
+                    .modified()?
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0.0, |d| d.as_secs_f64()),
+            };
+            let (tr, _report) = read_trace_file_with(
+                &trace,
+                &ReadOptions::default(),
+                &GlitchParams::for_axis(&axis_params),
+            )?;
+            let params = TestStudyParams {
+                strokes: StrokeStudyParams {
+                    interval_mm,
+                    ..StrokeStudyParams::default()
+                },
+                ..TestStudyParams::default()
+            };
+            let analysis = analyze_test(&tr, &axis_params, kind, &params)
+                .with_context(|| format!("analysing {}", trace.display()))?;
+            if let TestAnalysis::Triangle(tri) = &analysis {
+                axis_params.resolve_identified(tri.identification.fit.j_total_kgm2);
+            }
+            let mut t = NewTest::from_analysis(&analysis, &axis_params, &bytes);
+            t.machine = machine;
+            t.axis = axis_label;
+            t.time_s = time_s;
+            t.time_utc = format_rfc3339(time_s);
+            t.source = trace.display().to_string();
+            t.program = program;
+            t.reference = reference;
+            t.compensation_ref = compensation;
+            let outcome = self.with_store(|s| s.add(&t).map_err(|e| store_err(e, &db)))?;
+            Ok((t, outcome))
+        });
+        let (t, outcome) = outcome.map_err(err_to_py)?;
+        let (id, duplicate) = match outcome {
+            AddOutcome::Added(id) => (id, false),
+            AddOutcome::Duplicate(id) => (id, true),
+        };
+        Ok(HistoryEntry {
+            id,
+            duplicate,
+            report: json!({"id": id, "duplicate": duplicate, "indicators": t.indicators}),
+        })
+    }
+
+    /// The stored tests (list of dicts), optionally of one machine and axis, as `feedscope
+    /// history list --format json`.
+    #[pyo3(signature = (*, machine=None, axis_name=None))]
+    fn list<'py>(
+        &self,
+        py: Python<'py>,
+        machine: Option<String>,
+        axis_name: Option<String>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let rows = self
+            .with_store(|s| {
+                s.list(&Filter {
+                    machine,
+                    axis: axis_name,
+                })
+                .map_err(|e| store_err(e, &self.path))
+            })
+            .map_err(err_to_py)?;
+        to_py(py, &rows)
+    }
+
+    /// Trends and diagnosis of an axis, as `feedscope history trend --format json`:
+    /// `machine`, `axis_name` (default: the machine's only axis), `baseline_tests` (the first
+    /// N tests make the baseline), `thresholds` (a thresholds file, TOML), and the change
+    /// detectors' `profile_baseline_tests`, `profile_limit_sigma` (σ) and
+    /// `component_false_alarm` (probability per test).
+    #[pyo3(signature = (*, machine="machine", axis_name=None, baseline_tests=None,
+                        thresholds=None, profile_baseline_tests=None, profile_limit_sigma=None,
+                        component_false_alarm=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn trend(
+        &self,
+        py: Python<'_>,
+        machine: &str,
+        axis_name: Option<String>,
+        baseline_tests: Option<usize>,
+        thresholds: Option<PathBuf>,
+        profile_baseline_tests: Option<usize>,
+        profile_limit_sigma: Option<f64>,
+        component_false_alarm: Option<f64>,
+    ) -> PyResult<TrendResult> {
+        let local = LocalParams::default();
+        let defaults = TrendStudyParams::default();
+        let profile_baseline_tests = profile_baseline_tests.unwrap_or(local.baseline_tests);
+        let profile_limit_sigma = profile_limit_sigma.unwrap_or(local.k);
+        let component_false_alarm =
+            component_false_alarm.unwrap_or(defaults.component_false_alarm_per_test);
+        let baseline_tests = baseline_tests.unwrap_or(defaults.baseline_tests);
+        if profile_baseline_tests < 2 {
+            return Err(py_err(BadInput(format!(
+                "profile_baseline_tests {profile_baseline_tests}: the profile baseline needs at \
+                 least 2 stroke tests (their scatter sets the limits)"
+            ))));
+        }
+        if !(profile_limit_sigma.is_finite() && profile_limit_sigma > 0.0) {
+            return Err(py_err(BadInput(format!(
+                "profile_limit_sigma {profile_limit_sigma}: must be a positive number of σ"
+            ))));
+        }
+        if !(component_false_alarm > 0.0 && component_false_alarm < 0.5) {
+            return Err(py_err(BadInput(format!(
+                "component_false_alarm {component_false_alarm}: must be a probability in (0, \
+                 0.5), e.g. 0.001"
+            ))));
+        }
+        let from_file: BTreeMap<String, Threshold> = match &thresholds {
+            None => BTreeMap::new(),
+            Some(p) => feedscope_io::thresholds::read(p).map_err(py_err)?,
+        };
+        let machine = machine.to_string();
+        let report = py
+            .detach(|| {
+                self.with_store(|store| {
+                    check_known(store, &machine, axis_name.as_deref())?;
+                    let axis = match &axis_name {
+                        Some(a) => a.clone(),
+                        None => {
+                            let tests = store.list(&Filter {
+                                machine: Some(machine.clone()),
+                                axis: None,
+                            })?;
+                            let mut axes: Vec<&str> =
+                                tests.iter().map(|t| t.axis.as_str()).collect();
+                            axes.sort_unstable();
+                            axes.dedup();
+                            match axes.as_slice() {
+                                [one] => one.to_string(),
+                                [] => {
+                                    return Err(BadInput(format!(
+                                        "no tests stored for machine {machine:?}"
+                                    ))
+                                    .into())
+                                }
+                                many => {
+                                    return Err(BadInput(format!(
+                                        "machine {machine:?} has several axes ({}): choose one \
+                                         with axis_name=",
+                                        many.join(", ")
+                                    ))
+                                    .into())
+                                }
+                            }
+                        }
+                    };
+                    // The thresholds of the stored axis file, overridden key by key by the
+                    // thresholds file (the CLI's `with_axis_thresholds`).
+                    let mut th = BTreeMap::new();
+                    if let Some(json) = store.axis_params(&machine, &axis)? {
+                        if let Ok(p) = serde_json::from_str::<feedscope::axis::AxisParams>(&json) {
+                            th = p.thresholds;
+                        }
+                    }
+                    th.extend(from_file);
+                    let params = TrendStudyParams {
+                        baseline_tests,
+                        thresholds: th,
+                        profiles: LocalParams {
+                            baseline_tests: profile_baseline_tests,
+                            k: profile_limit_sigma,
+                            ..LocalParams::default()
+                        },
+                        component_false_alarm_per_test: component_false_alarm,
+                        ..TrendStudyParams::default()
+                    };
+                    let tests = store.list(&Filter {
+                        machine: Some(machine.clone()),
+                        axis: Some(axis.clone()),
+                    })?;
+                    if tests.is_empty() {
+                        return Err(
+                            BadInput(format!("no tests stored for {machine} {axis}")).into()
+                        );
+                    }
+                    let reference = tests.iter().find(|t| t.reference).map(|t| t.id);
+                    let series = store.series(&machine, &axis)?;
+                    let mut profiles = Vec::new();
+                    for t in tests.iter().filter(|t| t.kind == "strokes") {
+                        let Some(json) = store.curves(t.id)? else {
+                            continue;
+                        };
+                        let c: feedscope::study::Curves = serde_json::from_str(&json)
+                            .with_context(|| {
+                                format!("reading the stored curves of test {}", t.id)
+                            })?;
+                        if c.grid.is_empty() {
+                            continue;
+                        }
+                        profiles.push(feedscope::history::ProfileTest {
+                            test_id: t.id,
+                            time_s: t.time_s,
+                            profiles: c.grid,
+                        });
+                    }
+                    let study =
+                        feedscope::study::axis_study(&series, reference, &profiles, &params)?;
+                    let warning = study.trends.iter().any(|x| x.status != Status::Ok);
+                    Ok((
+                        json!({
+                            "machine": machine,
+                            "axis": axis,
+                            "tests": tests,
+                            "trends": study.trends,
+                            "skipped": study.skipped,
+                            "profiles": study.profiles,
+                            "diagnosis": study.diagnosis,
+                        }),
+                        warning,
+                    ))
+                })
+            })
+            .map_err(err_to_py)?;
+        Ok(TrendResult {
+            report: report.0,
+            warning: report.1,
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!("History({:?})", self.path.display().to_string())
+    }
+}

@@ -1,0 +1,56 @@
+"""plan against `feedscope plan`: the same G-code, byte for byte, and the same summary."""
+
+import json
+
+import pytest
+
+import feedscope
+from conftest import cli_error, run_cli
+
+
+def cli_plan(tmp_path, *args):
+    out = tmp_path / "p.nc"
+    p = run_cli("plan", *args, "-o", out, "--format", "json")
+    summary = json.loads(p.stdout)
+    summary.pop("output")
+    return out.read_text(), summary
+
+
+def test_strokes_program_matches_cli(twin, tmp_path):
+    text, summary = cli_plan(tmp_path, "strokes", "--from", "10", "--to", "400",
+                             "--feeds", "100,1000,3000", "--repeats", "2",
+                             "--axis", twin / "sim" / "axis.toml")
+    axis = feedscope.Axis.load(twin / "sim" / "axis.toml")
+    p = feedscope.plan("strokes", from_mm=10, to_mm=400, feeds_mm_min=[100, 1000, 3000],
+                       repeats=2, axis=axis)
+    assert p.text == text
+    assert p.to_dict() == summary
+    assert p.feeds_mm_min == [100.0, 1000.0, 3000.0]
+    assert p.run_time_s == pytest.approx(summary["run_time_s"])
+    assert "Plan(strokes test, fanuc" in repr(p)
+    p.write(tmp_path / "again.nc")
+    assert (tmp_path / "again.nc").read_text() == text
+
+
+def test_triangle_program_siemens_matches_cli(tmp_path):
+    text, summary = cli_plan(tmp_path, "triangle", "--from", "120", "--to", "200",
+                             "--feed-max", "3000", "--levels", "6", "--cruise-s", "0.5",
+                             "--dialect", "siemens", "--sample-rate-hz", "1000")
+    p = feedscope.plan_triangle(from_mm=120, to_mm=200, feed_max_mm_min=3000, levels=6,
+                                cruise_s=0.5, dialect="siemens", sample_rate_hz=1000)
+    assert p.text == text
+    assert p.to_dict() == summary
+
+
+def test_plan_errors_match_cli(tmp_path):
+    message, code = cli_error("plan", "strokes", "--from", "0", "--to", "100", "--feeds",
+                              "50000", "--feed-limit", "30000", "-o", tmp_path / "x.nc")
+    with pytest.raises(feedscope.BadInputError) as info:
+        feedscope.plan_strokes(0, 100, [50000], feed_limit_mm_min=30000)
+    assert str(info.value).rstrip("\n") == message and code == 2
+    with pytest.raises(feedscope.BadInputError, match="feed_max_mm_min or feed_limit_mm_min"):
+        feedscope.plan_triangle(from_mm=0, to_mm=100)
+    with pytest.raises(ValueError, match="dialect"):
+        feedscope.plan_strokes(0, 100, [100], dialect="heidenhain")
+    with pytest.raises(ValueError, match="strokes"):
+        feedscope.plan("spiral")
