@@ -2129,4 +2129,39 @@ mod tests {
             }
         }
     }
+
+    /// Damaged bytes in a file of several row groups, read on 3 threads (the groups decoded
+    /// apart, a decoder panic caught on each worker): an error or a trace, never a panic.
+    #[test]
+    fn corrupted_row_groups_decoded_in_parallel_give_errors_not_panics() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("c.parquet");
+        let n = 400;
+        let t: Vec<f64> = (0..n).map(|k| k as f64 * 1e-3).collect();
+        let e: Vec<f64> = t.iter().map(|x| 1.0 + x).collect();
+        write_groups(
+            &p,
+            vec![
+                ("time_s", f64s(&t)),
+                ("position_mm", f64s(&t)),
+                ("current_a", f64s(&e)),
+            ],
+            50,
+        );
+        let bytes = std::fs::read(&p).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(3)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            assert!(parse_trace(&bytes, "c.parquet", &ReadOptions::default()).is_ok());
+            for k in (4..bytes.len()).step_by(3) {
+                for pattern in [0xff, bytes[k] ^ 0x55] {
+                    let mut b = bytes.clone();
+                    b[k] = pattern;
+                    let _ = parse_trace(&b, "c.parquet", &ReadOptions::default());
+                }
+            }
+        });
+    }
 }
