@@ -63,3 +63,24 @@ pub mod stribeck_table;
 pub mod test_set;
 pub mod thresholds;
 pub mod trace;
+
+/// The kind of one error of a chain when it is this crate's (each error enum says its own) or
+/// one that [`feedscope::error::kind_of`] knows; `None` otherwise.
+pub fn error_kind(e: &(dyn std::error::Error + 'static)) -> Option<feedscope::ErrorKind> {
+    macro_rules! kind_if {
+        ($($t:ty),* $(,)?) => {
+            $(if let Some(x) = e.downcast_ref::<$t>() {
+                return Some(x.kind());
+            })*
+        };
+    }
+    kind_if!(
+        axis::AxisFileError,
+        friction_csv::FrictionCsvError,
+        import::ImportError,
+        stribeck_table::TableError,
+        thresholds::ThresholdsError,
+        trace::TraceError,
+    );
+    feedscope::error::kind_of(e)
+}

@@ -37,72 +37,18 @@ create_exception!(
     "A failure the input does not explain: the binary's exit code 1."
 );
 
-/// The kind of one error of a chain, when its type is one of feedscope's (each says its own
-/// kind) or a foreign one whose kind is known (a missing file, unparsable TOML or JSON).
+/// The kind of one error of a chain: the bindings' own usage errors, else what the store, the
+/// I/O crate and the library say of theirs (the classification the CLI uses too).
 fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
-    use feedscope::{
-        axis::AxisError, compensation::CompensationError, dynamics::DynamicsError,
-        estimate::EstimateError, history::HistoryError, ident::IdentError, lugre::LuGreError,
-        map::MapError, nc::NcError, order::OrderError, plan::PlanError, profile::ProfileError,
-        sim::SimError, spline::SplineError, stribeck::StribeckError, study::StudyError,
-    };
-    use feedscope_io::{
-        axis::AxisFileError, friction_csv::FrictionCsvError, import::ImportError,
-        stribeck_table::TableError, thresholds::ThresholdsError, trace::TraceError,
-    };
-    use feedscope_store::{BackendErrorKind, StoreError};
-    macro_rules! kind_if {
-        ($($t:ty),* $(,)?) => {
-            $(if let Some(x) = e.downcast_ref::<$t>() {
-                return Some(x.kind());
-            })*
-        };
-    }
-    kind_if!(
-        AxisError,
-        CompensationError,
-        DynamicsError,
-        EstimateError,
-        HistoryError,
-        IdentError,
-        LuGreError,
-        MapError,
-        NcError,
-        OrderError,
-        PlanError,
-        ProfileError,
-        SimError,
-        SplineError,
-        StribeckError,
-        StudyError,
-        AxisFileError,
-        FrictionCsvError,
-        ImportError,
-        TableError,
-        ThresholdsError,
-        TraceError,
-        StoreError,
-    );
-    if let Some(b) = e.downcast_ref::<feedscope_store::BackendError>() {
-        return Some(match b.kind() {
-            BackendErrorKind::NotADatabase | BackendErrorKind::Corrupt => ErrorKind::BadInput,
-            _ => ErrorKind::Io,
-        });
-    }
-    if e.is::<BadInput>() || e.is::<toml::de::Error>() || e.is::<serde_json::Error>() {
+    if e.is::<BadInput>() {
         return Some(ErrorKind::BadInput);
     }
-    e.downcast_ref::<std::io::Error>().map(ErrorKind::of_io)
+    feedscope_store::error_kind(e).or_else(|| feedscope_io::error_kind(e))
 }
 
-/// The kind of an error chain, as the CLI's `error_kind`.
+/// The kind of an error chain, by the rule the CLI decides its exit code with.
 fn error_kind(err: &anyhow::Error) -> ErrorKind {
-    let kinds: Vec<ErrorKind> = err.chain().filter_map(kind_of).collect();
-    if kinds.contains(&ErrorKind::BadInput) {
-        ErrorKind::BadInput
-    } else {
-        kinds.first().copied().unwrap_or(ErrorKind::Internal)
-    }
+    feedscope::error::kind_of_chain(err.chain(), kind_of)
 }
 
 /// A usage error found by the bindings themselves (an argument out of range), with the same

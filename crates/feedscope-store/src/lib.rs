@@ -214,6 +214,20 @@ impl BackendError {
     }
 }
 
+/// The kind of one error of a chain when it is this crate's: a [`StoreError`] says its own;
+/// a [`BackendError`] on its own is bad input when the file is not a database of ours or is
+/// damaged, else an I/O failure. `None` for any other type (the library's and `feedscope-io`'s
+/// are classified by their crates).
+pub fn error_kind(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
+    if let Some(x) = e.downcast_ref::<StoreError>() {
+        return Some(x.kind());
+    }
+    e.downcast_ref::<BackendError>().map(|b| match b.kind() {
+        BackendErrorKind::NotADatabase | BackendErrorKind::Corrupt => ErrorKind::BadInput,
+        _ => ErrorKind::Io,
+    })
+}
+
 impl fmt::Display for BackendError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         self.error.fmt(f)

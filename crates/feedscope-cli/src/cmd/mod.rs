@@ -64,78 +64,24 @@ pub enum Command {
 #[error("{0}")]
 pub struct BadInput(pub String);
 
-/// The kind of one error of a chain, when it is one whose kind is known: every error enum of
-/// feedscope says its own ([`ErrorKind`]); of the foreign ones, a missing file and a file
-/// that does not parse (TOML, JSON) are bad input.
+/// The kind of one error of a chain: the CLI's own markers, else what the store, the I/O
+/// crate and the library say of their errors (`feedscope::error::kind_of` and the crates'
+/// `error_kind`).
 fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
-    use feedscope::{
-        axis::AxisError, compensation::CompensationError, dynamics::DynamicsError,
-        estimate::EstimateError, history::HistoryError, ident::IdentError, lugre::LuGreError,
-        map::MapError, nc::NcError, order::OrderError, plan::PlanError, profile::ProfileError,
-        sim::SimError, spline::SplineError, stribeck::StribeckError, study::StudyError,
-    };
-    use feedscope_io::{
-        axis::AxisFileError, friction_csv::FrictionCsvError, import::ImportError,
-        stribeck_table::TableError, thresholds::ThresholdsError, trace::TraceError,
-    };
-    use feedscope_store::{BackendErrorKind, StoreError};
-    macro_rules! kind_if {
-        ($($t:ty),* $(,)?) => {
-            $(if let Some(x) = e.downcast_ref::<$t>() {
-                return Some(x.kind());
-            })*
-        };
-    }
-    kind_if!(
-        AxisError,
-        CompensationError,
-        DynamicsError,
-        EstimateError,
-        HistoryError,
-        IdentError,
-        LuGreError,
-        MapError,
-        NcError,
-        OrderError,
-        PlanError,
-        ProfileError,
-        SimError,
-        SplineError,
-        StribeckError,
-        StudyError,
-        AxisFileError,
-        FrictionCsvError,
-        ImportError,
-        TableError,
-        ThresholdsError,
-        TraceError,
-        StoreError,
-    );
-    if let Some(b) = e.downcast_ref::<feedscope_store::BackendError>() {
-        return Some(match b.kind() {
-            BackendErrorKind::NotADatabase | BackendErrorKind::Corrupt => ErrorKind::BadInput,
-            _ => ErrorKind::Io,
-        });
-    }
-    if e.is::<BadInput>() || e.is::<toml::de::Error>() || e.is::<serde_json::Error>() {
+    if e.is::<BadInput>() {
         return Some(ErrorKind::BadInput);
     }
     if e.is::<history::CheckFailed>() {
         return Some(ErrorKind::Internal);
     }
-    e.downcast_ref::<std::io::Error>().map(ErrorKind::of_io)
+    feedscope_store::error_kind(e).or_else(|| feedscope_io::error_kind(e))
 }
 
 /// The kind of an error: [`ErrorKind::BadInput`] when any error of its chain is bad input (a
 /// missing file under an `Io` wrapper is still the user's input), else the kind of the first
 /// error whose kind is known, else [`ErrorKind::Internal`].
 pub fn error_kind(err: &anyhow::Error) -> ErrorKind {
-    let kinds: Vec<ErrorKind> = err.chain().filter_map(kind_of).collect();
-    if kinds.contains(&ErrorKind::BadInput) {
-        ErrorKind::BadInput
-    } else {
-        kinds.first().copied().unwrap_or(ErrorKind::Internal)
-    }
+    feedscope::error::kind_of_chain(err.chain(), kind_of)
 }
 
 /// The documented exit code of an error kind: 2 bad input or usage, 1 anything else (a
