@@ -130,6 +130,25 @@ pub struct EstimateParams {
     pub program: Vec<ProgrammedMove>,
     /// Stroke segmentation.
     pub segment: SegmentParams,
+    /// Knots a spline is solved over at once: a longer stroke is solved in overlapping windows
+    /// ([`crate::spline::smoothing_moments_windowed`]), equal to the whole solve to rounding,
+    /// so that its work arrays stay bounded. Default [`crate::spline::DEFAULT_WINDOW_KNOTS`].
+    /// A stroke with more position samples than this is also handed out in pieces of
+    /// [`piece_points`](Self::piece_points) rows by [`estimate_pieces_streaming`].
+    #[serde(skip, default = "default_window_knots")]
+    pub spline_window_knots: usize,
+    /// Resampled rows per piece of a long stroke ([`estimate_pieces_streaming`]). Default
+    /// 2¹⁶.
+    #[serde(skip, default = "default_piece_points")]
+    pub piece_points: usize,
+}
+
+fn default_window_knots() -> usize {
+    crate::spline::DEFAULT_WINDOW_KNOTS
+}
+
+fn default_piece_points() -> usize {
+    1 << 16
 }
 
 impl Default for EstimateParams {
@@ -143,6 +162,8 @@ impl Default for EstimateParams {
             include_rapids: false,
             program: Vec::new(),
             segment: SegmentParams::default(),
+            spline_window_knots: default_window_knots(),
+            piece_points: default_piece_points(),
         }
     }
 }
@@ -361,6 +382,31 @@ pub struct StrokeFriction {
     pub effort: Vec<f64>,
     /// Friction force F_f (N), Eq. 5, signed.
     pub friction_n: Vec<f64>,
+}
+
+impl StrokeFriction {
+    /// The six row columns, in the order of the struct.
+    fn columns_mut(&mut self) -> [&mut Vec<f64>; 6] {
+        [
+            &mut self.position_m,
+            &mut self.time_s,
+            &mut self.velocity_m_s,
+            &mut self.accel_m_s2,
+            &mut self.effort,
+            &mut self.friction_n,
+        ]
+    }
+
+    /// Append the rows of `later`, the next piece of the same stroke (the summary is kept).
+    pub fn append_rows(&mut self, mut later: StrokeFriction) {
+        for (dst, src) in self.columns_mut().into_iter().zip(later.columns_mut()) {
+            if dst.is_empty() {
+                *dst = std::mem::take(src);
+            } else {
+                dst.extend_from_slice(src);
+            }
+        }
+    }
 }
 
 /// Result of [`estimate`].
@@ -737,6 +783,28 @@ pub fn estimate_stroke(
     index: usize,
     span: &StrokeSpan,
 ) -> Result<StrokeOutcome, EstimateError> {
+    estimate_stroke_pieces(trace, axis, params, index, span, usize::MAX, &mut |_| {
+        unreachable!("no piece is handed out when a stroke is kept whole")
+    })
+}
+
+/// As [`estimate_stroke`], but handing the resampled rows to `emit` in pieces of
+/// `piece_points` rows while the stroke is estimated, so that a long stroke's results need
+/// not be held whole. The pieces' summaries are provisional (stroke number, direction, feed,
+/// noise floor); the returned stroke holds the rows after the last piece (at least one) and
+/// the complete summary, with its mean and scatter over every row.
+///
+/// # Errors
+/// As [`estimate_stroke`], or what `emit` returns.
+pub fn estimate_stroke_pieces<E: From<EstimateError>>(
+    trace: &Trace,
+    axis: &AxisParams,
+    params: &EstimateParams,
+    index: usize,
+    span: &StrokeSpan,
+    piece_points: usize,
+    emit: &mut dyn FnMut(StrokeFriction) -> Result<(), E>,
+) -> Result<StrokeOutcome, E> {
     let pos = &trace.position_m;
     let ts = &pos.time_s[span.first..=span.last];
     let zs_raw = &pos.value[span.first..=span.last];
@@ -833,11 +901,20 @@ pub fn estimate_stroke(
         Some(f_c) => {
             let h_w = (tz[tz.len() - 1] - tz[0]) / (tz.len() - 1) as f64;
             let alpha = crate::spline::alpha_for_cutoff(h_w, f_c);
-            let m = crate::spline::smoothing_moments(tz, zz, alpha, &mut z_smooth)
-                .map_err(spline_err)?;
+            let m = crate::spline::smoothing_moments_windowed(
+                tz,
+                zz,
+                alpha,
+                params.spline_window_knots,
+                &mut z_smooth,
+            )
+            .map_err(spline_err)?;
             CubicSpline::from_moments(tz, &z_smooth, m).map_err(spline_err)?
         }
-        None => CubicSpline::new(tz, zz, params.end_condition).map_err(spline_err)?,
+        None => {
+            CubicSpline::new_windowed(tz, zz, params.end_condition, params.spline_window_knots)
+                .map_err(spline_err)?
+        }
     };
     let zz: &[f64] = if cutoff_hz.is_some() { &z_smooth } else { zz };
 
@@ -886,8 +963,8 @@ pub fn estimate_stroke(
     let e1 = te_all.partition_point(|&t| t <= tz[tz.len() - 1]);
     let te = &te_all[e0..e1];
     let ee = &trace.effort.value[e0..e1];
-    let es =
-        CubicSpline::new(te, ee, params.end_condition).map_err(|error| EstimateError::Spline {
+    let es = CubicSpline::new_windowed(te, ee, params.end_condition, params.spline_window_knots)
+        .map_err(|error| EstimateError::Spline {
             stroke: index,
             channel: trace.effort_kind.column(),
             error,
@@ -915,7 +992,8 @@ pub fn estimate_stroke(
             points,
             samples: ts.len(),
             limit,
-        });
+        }
+        .into());
     }
     let count = ((k_last - k_first) as f64 * s) as i64 + 1;
     let mut warnings = Vec::new();
@@ -960,13 +1038,27 @@ pub fn estimate_stroke(
             programmed_feed_mm_min: None,
             warnings: Vec::new(),
         },
-        position_m: Vec::with_capacity(count),
-        time_s: Vec::with_capacity(count),
-        velocity_m_s: Vec::with_capacity(count),
-        accel_m_s2: Vec::with_capacity(count),
-        effort: Vec::with_capacity(count),
-        friction_n: Vec::with_capacity(count),
+        position_m: Vec::new(),
+        time_s: Vec::new(),
+        velocity_m_s: Vec::new(),
+        accel_m_s2: Vec::new(),
+        effort: Vec::new(),
+        friction_n: Vec::new(),
     };
+    // Rows held at once: the whole stroke, or a piece and the block being filled.
+    let held = if count > piece_points {
+        piece_points + 256
+    } else {
+        count
+    };
+    for col in out.columns_mut() {
+        col.reserve_exact(held);
+    }
+    // Rows already handed out, the first row's position and time, and the scatter of their
+    // friction about the first value (shifted sums: the mean is not known until the end).
+    let mut emitted = 0usize;
+    let mut first_row = None;
+    let (mut shift, mut s1, mut s2) = (0.0, 0.0, 0.0);
     // t(z) by the paper's knot spline, when asked for: a spline through (s·z_k, t_k), since its
     // abscissae must increase for either direction.
     let knot_x: Vec<f64> = match params.time_of_position {
@@ -1041,7 +1133,8 @@ pub fn estimate_stroke(
                     stroke: index,
                     quantity: "friction_n",
                     position_mm: zg * 1e3,
-                });
+                }
+                .into());
             }
             sum += f;
             cols[0][i] = zg;
@@ -1051,17 +1144,35 @@ pub fn estimate_stroke(
             cols[4][i] = e;
             cols[5][i] = f;
         }
-        for (col, dst) in cols.iter().zip([
-            &mut out.position_m,
-            &mut out.time_s,
-            &mut out.velocity_m_s,
-            &mut out.accel_m_s2,
-            &mut out.effort,
-            &mut out.friction_n,
-        ]) {
+        for (col, dst) in cols.iter().zip(out.columns_mut()) {
             dst.extend_from_slice(&col[..len]);
         }
         j0 += len;
+        if out.friction_n.len() >= piece_points && j0 < count {
+            if first_row.is_none() {
+                first_row = Some((out.position_m[0], out.time_s[0]));
+                shift = out.friction_n[0];
+            }
+            for f in &out.friction_n {
+                let d = f - shift;
+                s1 += d;
+                s2 += d * d;
+            }
+            let mut piece = StrokeFriction {
+                summary: out.summary.clone(),
+                position_m: Vec::new(),
+                time_s: Vec::new(),
+                velocity_m_s: Vec::new(),
+                accel_m_s2: Vec::new(),
+                effort: Vec::new(),
+                friction_n: Vec::new(),
+            };
+            for (src, dst) in out.columns_mut().into_iter().zip(piece.columns_mut()) {
+                *dst = std::mem::replace(src, Vec::with_capacity(held));
+            }
+            emitted += piece.friction_n.len();
+            emit(piece)?;
+        }
     }
     if non_monotone {
         warnings.push(Diagnostic::new(
@@ -1071,13 +1182,25 @@ pub fn estimate_stroke(
         ));
     }
     let mean = sum / count as f64;
-    let var = out
-        .friction_n
-        .iter()
-        .map(|f| (f - mean) * (f - mean))
-        .sum::<f64>()
-        / count as f64;
-    let travel = (out.position_m[count - 1] - out.position_m[0]).abs();
+    let var = if emitted == 0 {
+        out.friction_n
+            .iter()
+            .map(|f| (f - mean) * (f - mean))
+            .sum::<f64>()
+            / count as f64
+    } else {
+        for f in &out.friction_n {
+            let d = f - shift;
+            s1 += d;
+            s2 += d * d;
+        }
+        let m1 = s1 / count as f64;
+        (s2 / count as f64 - m1 * m1).max(0.0)
+    };
+    let (z_first, t_first) = first_row.unwrap_or((out.position_m[0], out.time_s[0]));
+    let tail = out.friction_n.len();
+    let (z_last, t_last) = (out.position_m[tail - 1], out.time_s[tail - 1]);
+    let travel = (z_last - z_first).abs();
     // Raw samples per lead of each channel over the stroke.
     let z_span = |a: f64, b: f64| (zs.eval(b) - zs.eval(a)).abs().max(1e-12);
     let spl_z =
@@ -1085,11 +1208,11 @@ pub fn estimate_stroke(
     let spl_e = (te.len() - 1) as f64 * lead / z_span(te[0], te[te.len() - 1]);
     let spl = spl_z.min(spl_e);
     let sm = &mut out.summary;
-    sm.start_mm = out.position_m[0] * 1e3;
-    sm.end_mm = out.position_m[count - 1] * 1e3;
+    sm.start_mm = z_first * 1e3;
+    sm.end_mm = z_last * 1e3;
     sm.length_mm = travel * 1e3;
-    sm.start_time_s = out.time_s[0];
-    sm.end_time_s = out.time_s[count - 1];
+    sm.start_time_s = t_first;
+    sm.end_time_s = t_last;
     sm.mean_friction_n = mean;
     sm.friction_std_n = var.sqrt();
     sm.raw_samples_per_lead = spl;
@@ -1299,7 +1422,8 @@ pub fn estimate_streaming<E: From<EstimateError>>(
 }
 
 /// As [`estimate_streaming`], but `map` runs on each stroke inside the parallel section (e.g.
-/// to format it for output), and `sink` receives what `map` returns, in time order.
+/// to format it for output), and `sink` receives what `map` returns, in time order. A long
+/// stroke (see [`estimate_pieces_streaming`]) is joined from its pieces before `map` sees it.
 ///
 /// # Errors
 /// As [`estimate`], or what `sink` returns.
@@ -1311,77 +1435,136 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
     map: impl Fn(StrokeFriction) -> T + Sync,
     mut sink: impl FnMut(T) -> Result<(), E>,
 ) -> Result<Outline, E> {
+    let mut current: Option<StrokeFriction> = None;
+    estimate_pieces_streaming(
+        trace,
+        axis,
+        params,
+        batch,
+        |s| s,
+        |piece| match piece {
+            StrokePiece::Rows(s) => {
+                match &mut current {
+                    Some(c) => c.append_rows(s),
+                    None => current = Some(s),
+                }
+                Ok(())
+            }
+            StrokePiece::End(summary) => match current.take() {
+                Some(mut s) => {
+                    s.summary = *summary;
+                    sink(map(s))
+                }
+                None => unreachable!("every stroke hands out rows before its end"),
+            },
+        },
+    )
+}
+
+/// What [`estimate_pieces_streaming`] hands out, in time order: each estimated stroke's rows
+/// (one piece, or several for a long stroke), then its summary.
+#[derive(Debug)]
+pub enum StrokePiece<T> {
+    /// Consecutive resampled rows of the stroke, as `map` made them of a [`StrokeFriction`]
+    /// whose summary is final for a stroke in one piece and provisional (number, direction,
+    /// feed, noise floor) for the pieces of a long one.
+    Rows(T),
+    /// The stroke's rows are all out: its complete summary.
+    End(Box<StrokeSummary>),
+}
+
+/// Estimate every stroke and hand the results out as they are made, in time order, in
+/// [`StrokePiece`]s: strokes of up to [`EstimateParams::spline_window_knots`] position samples
+/// run `batch` at a time in parallel, each handed out whole; a longer stroke is estimated on
+/// the calling thread with windowed spline solves and handed out in pieces of
+/// [`EstimateParams::piece_points`] rows while it is estimated, so that memory holds a piece
+/// of its results, not the whole stroke (`map` runs on each piece, e.g. to format it).
+///
+/// # Errors
+/// As [`estimate`], or what `sink` returns.
+pub fn estimate_pieces_streaming<T: Send, E: From<EstimateError>>(
+    trace: &Trace,
+    axis: &AxisParams,
+    params: &EstimateParams,
+    batch: usize,
+    map: impl Fn(StrokeFriction) -> T + Sync,
+    mut sink: impl FnMut(StrokePiece<T>) -> Result<(), E>,
+) -> Result<Outline, E> {
     let planned = plan(trace, axis, params)?;
     check_effort_informative(trace, &planned)?;
-    let mut skipped = Vec::new();
-    let mut first_skip = None;
-    let mut any = false;
-    let mut verdicts = Vec::new();
-    let mut any_backward_positive = false;
-    let mut means = DirectionMeans::default();
+    let mut seen = Seen::default();
     let batch = batch.max(1);
-    let label = |mut s: StrokeFriction, span: &StrokeSpan| {
+    let label = |s: &mut StrokeSummary, span: &StrokeSpan| {
         let m = &planned.moves[span.move_index];
-        s.summary.kind = m.kind;
-        s.summary.program_line = m.program_line;
-        s.summary.programmed_feed_mm_min = m.programmed_feed_mm_min;
-        s
+        s.kind = m.kind;
+        s.program_line = m.program_line;
+        s.programmed_feed_mm_min = m.programmed_feed_mm_min;
     };
-    for (b, chunk) in planned.spans.chunks(batch).enumerate() {
-        let base = b * batch;
+    let long = |span: &StrokeSpan| span.last - span.first + 1 > params.spline_window_knots;
+    let mut k = 0;
+    while k < planned.spans.len() {
+        if long(&planned.spans[k]) {
+            let span = &planned.spans[k];
+            let outcome = estimate_stroke_pieces(
+                trace,
+                axis,
+                params,
+                k,
+                span,
+                params.piece_points,
+                &mut |mut piece: StrokeFriction| -> Result<(), E> {
+                    label(&mut piece.summary, span);
+                    sink(StrokePiece::Rows(map(piece)))
+                },
+            )?;
+            match outcome {
+                StrokeOutcome::Estimated(mut s) => {
+                    label(&mut s.summary, span);
+                    let summary = Box::new(s.summary.clone());
+                    seen.stroke(&summary);
+                    sink(StrokePiece::Rows(map(*s)))?;
+                    sink(StrokePiece::End(summary))?;
+                }
+                StrokeOutcome::Skipped(why) => seen.skip(trace, k, span, why),
+            }
+            k += 1;
+            continue;
+        }
+        // A batch of short strokes, up to the next long one.
+        let end = (k..planned.spans.len())
+            .take(batch)
+            .find(|&j| long(&planned.spans[j]))
+            .unwrap_or((k + batch).min(planned.spans.len()));
+        let chunk = &planned.spans[k..end];
         let results: Vec<_> = chunk
             .par_iter()
             .enumerate()
-            .map(|(k, span)| {
-                estimate_stroke(trace, axis, params, base + k, span).map(|o| match o {
-                    StrokeOutcome::Estimated(s) => {
-                        let s = label(*s, span);
-                        let seen = (
-                            s.summary.verdict.clone(),
-                            s.summary.direction == Direction::Backward
-                                && s.summary.mean_friction_n > 0.0,
-                            (s.summary.kind == MoveKind::Measuring).then_some((
-                                s.summary.direction,
-                                s.summary.mean_friction_n,
-                                s.summary.length_mm,
-                            )),
-                        );
-                        Ok((seen, map(s)))
+            .map(|(i, span)| {
+                estimate_stroke(trace, axis, params, k + i, span).map(|o| match o {
+                    StrokeOutcome::Estimated(mut s) => {
+                        label(&mut s.summary, span);
+                        let summary = Box::new(s.summary.clone());
+                        Ok((summary, map(*s)))
                     }
                     StrokeOutcome::Skipped(why) => Err(why),
                 })
             })
             .collect();
-        for (k, r) in results.into_iter().enumerate() {
+        for (i, r) in results.into_iter().enumerate() {
             match r? {
-                Ok(((verdict, backward_positive, measuring), t)) => {
-                    any = true;
-                    verdicts.extend(verdict);
-                    any_backward_positive |= backward_positive;
-                    if let Some((dir, mean_n, length_mm)) = measuring {
-                        means.add(dir, mean_n, length_mm);
-                    }
-                    sink(t)?;
+                Ok((summary, t)) => {
+                    seen.stroke(&summary);
+                    sink(StrokePiece::Rows(t))?;
+                    sink(StrokePiece::End(summary))?;
                 }
-                Err(why) => {
-                    let span = &chunk[k];
-                    if first_skip.is_none() {
-                        first_skip = Some(why.clone());
-                    }
-                    skipped.push(format!(
-                        "stroke {} ({}, {:.1} to {:.1} mm): {why}",
-                        base + k,
-                        span.direction.as_str(),
-                        trace.position_m.value[span.first] * 1e3,
-                        trace.position_m.value[span.last] * 1e3
-                    ));
-                }
+                Err(why) => seen.skip(trace, k + i, &chunk[i], why),
             }
         }
+        k = end;
     }
-    if !any {
+    if !seen.any {
         let strokes = planned.spans.len();
-        return Err(match first_skip {
+        return Err(match seen.first_skip {
             Some(why) if why != Skip::TooFewEffortSamples => EstimateError::NoneEstimated {
                 strokes,
                 reason: why.to_string(),
@@ -1396,14 +1579,48 @@ pub fn estimate_map_streaming<T: Send, E: From<EstimateError>>(
     Ok(Outline {
         zones: segment::zones_between(&trace.position_m, &planned.spans),
         moves: planned.moves,
-        skipped,
+        skipped: seen.skipped,
         notes: planned.notes,
         verdict: DataVerdict::from_strokes(
-            &verdicts,
+            &seen.verdicts,
             friction_sign(trace, params),
-            recording_reasons(trace, params, any_backward_positive, &means),
+            recording_reasons(trace, params, seen.any_backward_positive, &seen.means),
         ),
     })
+}
+
+/// What the strokes handed out so far tell about the recording as a whole.
+#[derive(Default)]
+struct Seen {
+    any: bool,
+    verdicts: Vec<StrokeVerdict>,
+    any_backward_positive: bool,
+    means: DirectionMeans,
+    skipped: Vec<String>,
+    first_skip: Option<Skip>,
+}
+
+impl Seen {
+    fn stroke(&mut self, s: &StrokeSummary) {
+        self.any = true;
+        self.verdicts.extend(s.verdict.clone());
+        self.any_backward_positive |= s.direction == Direction::Backward && s.mean_friction_n > 0.0;
+        if s.kind == MoveKind::Measuring {
+            self.means.add(s.direction, s.mean_friction_n, s.length_mm);
+        }
+    }
+
+    fn skip(&mut self, trace: &Trace, k: usize, span: &StrokeSpan, why: Skip) {
+        if self.first_skip.is_none() {
+            self.first_skip = Some(why.clone());
+        }
+        self.skipped.push(format!(
+            "stroke {k} ({}, {:.1} to {:.1} mm): {why}",
+            span.direction.as_str(),
+            trace.position_m.value[span.first] * 1e3,
+            trace.position_m.value[span.last] * 1e3
+        ));
+    }
 }
 
 #[cfg(test)]

@@ -277,3 +277,101 @@ fn newton_in_piece_converges_to_tolerance() {
         assert_eq!((d1, d2), (d1_at, d2_at));
     }
 }
+
+/// A stroke solved in windows of 2,000 knots and handed out in pieces of 3,000 rows equals
+/// the whole solve held at once: every column to 1e-9 of its scale, the summary likewise,
+/// with the interpolating spline (exact positions) and with the smoother (1 µm quanta).
+#[test]
+fn a_long_stroke_in_windows_and_pieces_equals_the_whole_solve() {
+    let m = Motion {
+        v0: 1e-3,
+        a: 0.3,
+        w: 2.0 * std::f64::consts::PI * 0.5,
+    };
+    for quantum_m in [0.0, 1e-6] {
+        let (mut tr, ax) = trace(5.0, &m, 0.002, 60.0, 11);
+        if quantum_m > 0.0 {
+            for z in &mut tr.position_m.value {
+                *z = (*z / quantum_m).round() * quantum_m;
+            }
+        }
+        let whole = estimate(&tr, &ax, &EstimateParams::default()).unwrap();
+        let small = EstimateParams {
+            spline_window_knots: 2_000,
+            piece_points: 3_000,
+            ..EstimateParams::default()
+        };
+        let mut pieces = 0;
+        let mut ends = Vec::new();
+        let mut joined: Option<StrokeFriction> = None;
+        estimate_pieces_streaming(
+            &tr,
+            &ax,
+            &small,
+            4,
+            |s| s,
+            |p| -> Result<(), EstimateError> {
+                match p {
+                    StrokePiece::Rows(s) => {
+                        pieces += 1;
+                        match &mut joined {
+                            Some(j) => j.append_rows(s),
+                            None => joined = Some(s),
+                        }
+                    }
+                    StrokePiece::End(summary) => ends.push(*summary),
+                }
+                Ok(())
+            },
+        )
+        .unwrap();
+        assert_eq!(whole.strokes.len(), 1);
+        assert_eq!(ends.len(), 1);
+        let (w, j) = (&whole.strokes[0], joined.unwrap());
+        assert!(pieces > 3, "{pieces} pieces: the stroke was not cut");
+        assert_eq!(
+            w.summary.position_cutoff_hz.is_some(),
+            quantum_m > 0.0,
+            "the smoother runs on quantised positions only"
+        );
+        let close = |a: &[f64], b: &[f64], what: &str| {
+            assert_eq!(a.len(), b.len(), "{what}");
+            let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let worst = a
+                .iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                worst <= 1e-9 * scale,
+                "quantum {quantum_m}: {what} differs by {worst:e} of {scale:e}"
+            );
+        };
+        close(&w.position_m, &j.position_m, "position");
+        close(&w.time_s, &j.time_s, "time");
+        close(&w.velocity_m_s, &j.velocity_m_s, "velocity");
+        close(&w.accel_m_s2, &j.accel_m_s2, "acceleration");
+        close(&w.effort, &j.effort, "effort");
+        close(&w.friction_n, &j.friction_n, "friction");
+        let (a, b) = (&w.summary, &ends[0]);
+        assert_eq!(a.points, b.points);
+        for (x, y, what) in [
+            (a.mean_friction_n, b.mean_friction_n, "mean"),
+            (a.friction_std_n, b.friction_std_n, "std"),
+            (a.start_mm, b.start_mm, "start"),
+            (a.end_mm, b.end_mm, "end"),
+            (a.end_time_s, b.end_time_s, "end time"),
+        ] {
+            assert!((x - y).abs() <= 1e-9 * x.abs().max(1.0), "{what}: {x} vs {y}");
+        }
+        // The joined stroke through `estimate_map_streaming` is the same stroke.
+        let mut via_map = Vec::new();
+        estimate_map_streaming(&tr, &ax, &small, 4, |s| s, |s| -> Result<(), EstimateError> {
+            via_map.push(s);
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(via_map[0].summary, *b);
+        close(&via_map[0].friction_n, &w.friction_n, "friction via map");
+    }
+}
