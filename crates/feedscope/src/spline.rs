@@ -577,6 +577,98 @@ impl Piece {
     }
 }
 
+/// A long interpolating spline evaluated forward in time one window at a time: only the
+/// moments of the window in use are held (a window's core and 48 knots either side), each
+/// solved as [`CubicSpline::new_windowed`] solves it, so values equal the whole spline's to
+/// rounding while memory stays bounded by `window`, not by the knots.
+#[derive(Debug)]
+pub struct WindowedSpline<'a> {
+    x: &'a [f64],
+    y: &'a [f64],
+    end: EndCondition,
+    window: usize,
+    /// The spline of the window in use, over knots `lo..` of `x`.
+    part: CubicSpline<'a>,
+    lo: usize,
+    /// Intervals `core.0..core.1` (global) are evaluated from `part`.
+    core: (usize, usize),
+    /// Interval of the last query (global).
+    k: usize,
+    cp: Vec<f64>,
+}
+
+impl<'a> WindowedSpline<'a> {
+    /// Validate every knot and solve the first window.
+    ///
+    /// # Errors
+    /// As [`CubicSpline::new`].
+    pub fn new(
+        x: &'a [f64],
+        y: &'a [f64],
+        end: EndCondition,
+        window: usize,
+    ) -> Result<Self, SplineError> {
+        validate_knots(x, y)?;
+        let mut s = Self {
+            x,
+            y,
+            end,
+            window: window.max(4 * INTERP_OVERLAP_KNOTS),
+            part: CubicSpline {
+                x,
+                y,
+                m: Vec::new(),
+            },
+            lo: 0,
+            core: (0, 0),
+            k: 0,
+            cp: Vec::new(),
+        };
+        s.load(0);
+        Ok(s)
+    }
+
+    /// Solve the window whose core holds interval `k`.
+    fn load(&mut self, k: usize) {
+        let n = self.x.len();
+        let a = k / self.window * self.window;
+        let b = (a + self.window).min(n);
+        let lo = a.saturating_sub(INTERP_OVERLAP_KNOTS);
+        let hi = (b + INTERP_OVERLAP_KNOTS).min(n);
+        let (x, y) = (&self.x[lo..hi], &self.y[lo..hi]);
+        let m = moments(x, y, self.end, &mut self.cp);
+        self.part = CubicSpline { x, y, m };
+        self.lo = lo;
+        // The last window's core reaches the last interval, n − 2.
+        self.core = (a, if b == n { n - 1 } else { b });
+    }
+
+    /// The value at t (clamped to the end intervals like [`CubicSpline::eval`]); fastest for
+    /// non-decreasing t.
+    #[inline]
+    pub fn eval(&mut self, t: f64) -> f64 {
+        let x = self.x;
+        let last = x.len() - 2;
+        let search = |t: f64| x.partition_point(|&xi| xi <= t).saturating_sub(1).min(last);
+        let mut k = self.k;
+        if t < x[k] {
+            k = search(t);
+        } else if k < last && t >= x[k + 1] {
+            // The next interval inline; anything further by a search.
+            k = if k + 1 < last && t >= x[k + 2] {
+                search(t)
+            } else {
+                k + 1
+            };
+        }
+        self.k = k;
+        if k < self.core.0 || k >= self.core.1 {
+            self.load(k);
+        }
+        self.part.eval_in(k - self.lo, t).0
+    }
+}
+
 /// Walks a spline's intervals for queries in non-decreasing order.
 #[derive(Debug)]
 pub struct Cursor<'s, 'a> {
@@ -1358,6 +1450,22 @@ mod tests {
             CubicSpline::new_windowed(&bad, &y, EndCondition::NotAKnot, 500),
             Err(SplineError::NotIncreasing { index: 15_000, .. })
         ));
+    }
+
+
+    #[test]
+    fn windowed_evaluation_equals_the_whole_spline() {
+        let (x, y) = logged_stroke(20_000);
+        let whole = CubicSpline::new(&x, &y, EndCondition::NotAKnot).unwrap();
+        let mut win = WindowedSpline::new(&x, &y, EndCondition::NotAKnot, 500).unwrap();
+        let scale = y.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        // Forward queries between and on knots, a jump back, and beyond both ends.
+        let mut ts: Vec<f64> = (0..60_000).map(|k| x[0] + k as f64 * (x[19_999] - x[0]) / 59_999.0).collect();
+        ts.extend([x[100], x[0] - 1e-3, x[19_999] + 1e-3, x[12_345]]);
+        for t in ts {
+            let (a, b) = (whole.eval(t), win.eval(t));
+            assert!((a - b).abs() <= 1e-12 * scale, "t {t}: {a} vs {b}");
+        }
     }
 
 }

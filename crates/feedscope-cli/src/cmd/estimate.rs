@@ -7,8 +7,8 @@ use anyhow::{Context, Result};
 use clap::ValueEnum;
 use feedscope::axis::AxisParams;
 use feedscope::estimate::{
-    estimate_map_streaming, EffortSign, EstimateParams, Move, MoveKind, PositionSmoothing,
-    StrokeFriction, StrokeSummary, TimeOfPosition, Zone,
+    estimate_pieces_streaming, EffortSign, EstimateParams, Move, MoveKind, PositionSmoothing,
+    StrokeFriction, StrokePiece, StrokeSummary, TimeOfPosition, Zone,
 };
 use feedscope::spline::EndCondition;
 use feedscope::trace::{EffortKind, GlitchParams, Trace};
@@ -211,12 +211,10 @@ impl PlotData {
     /// Friction vs position of one stroke, decimated for plotting ((mm, N) pairs).
     /// A stroke whose data support no profile is drawn as its mean level: a flat line, not
     /// the spline's swings between sparse samples.
+    /// The same of one piece of a stroke's rows, decimated by the whole stroke's length (a
+    /// stroke whose data support no profile is reduced to its mean level by [`Self::add`]).
     fn points(s: &StrokeFriction) -> Vec<(f64, f64)> {
-        if mean_only(&s.summary) {
-            let m = s.summary.mean_friction_n;
-            return vec![(s.summary.start_mm, m), (s.summary.end_mm, m)];
-        }
-        let stride = s.position_m.len().div_ceil(PLOT_POINTS_PER_STROKE).max(1);
+        let stride = s.summary.points.div_ceil(PLOT_POINTS_PER_STROKE).max(1);
         s.position_m
             .iter()
             .zip(&s.friction_n)
@@ -225,7 +223,11 @@ impl PlotData {
             .collect()
     }
 
-    fn add(&mut self, s: &StrokeSummary, points: Vec<(f64, f64)>) {
+    fn add(&mut self, s: &StrokeSummary, mut points: Vec<(f64, f64)>) {
+        if mean_only(s) {
+            let m = s.mean_friction_n;
+            points = vec![(s.start_mm, m), (s.end_mm, m)];
+        }
         let k = usize::from(s.direction == feedscope::estimate::Direction::Backward);
         let dst = if k == 0 {
             &mut self.forward
@@ -348,26 +350,31 @@ pub fn estimate_to_csv(
             Ok(out)
         });
         // Each stroke is formatted (and decimated for the plot) inside the parallel section.
-        let streamed = estimate_map_streaming(
+        // A long stroke comes in pieces (rows, then its summary): its points for the plot
+        // gather here until the summary says how to draw it.
+        let mut pts = Vec::new();
+        let streamed = estimate_pieces_streaming(
             trace,
             axis,
             params,
             2 * n_threads,
-            |s: StrokeFriction| {
-                (
-                    friction_csv::format_stroke(&s),
-                    PlotData::points(&s),
-                    s.summary,
-                )
-            },
-            |(rows, pts, summary): (Vec<Vec<u8>>, Vec<(f64, f64)>, StrokeSummary)| -> Result<()> {
-                // A send fails only when the writer stopped on an error; join() reports it.
-                if tx.send(rows).is_err() {
-                    return Err(anyhow::anyhow!("the CSV writer stopped"));
+            |s: StrokeFriction| (friction_csv::format_stroke(&s), PlotData::points(&s)),
+            |piece: StrokePiece<(Vec<Vec<u8>>, Vec<(f64, f64)>)>| -> Result<()> {
+                match piece {
+                    StrokePiece::Rows((rows, p)) => {
+                        // A send fails only when the writer stopped on an error; join()
+                        // reports it.
+                        if tx.send(rows).is_err() {
+                            return Err(anyhow::anyhow!("the CSV writer stopped"));
+                        }
+                        pts.extend(p);
+                    }
+                    StrokePiece::End(summary) => {
+                        pb.inc(summary.position_samples as u64);
+                        plot.add(&summary, std::mem::take(&mut pts));
+                        summaries.push(*summary);
+                    }
                 }
-                pb.inc(summary.position_samples as u64);
-                plot.add(&summary, pts);
-                summaries.push(summary);
                 Ok(())
             },
         );

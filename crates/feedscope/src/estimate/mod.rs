@@ -963,12 +963,28 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     let e1 = te_all.partition_point(|&t| t <= tz[tz.len() - 1]);
     let te = &te_all[e0..e1];
     let ee = &trace.effort.value[e0..e1];
-    let es = CubicSpline::new_windowed(te, ee, params.end_condition, params.spline_window_knots)
-        .map_err(|error| EstimateError::Spline {
-            stroke: index,
-            channel: trace.effort_kind.column(),
-            error,
-        })?;
+    // A long stroke's effort spline is solved one window at a time as the grid walks forward
+    // (its moments would otherwise be held whole); a short one at once.
+    let effort_err = |error| EstimateError::Spline {
+        stroke: index,
+        channel: trace.effort_kind.column(),
+        error,
+    };
+    let es_whole;
+    let mut effort_at = if te.len() > params.spline_window_knots {
+        EffortEval::Windowed(
+            crate::spline::WindowedSpline::new(
+                te,
+                ee,
+                params.end_condition,
+                params.spline_window_knots,
+            )
+            .map_err(effort_err)?,
+        )
+    } else {
+        es_whole = CubicSpline::new(te, ee, params.end_condition).map_err(effort_err)?;
+        EffortEval::Whole(es_whole.cursor())
+    };
     w_lo = w_lo.max(te[0]);
     w_hi = w_hi.min(te[te.len() - 1]);
     let step = lead / f64::from(params.samples_per_lead);
@@ -1078,7 +1094,6 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
         ),
     };
     let mut knot_cursor = knot_spline.as_ref().map(|k| k.cursor());
-    let mut ecur = es.cursor();
     let mut k_int = zs.interval(w_lo);
     let mut piece = zs.piece(k_int);
     let mut non_monotone = false;
@@ -1126,7 +1141,10 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
                 }
             };
             t_prev = t;
-            let e = ecur.eval(t);
+            let e = match &mut effort_at {
+                EffortEval::Whole(c) => c.eval(t),
+                EffortEval::Windowed(w) => w.eval(t),
+            };
             let f = force_gain * e - m_eq * a - b_eq * v;
             if !f.is_finite() {
                 return Err(EstimateError::NonFinite {
@@ -1283,6 +1301,12 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     }));
     sm.warnings = warnings;
     Ok(StrokeOutcome::Estimated(Box::new(out)))
+}
+
+/// The effort spline of a stroke as the grid loop reads it.
+enum EffortEval<'s, 'a> {
+    Whole(crate::spline::Cursor<'s, 'a>),
+    Windowed(crate::spline::WindowedSpline<'a>),
 }
 
 /// Newton's method for z(x0 + u) = target inside one monotone piece, started from linear
