@@ -138,7 +138,7 @@ pub struct EstimateParams {
     #[serde(skip, default = "default_window_knots")]
     pub spline_window_knots: usize,
     /// Resampled rows per piece of a long stroke ([`estimate_pieces_streaming`]). Default
-    /// 2¹⁶.
+    /// 2¹⁴ (about 1.3 MB of CSV text per piece).
     #[serde(skip, default = "default_piece_points")]
     pub piece_points: usize,
 }
@@ -148,7 +148,7 @@ fn default_window_knots() -> usize {
 }
 
 fn default_piece_points() -> usize {
-    1 << 16
+    1 << 14
 }
 
 impl Default for EstimateParams {
