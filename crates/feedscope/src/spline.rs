@@ -153,7 +153,7 @@ impl<'a> CubicSpline<'a> {
     }
 
     /// The knots' abscissae.
-    pub fn x(&self) -> &[f64] {
+    pub fn x(&self) -> &'a [f64] {
         self.x
     }
 
@@ -193,40 +193,56 @@ impl<'a> CubicSpline<'a> {
     /// When `k + 1` is not a knot index (a caller's mistake).
     #[inline]
     pub fn eval_in(&self, k: usize, t: f64) -> (f64, f64, f64) {
-        let (x0, x1) = (self.x[k], self.x[k + 1]);
-        let (y0, y1) = (self.y[k], self.y[k + 1]);
-        let (m0, m1) = (self.m[k], self.m[k + 1]);
-        let h = x1 - x0;
-        let a = x1 - t;
-        let b = t - x0;
-        let inv_h = 1.0 / h;
-        let c0 = y0 * inv_h - m0 * h / 6.0;
-        let c1 = y1 * inv_h - m1 * h / 6.0;
-        let v = (m0 * a * a * a + m1 * b * b * b) * inv_h / 6.0 + c0 * a + c1 * b;
-        let d1 = (m1 * b * b - m0 * a * a) * 0.5 * inv_h + c1 - c0;
-        let d2 = (m0 * a + m1 * b) * inv_h;
-        (v, d1, d2)
+        eval_knots(self.x, self.y, &self.m, k, t)
     }
+}
 
+/// Value, first and second derivative at t of interval k of knots `x`, values `y` and
+/// moments `m` ([`CubicSpline::eval_in`]).
+#[inline]
+fn eval_knots(x: &[f64], y: &[f64], m: &[f64], k: usize, t: f64) -> (f64, f64, f64) {
+    let (x0, x1) = (x[k], x[k + 1]);
+    let (y0, y1) = (y[k], y[k + 1]);
+    let (m0, m1) = (m[k], m[k + 1]);
+    let h = x1 - x0;
+    let a = x1 - t;
+    let b = t - x0;
+    let inv_h = 1.0 / h;
+    let c0 = y0 * inv_h - m0 * h / 6.0;
+    let c1 = y1 * inv_h - m1 * h / 6.0;
+    let v = (m0 * a * a * a + m1 * b * b * b) * inv_h / 6.0 + c0 * a + c1 * b;
+    let d1 = (m1 * b * b - m0 * a * a) * 0.5 * inv_h + c1 - c0;
+    let d2 = (m0 * a + m1 * b) * inv_h;
+    (v, d1, d2)
+}
+
+/// The cubic of interval k of knots `x`, values `y` and moments `m` in power form around
+/// x_k ([`CubicSpline::piece`]).
+#[inline(always)]
+fn piece_knots(x: &[f64], y: &[f64], m: &[f64], k: usize) -> Piece {
+    // One bounds check per array (the resampling loop builds a piece per output point).
+    let (x, y, m) = (&x[k..k + 2], &y[k..k + 2], &m[k..k + 2]);
+    let h = x[1] - x[0];
+    let inv_h = 1.0 / h;
+    let (m0, m1) = (m[0], m[1]);
+    Piece {
+        x0: x[0],
+        h,
+        c0: y[0],
+        c1: (y[1] - y[0]) * inv_h - h * (2.0 * m0 + m1) * (1.0 / 6.0),
+        c2: 0.5 * m0,
+        c3: (m1 - m0) * inv_h * (1.0 / 6.0),
+    }
+}
+
+impl<'a> CubicSpline<'a> {
     /// The cubic of interval k in power form around x_k (cheap repeated evaluation).
     ///
     /// # Panics
     /// When `k + 1` is not a knot index (a caller's mistake).
     #[inline(always)]
     pub fn piece(&self, k: usize) -> Piece {
-        // One bounds check per array (the resampling loop builds a piece per output point).
-        let (x, y, m) = (&self.x[k..k + 2], &self.y[k..k + 2], &self.m[k..k + 2]);
-        let h = x[1] - x[0];
-        let inv_h = 1.0 / h;
-        let (m0, m1) = (m[0], m[1]);
-        Piece {
-            x0: x[0],
-            h,
-            c0: y[0],
-            c1: (y[1] - y[0]) * inv_h - h * (2.0 * m0 + m1) * (1.0 / 6.0),
-            c2: 0.5 * m0,
-            c3: (m1 - m0) * inv_h * (1.0 / 6.0),
-        }
+        piece_knots(self.x, self.y, &self.m, k)
     }
 
     /// A cursor for queries at non-decreasing t: O(1) amortised per query.
@@ -367,22 +383,8 @@ pub fn smoothing_moments_windowed(
         return Err(SplineError::NonFinite { index: 0 });
     }
     let n = x.len();
-    let h_mean = (x[n - 1] - x[0]) / (n - 1) as f64;
-    // α = 1/(h·ω_c⁴) (alpha_for_cutoff) gives ω_c; α = 0 interpolates.
-    let reach_s = if alpha > 0.0 {
-        let omega = (alpha * h_mean).powf(-0.25);
-        SMOOTH_OVERLAP_TIME_CONSTANTS * std::f64::consts::SQRT_2 / omega
-    } else {
-        0.0
-    };
-    let reach = |a: usize, b: usize| {
-        let lo = x.partition_point(|&t| t < x[a] - reach_s);
-        let hi = x.partition_point(|&t| t <= x[b - 1] + reach_s);
-        (
-            lo.saturating_sub(INTERP_OVERLAP_KNOTS),
-            (hi + INTERP_OVERLAP_KNOTS).min(n),
-        )
-    };
+    let reach_s = smoothing_reach_s(x, alpha);
+    let reach = |a: usize, b: usize| smoothing_window(x, a, b, reach_s);
     let window = window.max(4 * INTERP_OVERLAP_KNOTS);
     if n <= window || reach(0, window.min(n)).1 >= n {
         return smoothing_moments(x, y, alpha, g);
@@ -397,6 +399,153 @@ pub fn smoothing_moments_windowed(
         g[a..b].copy_from_slice(&gw[a - lo..b - lo]);
     }
     Ok(m)
+}
+
+/// How far (s) a windowed smoothing solve reaches beyond its core: α = 1/(h·ω_c⁴)
+/// ([`alpha_for_cutoff`], h the mean spacing) gives ω_c, and the kernel's settling time
+/// constant is √2/ω_c; 0 for α = 0 (interpolation).
+fn smoothing_reach_s(x: &[f64], alpha: f64) -> f64 {
+    let n = x.len();
+    let h_mean = (x[n - 1] - x[0]) / (n - 1) as f64;
+    if alpha > 0.0 {
+        let omega = (alpha * h_mean).powf(-0.25);
+        SMOOTH_OVERLAP_TIME_CONSTANTS * std::f64::consts::SQRT_2 / omega
+    } else {
+        0.0
+    }
+}
+
+/// The knots (lo, hi) a smoothing solve for the core `a..b` spans.
+fn smoothing_window(x: &[f64], a: usize, b: usize, reach_s: f64) -> (usize, usize) {
+    let lo = x.partition_point(|&t| t < x[a] - reach_s);
+    let hi = x.partition_point(|&t| t <= x[b - 1] + reach_s);
+    (
+        lo.saturating_sub(INTERP_OVERLAP_KNOTS),
+        (hi + INTERP_OVERLAP_KNOTS).min(x.len()),
+    )
+}
+
+/// A long smoothing spline ([`smoothing_moments`]) read one window at a time: only the
+/// smoothed values and moments of the window in use are held, each window solved as
+/// [`smoothing_moments_windowed`] solves it, so every value equals the whole solve's to
+/// rounding while memory stays bounded by `window`. Reads anywhere are allowed; they are
+/// cheapest in order (a read outside the window in use solves another).
+#[derive(Debug)]
+pub struct WindowedSmoothing<'a> {
+    x: &'a [f64],
+    y: &'a [f64],
+    alpha: f64,
+    window: usize,
+    reach_s: f64,
+    /// Knots `lo..lo + g.len()` are held.
+    lo: usize,
+    /// Knots `core.0..core.1` may be read (intervals up to `core.1 − 1`).
+    core: (usize, usize),
+    g: Vec<f64>,
+    m: Vec<f64>,
+}
+
+impl<'a> WindowedSmoothing<'a> {
+    /// Validate every knot and α, and solve the first window.
+    ///
+    /// # Errors
+    /// As [`smoothing_moments`]; also fewer than 3 knots
+    /// ([`SplineError::TooFewKnots`]: use [`smoothing_moments`] for those).
+    pub fn new(x: &'a [f64], y: &'a [f64], alpha: f64, window: usize) -> Result<Self, SplineError> {
+        validate_knots(x, y)?;
+        if !(alpha.is_finite() && alpha >= 0.0) {
+            return Err(SplineError::NonFinite { index: 0 });
+        }
+        if x.len() < 3 {
+            return Err(SplineError::TooFewKnots(x.len()));
+        }
+        let mut s = Self {
+            x,
+            y,
+            alpha,
+            window: window.max(4 * INTERP_OVERLAP_KNOTS),
+            reach_s: smoothing_reach_s(x, alpha),
+            lo: 0,
+            core: (0, 0),
+            g: Vec::new(),
+            m: Vec::new(),
+        };
+        s.load(0);
+        Ok(s)
+    }
+
+    /// Knots.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Always false (at least 3 knots).
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// The knots' abscissae.
+    pub fn x(&self) -> &'a [f64] {
+        self.x
+    }
+
+    /// Solve the window whose core holds knot `k`.
+    #[cold]
+    fn load(&mut self, k: usize) {
+        let n = self.x.len();
+        let a = k / self.window * self.window;
+        let b = (a + self.window).min(n);
+        let (lo, hi) = smoothing_window(self.x, a, b, self.reach_s);
+        // The knots were validated whole, so a part of them is valid too.
+        self.m = smoothing_moments(&self.x[lo..hi], &self.y[lo..hi], self.alpha, &mut self.g)
+            .expect("a part of validated knots");
+        self.lo = lo;
+        self.core = (a, b);
+    }
+
+    /// Make knots `k` and `k + 1` readable (`k + 1` lies in the overlap past a core's end).
+    #[inline(always)]
+    fn hold(&mut self, k: usize) -> usize {
+        if k < self.core.0 || k >= self.core.1 {
+            self.load(k);
+        }
+        k - self.lo
+    }
+
+    /// Smoothed value g(x_k).
+    #[inline]
+    pub fn value(&mut self, k: usize) -> f64 {
+        let i = self.hold(k);
+        self.g[i]
+    }
+
+    /// Second derivative at knot k.
+    #[inline]
+    pub fn moment(&mut self, k: usize) -> f64 {
+        let i = self.hold(k);
+        self.m[i]
+    }
+
+    /// As [`CubicSpline::eval_in`].
+    #[inline]
+    pub fn eval_in(&mut self, k: usize, t: f64) -> (f64, f64, f64) {
+        let i = self.hold(k);
+        eval_knots(&self.x[self.lo..], &self.g, &self.m, i, t)
+    }
+
+    /// As [`CubicSpline::piece`].
+    #[inline]
+    pub fn piece(&mut self, k: usize) -> Piece {
+        let i = self.hold(k);
+        piece_knots(&self.x[self.lo..], &self.g, &self.m, i)
+    }
+
+    /// As [`CubicSpline::interval`].
+    #[inline]
+    pub fn interval(&self, t: f64) -> usize {
+        let k = self.x.partition_point(|&xi| xi <= t);
+        k.saturating_sub(1).min(self.x.len() - 2)
+    }
 }
 
 thread_local! {
@@ -1414,11 +1563,25 @@ mod tests {
             let whole = smoothing_moments(&x, &y, alpha, &mut g_whole).unwrap();
             let win = smoothing_moments_windowed(&x, &y, alpha, 5_000, &mut g_win).unwrap();
             let scale = whole.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-            let worst = whole.iter().zip(&win).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-            assert!(worst <= 1e-9 * scale, "{cutoff_hz} Hz: moments differ by {worst:e} of {scale:e}");
-            let worst_g = g_whole.iter().zip(&g_win).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            let worst = whole
+                .iter()
+                .zip(&win)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                worst <= 1e-9 * scale,
+                "{cutoff_hz} Hz: moments differ by {worst:e} of {scale:e}"
+            );
+            let worst_g = g_whole
+                .iter()
+                .zip(&g_win)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
             // The smoothed positions against the travel (0.6 m): 1e-9 relative is 0.6 nm.
-            assert!(worst_g <= 1e-9 * 0.6, "{cutoff_hz} Hz: smoothed values differ by {worst_g:e}");
+            assert!(
+                worst_g <= 1e-9 * 0.6,
+                "{cutoff_hz} Hz: smoothed values differ by {worst_g:e}"
+            );
             assert_eq!(g_win.len(), x.len());
         }
         // Short inputs take the whole solve, bit for bit.
@@ -1453,7 +1616,6 @@ mod tests {
         ));
     }
 
-
     #[test]
     fn windowed_evaluation_equals_the_whole_spline() {
         let (x, y) = logged_stroke(20_000);
@@ -1461,7 +1623,9 @@ mod tests {
         let mut win = WindowedSpline::new(&x, &y, EndCondition::NotAKnot, 500).unwrap();
         let scale = y.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         // Forward queries between and on knots, a jump back, and beyond both ends.
-        let mut ts: Vec<f64> = (0..60_000).map(|k| x[0] + k as f64 * (x[19_999] - x[0]) / 59_999.0).collect();
+        let mut ts: Vec<f64> = (0..60_000)
+            .map(|k| x[0] + k as f64 * (x[19_999] - x[0]) / 59_999.0)
+            .collect();
         ts.extend([x[100], x[0] - 1e-3, x[19_999] + 1e-3, x[12_345]]);
         for t in ts {
             let (a, b) = (whole.eval(t), win.eval(t));
@@ -1469,4 +1633,41 @@ mod tests {
         }
     }
 
+    #[test]
+    fn windowed_smoothing_reads_equal_the_whole_solve() {
+        let (x, y) = logged_stroke(30_000);
+        let h = (x[x.len() - 1] - x[0]) / (x.len() - 1) as f64;
+        let alpha = alpha_for_cutoff(h, 5.0);
+        let mut g = Vec::new();
+        let m = smoothing_moments(&x, &y, alpha, &mut g).unwrap();
+        let whole = CubicSpline::from_moments(&x, &g, m).unwrap();
+        let mut win = WindowedSmoothing::new(&x, &y, alpha, 3_000).unwrap();
+        let ms = whole.moments().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        // Forward, then a jump to the end and back to the start, as the estimator reads.
+        let order: Vec<usize> = (0..x.len() - 1)
+            .chain([x.len() - 2, 5, 29_000, 17])
+            .collect();
+        for k in order {
+            assert!(
+                (whole.y()[k] - win.value(k)).abs() <= 1e-9 * 0.6,
+                "value {k}"
+            );
+            assert!(
+                (whole.moments()[k] - win.moment(k)).abs() <= 1e-9 * ms,
+                "moment {k}"
+            );
+            let t = 0.5 * (x[k] + x[k + 1]);
+            let (a, b) = (whole.eval_in(k, t), win.eval_in(k, t));
+            assert!(
+                (a.0 - b.0).abs() <= 1e-9 * 0.6 && (a.2 - b.2).abs() <= 1e-9 * ms,
+                "eval {k}"
+            );
+            let (p, q) = (whole.piece(k), win.piece(k));
+            assert!(
+                (p.c1 - q.c1).abs() <= 1e-9 * p.c1.abs().max(1e-3),
+                "piece {k}"
+            );
+        }
+        assert_eq!(win.interval(x[100] + 1e-9), whole.interval(x[100] + 1e-9));
+    }
 }

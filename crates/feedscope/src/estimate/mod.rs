@@ -897,7 +897,21 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
         error,
     };
     let mut z_smooth = Vec::new();
-    let zs = match cutoff_hz {
+    // A long stroke's smoothed position is solved one window at a time as it is read (the
+    // t(z) inversion walks forward), so its values and moments are never held whole; the
+    // paper's knot spline for t(z) needs them all at once.
+    let windowed = tz.len() > params.spline_window_knots
+        && params.time_of_position == TimeOfPosition::Invert
+        && tz.len() >= 3;
+    let mut zs = match cutoff_hz {
+        Some(f_c) if windowed => {
+            let h_w = (tz[tz.len() - 1] - tz[0]) / (tz.len() - 1) as f64;
+            let alpha = crate::spline::alpha_for_cutoff(h_w, f_c);
+            PositionSpline::Windowed(
+                crate::spline::WindowedSmoothing::new(tz, zz, alpha, params.spline_window_knots)
+                    .map_err(spline_err)?,
+            )
+        }
         Some(f_c) => {
             let h_w = (tz[tz.len() - 1] - tz[0]) / (tz.len() - 1) as f64;
             let alpha = crate::spline::alpha_for_cutoff(h_w, f_c);
@@ -909,14 +923,13 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
                 &mut z_smooth,
             )
             .map_err(spline_err)?;
-            CubicSpline::from_moments(tz, &z_smooth, m).map_err(spline_err)?
+            PositionSpline::Whole(CubicSpline::from_moments(tz, &z_smooth, m).map_err(spline_err)?)
         }
-        None => {
+        None => PositionSpline::Whole(
             CubicSpline::new_windowed(tz, zz, params.end_condition, params.spline_window_knots)
-                .map_err(spline_err)?
-        }
+                .map_err(spline_err)?,
+        ),
     };
-    let zz: &[f64] = if cutoff_hz.is_some() { &z_smooth } else { zz };
 
     // Output window: the stroke, and with smoothing only where the ramps have settled.
     let (mut w_lo, mut w_hi) = (t_lo, t_hi);
@@ -927,7 +940,7 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
         let v_mid = s * (zs_raw[q3] - zs_raw[q1]) / (ts[q3] - ts[q1]).max(1e-300);
         let reach = 0.98 * v_mid;
         let (i_first, i_last) = (span.first - k0, span.last - k0);
-        let speed = |i: usize| s * zs.eval_in(i.min(tz.len() - 2), tz[i]).1;
+        let mut speed = |i: usize| s * zs.eval_in(i.min(tz.len() - 2), tz[i]).1;
         let ramp_end = (i_first..=i_last).find(|&i| speed(i) >= reach);
         let decel_start = (i_first..=i_last).rev().find(|&i| speed(i) >= reach);
         let (Some(i_a), Some(i_b)) = (ramp_end, decel_start) else {
@@ -947,13 +960,13 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
         }
         // The largest jerk of the smoothed ramps, whose transient the margin lets decay to
         // e^(−N): m_eq·j·τ·e^(−N) at the window's edges, spread over it as an RMS.
-        let m = zs.moments();
-        let jerk = |range: std::ops::Range<usize>| {
+        let n_m = tz.len();
+        let mut jerk = |range: std::ops::Range<usize>| {
             range
-                .map(|i| ((m[i + 1] - m[i]) / (tz[i + 1] - tz[i])).abs())
+                .map(|i| ((zs.moment(i + 1) - zs.moment(i)) / (tz[i + 1] - tz[i])).abs())
                 .fold(0.0, f64::max)
         };
-        let j = jerk(0..i_a.min(m.len() - 1)).max(jerk(i_b.min(m.len() - 1)..m.len() - 1));
+        let j = jerk(0..i_a.min(n_m - 1)).max(jerk(i_b.min(n_m - 1)..n_m - 1));
         let edge = m_eq * j * tau * (-floor::SETTLE_TIME_CONSTANTS).exp();
         inertia_n = edge * (tau / (w_hi - w_lo)).min(1.0).sqrt();
     }
@@ -1079,7 +1092,7 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     // abscissae must increase for either direction.
     let knot_x: Vec<f64> = match params.time_of_position {
         TimeOfPosition::Invert => Vec::new(),
-        TimeOfPosition::KnotSpline => zz.iter().map(|z| s * z).collect(),
+        TimeOfPosition::KnotSpline => (0..tz.len()).map(|k| s * zs.value(k)).collect(),
     };
     let knot_spline = match params.time_of_position {
         TimeOfPosition::Invert => None,
@@ -1121,18 +1134,18 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
                 None => {
                     // Advance to the knot interval whose end lies beyond the target.
                     let k_old = k_int;
-                    while k_int + 2 < zz.len() && s * (zz[k_int + 1] - zg) < 0.0 {
+                    while k_int + 2 < tz.len() && s * (zs.value(k_int + 1) - zg) < 0.0 {
                         k_int += 1;
                     }
                     if k_int != k_old {
                         piece = zs.piece(k_int);
                     }
-                    match newton_in_piece(&piece, zz[k_int + 1], zg) {
+                    match newton_in_piece(&piece, zs.value(k_int + 1), zg) {
                         Some((u, v, a)) => (piece.x0 + u, v, a),
                         None => {
                             // Not monotone here: the safeguarded search over neighbours.
                             let (t, k, ok) =
-                                invert_in(&zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
+                                invert_in(&mut zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
                             non_monotone |= !ok;
                             let (_, v, a) = zs.eval_in(k, t);
                             (t, v, a)
@@ -1220,7 +1233,7 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     let (z_last, t_last) = (out.position_m[tail - 1], out.time_s[tail - 1]);
     let travel = (z_last - z_first).abs();
     // Raw samples per lead of each channel over the stroke.
-    let z_span = |a: f64, b: f64| (zs.eval(b) - zs.eval(a)).abs().max(1e-12);
+    let mut z_span = |a: f64, b: f64| (zs.eval(b) - zs.eval(a)).abs().max(1e-12);
     let spl_z =
         (ts.len() - 1) as f64 * lead / (zs_raw[zs_raw.len() - 1] - zs_raw[0]).abs().max(1e-12);
     let spl_e = (te.len() - 1) as f64 * lead / z_span(te[0], te[te.len() - 1]);
@@ -1303,6 +1316,69 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     Ok(StrokeOutcome::Estimated(Box::new(out)))
 }
 
+/// The position spline of a stroke as the estimator reads it: held whole, or (a long stroke's
+/// smoothed position) solved one window at a time as it is read.
+enum PositionSpline<'a> {
+    Whole(CubicSpline<'a>),
+    Windowed(crate::spline::WindowedSmoothing<'a>),
+}
+
+impl<'a> PositionSpline<'a> {
+    fn x(&self) -> &'a [f64] {
+        match self {
+            Self::Whole(s) => s.x(),
+            Self::Windowed(w) => w.x(),
+        }
+    }
+
+    #[inline(always)]
+    fn value(&mut self, k: usize) -> f64 {
+        match self {
+            Self::Whole(s) => s.y()[k],
+            Self::Windowed(w) => w.value(k),
+        }
+    }
+
+    fn moment(&mut self, k: usize) -> f64 {
+        match self {
+            Self::Whole(s) => s.moments()[k],
+            Self::Windowed(w) => w.moment(k),
+        }
+    }
+
+    #[inline(always)]
+    fn piece(&mut self, k: usize) -> crate::spline::Piece {
+        match self {
+            Self::Whole(s) => s.piece(k),
+            Self::Windowed(w) => w.piece(k),
+        }
+    }
+
+    #[inline]
+    fn eval_in(&mut self, k: usize, t: f64) -> (f64, f64, f64) {
+        match self {
+            Self::Whole(s) => s.eval_in(k, t),
+            Self::Windowed(w) => w.eval_in(k, t),
+        }
+    }
+
+    fn interval(&self, t: f64) -> usize {
+        match self {
+            Self::Whole(s) => s.interval(t),
+            Self::Windowed(w) => w.interval(t),
+        }
+    }
+
+    fn eval_all(&mut self, t: f64) -> (f64, f64, f64) {
+        let k = self.interval(t);
+        self.eval_in(k, t)
+    }
+
+    fn eval(&mut self, t: f64) -> f64 {
+        self.eval_all(t).0
+    }
+}
+
 /// The effort spline of a stroke as the grid loop reads it.
 enum EffortEval<'s, 'a> {
     Whole(crate::spline::Cursor<'s, 'a>),
@@ -1366,7 +1442,7 @@ fn newton_in_piece(p: &crate::spline::Piece, z1: f64, target: f64) -> Option<(f6
 /// with bisection. Returns the time, the interval holding it, and whether a bracketing
 /// interval was found.
 fn invert_in(
-    zs: &CubicSpline<'_>,
+    zs: &mut PositionSpline<'_>,
     k: usize,
     target: f64,
     guess: f64,

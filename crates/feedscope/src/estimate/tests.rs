@@ -362,14 +362,24 @@ fn a_long_stroke_in_windows_and_pieces_equals_the_whole_solve() {
             (a.end_mm, b.end_mm, "end"),
             (a.end_time_s, b.end_time_s, "end time"),
         ] {
-            assert!((x - y).abs() <= 1e-9 * x.abs().max(1.0), "{what}: {x} vs {y}");
+            assert!(
+                (x - y).abs() <= 1e-9 * x.abs().max(1.0),
+                "{what}: {x} vs {y}"
+            );
         }
         // The joined stroke through `estimate_map_streaming` is the same stroke.
         let mut via_map = Vec::new();
-        estimate_map_streaming(&tr, &ax, &small, 4, |s| s, |s| -> Result<(), EstimateError> {
-            via_map.push(s);
-            Ok(())
-        })
+        estimate_map_streaming(
+            &tr,
+            &ax,
+            &small,
+            4,
+            |s| s,
+            |s| -> Result<(), EstimateError> {
+                via_map.push(s);
+                Ok(())
+            },
+        )
         .unwrap();
         assert_eq!(via_map[0].summary, *b);
         close(&via_map[0].friction_n, &w.friction_n, "friction via map");
