@@ -208,6 +208,44 @@ fn select_key(keys: &mut [i64], rank: usize) -> f64 {
     from_order_key(*keys.select_nth_unstable(rank).1)
 }
 
+/// Keys beyond which [`find_moves`] ranks in place ([`radix_select`]) rather than on a copy.
+const RADIX_SELECT_MIN: usize = 1 << 18;
+
+/// The element of rank `rank` in the `total_cmp` order among the `keys` that `keep` accepts,
+/// found without copying or reordering them: four passes over the keys, each counting the
+/// next 16 bits of those that share the bits found so far (keys in unsigned order: the sign
+/// bit flipped). Exactly the element [`select_key`] finds on a copy of the kept keys.
+///
+/// # Panics
+/// When `rank` is not below the number of kept keys (a caller's mistake).
+fn radix_select(keys: &[i64], keep: impl Fn(&i64) -> bool, mut rank: usize) -> f64 {
+    let unsigned = |k: i64| (k as u64) ^ (1 << 63);
+    let mut counts = vec![0usize; 1 << 16];
+    let mut prefix = 0u64;
+    for pass in 0..4u32 {
+        let shift = 48 - 16 * pass;
+        counts.fill(0);
+        for k in keys.iter().filter(|k| keep(k)) {
+            let u = unsigned(*k);
+            // The bits above this pass's digit must be those found so far.
+            if pass == 0 || u >> (shift + 16) == prefix {
+                counts[((u >> shift) & 0xffff) as usize] += 1;
+            }
+        }
+        let mut digit = 0;
+        loop {
+            assert!(digit < counts.len(), "rank beyond the kept keys");
+            if rank < counts[digit] {
+                break;
+            }
+            rank -= counts[digit];
+            digit += 1;
+        }
+        prefix = (prefix << 16) | digit as u64;
+    }
+    from_order_key((prefix ^ (1 << 63)) as i64)
+}
+
 /// The upper median of the keyed values (NaN when there are none); reorders `keys`.
 fn median_key(keys: &mut [i64]) -> f64 {
     if keys.is_empty() {
@@ -276,8 +314,8 @@ pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
     let eps = hysteresis_m(z, quantum);
     let tp = turning_points(z, eps);
     let mut moves: Vec<MoveSpan> = Vec::new();
-    let mut speeds = Vec::new();
-    // The speeds' order keys, and a copy of them for selections (see `order_key`).
+    // The chord speeds' order keys (see `order_key`; a speed is `from_order_key` of its key),
+    // and a copy of them for selections on a short move.
     let (mut keys, mut sel) = (Vec::new(), Vec::new());
     for w in tp.windows(2) {
         let (i0, i1) = (w[0], w[1]);
@@ -316,38 +354,48 @@ pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
             continue;
         }
         let chord = |k: usize| s * (z[k + w] - z[k]) / (t[k + w] - t[k]);
-        speeds.clear();
-        speeds.extend((i0..=i1 - w).map(chord));
         keys.clear();
-        keys.extend(speeds.iter().map(|&v| order_key(v)));
-        sel.clear();
-        sel.extend_from_slice(&keys);
-        let rank = ((sel.len() - 1) as f64 * 0.95).round() as usize;
-        let p95 = select_key(&mut sel, rank);
+        keys.extend((i0..=i1 - w).map(|k| order_key(chord(k))));
+        let speed = |c: usize| from_order_key(keys[c]);
+        let rank = ((keys.len() - 1) as f64 * 0.95).round() as usize;
+        // A long move is ranked in place by radix passes (the same element as the copy's
+        // selection): a copy of a 10 M-sample stroke's keys would cost 80 MB.
+        let long = keys.len() > RADIX_SELECT_MIN;
+        let p95 = if long {
+            radix_select(&keys, |_| true, rank)
+        } else {
+            sel.clear();
+            sel.extend_from_slice(&keys);
+            select_key(&mut sel, rank)
+        };
         if p95.is_nan() || p95 <= 0.0 {
             continue;
         }
-        sel.clear();
-        sel.extend(
-            speeds
-                .iter()
-                .zip(&keys)
-                .filter(|(v, _)| **v >= 0.25 * p95)
-                .map(|(_, &k)| k),
-        );
-        let plateau = median_key(&mut sel);
+        let fast = |k: &i64| from_order_key(*k) >= 0.25 * p95;
+        let plateau = if long {
+            let count = keys.iter().filter(|k| fast(k)).count();
+            if count == 0 {
+                f64::NAN
+            } else {
+                radix_select(&keys, fast, count / 2)
+            }
+        } else {
+            sel.clear();
+            sel.extend(keys.iter().filter(|k| fast(k)));
+            median_key(&mut sel)
+        };
         this.plateau_speed_m_s = plateau;
         this.top_speed_m_s = p95;
         let threshold = params.steady_fraction * plateau;
         // Maximal runs of steady chords.
         let mut c = 0;
-        while c < speeds.len() {
-            if speeds[c] < threshold {
+        while c < keys.len() {
+            if speed(c) < threshold {
                 c += 1;
                 continue;
             }
             let c0 = c;
-            while c < speeds.len() && speeds[c] >= threshold {
+            while c < keys.len() && speed(c) >= threshold {
                 c += 1;
             }
             let c1 = c - 1; // last steady chord
@@ -493,6 +541,33 @@ mod tests {
         assert_eq!(s.len(), 1, "{s:?}");
         assert!((s[0].plateau_speed_m_s * 60e3 - 10.0).abs() < 0.2);
         assert!(c.time_s[s[0].first] < 1.2 && c.time_s[s[0].last] > 199.0);
+    }
+
+    #[test]
+    fn radix_selection_is_the_copys_selection() {
+        // Quantised speeds (many exact repeats), both signs, and a filter, at every 37th rank.
+        let v: Vec<f64> = (0..20_000)
+            .map(|k| {
+                let x = ((k as f64 * 12.9898).sin() * 43758.5453).fract() - 0.3;
+                if k % 3 == 0 {
+                    (x * 50.0).round() * 1e-5
+                } else {
+                    x * 1e-3
+                }
+            })
+            .collect();
+        let keys: Vec<i64> = v.iter().map(|&x| order_key(x)).collect();
+        for (keep, name) in [
+            (Box::new(|_: &i64| true) as Box<dyn Fn(&i64) -> bool>, "all"),
+            (Box::new(|k: &i64| from_order_key(*k) >= 1e-4), "fast"),
+        ] {
+            let mut kept: Vec<i64> = keys.iter().copied().filter(|k| keep(k)).collect();
+            for rank in (0..kept.len()).step_by(37).chain([kept.len() - 1]) {
+                let want = select_key(&mut kept, rank);
+                let got = radix_select(&keys, &keep, rank);
+                assert_eq!(got.to_bits(), want.to_bits(), "{name}, rank {rank}");
+            }
+        }
     }
 
     #[test]
