@@ -420,3 +420,10 @@ fn store_urls_that_cannot_be_used() {
     let o = run(c);
     assert!(ok(&o).starts_with("e.db: integrity ok"), "{}", stdout(&o));
 }
+
+#[test]
+fn history_migrate_help() {
+    let d = tempfile::tempdir().unwrap();
+    let o = fs(d.path(), &["history", "migrate", "--help"]);
+    insta::assert_snapshot!("history_migrate_help", ok(&o));
+}
