@@ -43,7 +43,7 @@ fn synthetic() -> NewTest {
             order: 1.0 + c as f64,
             amplitude_n: 5.0 + wobble,
             floor_n: 0.5,
-            cause: Cause::Shaft(1 + c as u32 % 3),
+            cause: Cause::Shaft(1 + (c % 3) as u8),
             trusted: true,
         })
         .collect();
