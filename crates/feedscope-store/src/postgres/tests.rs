@@ -97,9 +97,9 @@ fn new_test(machine: &str, axis: &str, day: u32, kind: TestKind, content: u32) -
         kind,
         source: format!("week-{day}.csv"),
         content_sha256: format!("{content:064x}"),
-        program: (day % 2 == 0).then(|| "O1000".into()),
+        program: day.is_multiple_of(2).then(|| "O1000".into()),
         reference: false,
-        compensation_ref: (day % 3 == 0).then(|| "comp-7".into()),
+        compensation_ref: day.is_multiple_of(3).then(|| "comp-7".into()),
         identified: (kind == TestKind::Triangle).then(|| Identified {
             j_total_kgm2: 0.0085 + 1e-6 * d,
             j_std_kgm2: f64::NAN,
@@ -171,9 +171,14 @@ fn new_test(machine: &str, axis: &str, day: u32, kind: TestKind, content: u32) -
                 unit: "N".into(),
             },
         ],
-        curves_json: (content % 2 == 0).then(|| format!("{{\"grid\":[],\"day\":{day}}}")),
+        curves_json: content
+            .is_multiple_of(2)
+            .then(|| format!("{{\"grid\":[],\"day\":{day}}}")),
     }
 }
+
+/// A series as plain values: test id, time (s), value, standard error.
+type Points = Vec<(i64, f64, f64, Option<f64>)>;
 
 /// Everything a caller can read from a store, as JSON with the time of adding blanked (it is
 /// the present time in both).
@@ -196,7 +201,7 @@ fn snapshot(s: &dyn Store) -> serde_json::Value {
     let mut params = BTreeMap::new();
     for a in &axes {
         let key = format!("{}/{}", a.machine, a.axis);
-        let ser: BTreeMap<String, Vec<(i64, f64, f64, Option<f64>)>> = s
+        let ser: BTreeMap<String, Points> = s
             .series(&a.machine, &a.axis)
             .unwrap()
             .into_iter()
@@ -468,12 +473,12 @@ fn postgres_concurrent_writers_lose_and_duplicate_nothing() {
                     barrier.wait();
                     let (m, a) = axis_of(k);
                     let mut t = new_test(m, a, 1 + k % 28, TestKind::Triangle, k);
-                    t.reference = k % 10 == 0;
+                    t.reference = k.is_multiple_of(10);
                     seen.push((k, s.add(&t).unwrap()));
                     for c in own.by_ref().take(per_shared) {
                         let (m, a) = axis_of(c);
                         let mut t = new_test(m, a, 1 + c % 28, TestKind::Strokes, c);
-                        t.reference = c % 37 == 0;
+                        t.reference = c.is_multiple_of(37);
                         seen.push((c, s.add(&t).unwrap()));
                     }
                 }
