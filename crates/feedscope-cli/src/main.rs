@@ -5,6 +5,7 @@ mod output;
 mod paths;
 mod plot;
 mod report;
+mod store;
 
 // mimalloc keeps freed pages for reuse; with the system allocator every stroke's multi-megabyte
 // work and output arrays went back to the OS and were zeroed again (~20 % of estimation time).

@@ -36,10 +36,11 @@
 //! # }
 //! ```
 //!
-//! Callers talk to the [`Store`] trait; the only backend today is [`SqliteStore`] (one file,
-//! WAL journal, versioned schema, documented in docs/history.md). A PostgreSQL backend for a
-//! fleet will implement the same trait: no method and no row type mentions an engine's type,
-//! and engine errors reach callers as a [`BackendError`] classified by [`BackendErrorKind`].
+//! Callers talk to the [`Store`] trait, which two backends implement: [`SqliteStore`] (one
+//! file, WAL journal, versioned schema) and [`PgStore`] (a PostgreSQL database shared by a
+//! fleet's gateways, the same logical schema, many writers at once); both are documented in
+//! docs/history.md. No method and no row type mentions an engine's type, and engine errors
+//! reach callers as a [`BackendError`] classified by [`BackendErrorKind`].
 #![warn(missing_docs)]
 #![deny(clippy::float_cmp)]
 use std::collections::BTreeMap;
@@ -51,9 +52,11 @@ use serde::Serialize;
 
 mod from_study;
 pub use from_study::content_sha256;
+pub mod postgres;
 pub mod sqlite;
 pub mod time;
 
+pub use postgres::PgStore;
 pub use sqlite::{OpenOptions, SqliteStore};
 
 /// Errors of the store.
@@ -89,12 +92,39 @@ pub enum StoreError {
         /// Newest schema this build knows.
         supported: i64,
     },
-    /// The integrity check failed.
-    #[error("{path} failed the SQLite integrity check ({detail}); it was not modified")]
+    /// The integrity check failed (SQLite's `PRAGMA integrity_check`, or for PostgreSQL the
+    /// schema version, tables and constraints that [`Store::check`] verifies).
+    #[error("{path} failed the integrity check ({detail}); it was not modified")]
     Corrupt {
         /// The file.
         path: String,
         /// First message of `PRAGMA integrity_check`.
+        detail: String,
+    },
+    /// A database schema that holds another application's tables and no feedscope schema
+    /// version (PostgreSQL; left untouched).
+    #[error(
+        "{path}: schema {schema:?} holds {tables} tables of another application (e.g. {example:?}) \
+         and no feedscope schema version; it was not modified (give an empty database or \
+         schema)"
+    )]
+    ForeignSchema {
+        /// The store (a URL without its password).
+        path: String,
+        /// The database schema (PostgreSQL: the first of the `search_path`).
+        schema: String,
+        /// Number of tables in it.
+        tables: i64,
+        /// One of them.
+        example: String,
+    },
+    /// The address of the store cannot be used as given: a malformed URL, or an option this
+    /// build does not support (TLS); nothing was contacted.
+    #[error("{path}: {detail}")]
+    BadAddress {
+        /// The address as given (without its password).
+        path: String,
+        /// What is wrong with it.
         detail: String,
     },
     /// No such test.
@@ -154,6 +184,8 @@ impl StoreError {
             StoreError::Io(_) => ErrorKind::Io,
             StoreError::NotADatabase { .. }
             | StoreError::Foreign { .. }
+            | StoreError::ForeignSchema { .. }
+            | StoreError::BadAddress { .. }
             | StoreError::NewerSchema { .. }
             | StoreError::Corrupt { .. }
             | StoreError::NoSuchTest(_)
@@ -167,14 +199,16 @@ impl StoreError {
 #[non_exhaustive]
 pub enum BackendErrorKind {
     /// The engine does not recognise the file or database as one of its own
-    /// (SQLite: `SQLITE_NOTADB`).
+    /// (SQLite: `SQLITE_NOTADB`; PostgreSQL: the database does not exist or refuses the
+    /// user of the URL, SQLSTATE 3D000, 28000, 28P01).
     NotADatabase,
     /// The engine found the database damaged (SQLite: `SQLITE_CORRUPT`), or its content does
     /// not fit the schema its version promises (a table or column missing, a value of the
     /// wrong type).
     Corrupt,
-    /// Anything else: a full disk, an I/O failure inside the engine, a violated constraint.
-    /// (A lock held beyond the busy timeout is [`StoreError::Busy`].)
+    /// Anything else: a full disk, an I/O failure inside the engine, a violated constraint,
+    /// a database server that cannot be reached. (A lock held beyond the busy timeout is
+    /// [`StoreError::Busy`].)
     Other,
 }
 
@@ -453,6 +487,16 @@ pub trait Store {
     /// created on first use; the axis parameters are replaced by those of the new test.
     /// With `t.reference` the new test becomes the only reference of its axis.
     fn add(&mut self, t: &NewTest) -> Result<AddOutcome, StoreError>;
+    /// [`add`](Self::add) a test copied from another store, keeping the time it was first
+    /// added there (`added_utc`, RFC 3339 UTC) instead of stamping the present time; for
+    /// copying a history between stores (`feedscope history migrate`).
+    ///
+    /// Provided as [`add`](Self::add), which stamps the present time; both backends of this
+    /// crate keep `added_utc`.
+    fn add_copy(&mut self, t: &NewTest, added_utc: &str) -> Result<AddOutcome, StoreError> {
+        let _ = added_utc;
+        self.add(t)
+    }
     /// Tests ordered by machine, axis, time and id.
     fn list(&self, f: &Filter) -> Result<Vec<TestRow>, StoreError>;
     /// One test with its results.

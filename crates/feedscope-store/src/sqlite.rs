@@ -534,7 +534,7 @@ fn test_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<TestRow> {
 }
 
 impl SqliteStore {
-    fn add_tx(&mut self, t: &NewTest) -> Result<AddOutcome, StoreError> {
+    fn add_tx(&mut self, t: &NewTest, added_utc: Option<&str>) -> Result<AddOutcome, StoreError> {
         let tx = self
             .conn
             .transaction_with_behavior(TransactionBehavior::Immediate)?;
@@ -588,7 +588,10 @@ impl SqliteStore {
                 t.program,
                 i64::from(t.reference),
                 t.compensation_ref,
-                super::time::format_rfc3339(super::time::now_s()),
+                added_utc.map_or_else(
+                    || super::time::format_rfc3339(super::time::now_s()),
+                    str::to_string
+                ),
                 env!("CARGO_PKG_VERSION"),
             ],
         )?;
@@ -697,7 +700,11 @@ impl SqliteStore {
 
 impl Store for SqliteStore {
     fn add(&mut self, t: &NewTest) -> Result<AddOutcome, StoreError> {
-        self.add_tx(t).map_err(|e| self.busy(e))
+        self.add_tx(t, None).map_err(|e| self.busy(e))
+    }
+
+    fn add_copy(&mut self, t: &NewTest, added_utc: &str) -> Result<AddOutcome, StoreError> {
+        self.add_tx(t, Some(added_utc)).map_err(|e| self.busy(e))
     }
 
     fn list(&self, f: &Filter) -> Result<Vec<TestRow>, StoreError> {

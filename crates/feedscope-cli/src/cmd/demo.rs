@@ -310,7 +310,7 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
     let report = out.join("report.html");
     let detectors = super::history::DetectorArgs::default();
     super::report::write_report(
-        &db,
+        &crate::store::StoreSpec::Sqlite(db.clone()),
         "demo lathe",
         Some("Z"),
         5,
@@ -318,7 +318,7 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
         Some(&th_path),
         &report,
     )?;
-    let store = super::history::open_store(&db)?;
+    let store = super::history::open_sqlite(&db)?;
     let thresholds = super::history::load_thresholds(Some(&th_path))?;
     let t = super::history::axis_trends(&store, "demo lathe", "Z", 5, &detectors, &thresholds)?;
     outln!(

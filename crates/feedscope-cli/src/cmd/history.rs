@@ -14,23 +14,30 @@ use feedscope::trace::GlitchParams;
 use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use feedscope_store::time::{format_rfc3339, parse_rfc3339};
 use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, TestKind};
+
+use crate::store::{store_err, StoreSpec};
 use serde::Serialize;
 
 use super::BadInput;
 
 /// Condition history: store tests in a database and trend their indicators.
 ///
-/// The database is one SQLite file: --db, else the environment variable FEEDSCOPE_DB, else
-/// feedscope.db in the current folder. Its schema is documented in docs/history.md.
+/// The store is an SQLite file or a PostgreSQL database: --store SPEC (a postgres:// URL or a
+/// file), else --db FILE, else the environment variable FEEDSCOPE_STORE, else FEEDSCOPE_DB,
+/// else feedscope.db in the current folder. The schema is documented in docs/history.md.
 ///
-/// Exit codes: 0 success; 1 `trend --fail-on-warning` found a warning, or an integrity check
-/// failed; 2 bad input (unreadable trace or axis, foreign or damaged database file, no such
-/// test).
+/// Exit codes: 0 success; 1 `trend --fail-on-warning` found a warning, an integrity check
+/// failed, or the database server cannot be reached; 2 bad input (unreadable trace or axis,
+/// foreign or damaged database, bad store URL, no such test).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Database file [env: FEEDSCOPE_DB] [default: feedscope.db].
     #[arg(long, global = true)]
     pub db: Option<PathBuf>,
+    /// Store: postgres://USER[:PASSWORD]@HOST[:PORT]/DB (PostgreSQL, no TLS) or an SQLite
+    /// file [env: FEEDSCOPE_STORE]; not with --db.
+    #[arg(long, global = true, value_name = "SPEC")]
+    pub store: Option<String>,
     #[command(subcommand)]
     pub command: HistoryCommand,
 }
@@ -62,8 +69,33 @@ pub enum HistoryCommand {
     Trend(TrendArgs),
     /// Mark a test as the reference (baseline) of its axis; trends then compare with it.
     Reference(ShowArgs),
-    /// Check the database file's integrity and schema version.
+    /// Check the database's integrity and schema version.
     Check,
+    /// Copy every test of a history into another store (SQLite or PostgreSQL).
+    ///
+    /// Copies each test with everything stored for it: its results (identified parameters,
+    /// intervals, components, indicators), its report curves, the axis parameters, the
+    /// reference flag, the test time and the time it was added, source, SHA-256, program and
+    /// compensation table. A test whose trace is already in the target (same axis, kind and
+    /// SHA-256) is not copied again, so a second run adds nothing. Test ids are given anew
+    /// by the target, in the order of the source's ids.
+    ///
+    /// Example: feedscope history migrate --from feedscope.db --to
+    /// postgres://feedscope@db.example:5432/history
+    Migrate(MigrateArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct MigrateArgs {
+    /// The store to read: a postgres:// URL or an SQLite file.
+    #[arg(long, value_name = "SPEC")]
+    pub from: String,
+    /// The store to write (created when empty): a postgres:// URL or an SQLite file.
+    #[arg(long, value_name = "SPEC")]
+    pub to: String,
+    /// What to print on stdout.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    pub format: Format,
 }
 
 #[derive(Debug, clap::Args)]
@@ -284,28 +316,11 @@ pub enum ExportFormat {
     Json,
 }
 
-/// The database path: flag, then FEEDSCOPE_DB, then feedscope.db.
-pub fn db_path(flag: Option<&Path>) -> PathBuf {
-    flag.map(Path::to_path_buf)
-        .or_else(|| std::env::var_os("FEEDSCOPE_DB").map(PathBuf::from))
-        .unwrap_or_else(|| PathBuf::from("feedscope.db"))
-}
-
-/// Open the store; a foreign or damaged file is bad input (exit 2).
-pub fn open_store(path: &Path) -> Result<SqliteStore> {
-    SqliteStore::open_with(path, &super::series::store_options()?).map_err(|e| store_err(e, path))
-}
-
-fn store_err(e: StoreError, path: &Path) -> anyhow::Error {
-    // The exit code follows the error's kind; the messages of the other variants name the
-    // file already.
-    match &e {
-        StoreError::Backend(_) | StoreError::NoSuchTest(_) if e.is_bad_input() => {
-            anyhow::Error::new(e).context(path.display().to_string())
-        }
-        _ if e.is_bad_input() => anyhow::Error::new(e),
-        _ => anyhow::Error::new(e).context(format!("database {}", path.display())),
-    }
+/// Open an SQLite store with the busy timeout of every command; a foreign or damaged file is
+/// bad input (exit 2).
+pub fn open_sqlite(path: &Path) -> Result<SqliteStore> {
+    SqliteStore::open_with(path, &super::series::store_options()?)
+        .map_err(|e| store_err(e, &StoreSpec::Sqlite(path.to_path_buf())))
 }
 
 /// `history check` found the database damaged: a check that failed (exit 1), as
@@ -354,7 +369,7 @@ fn axis_name(flag: Option<&str>, axis: &AxisParams, path: &Path) -> String {
         })
 }
 
-fn add(db: &Path, a: &AddArgs) -> Result<()> {
+fn add(spec: &StoreSpec, a: &AddArgs) -> Result<()> {
     // Validate cheap things before the expensive analysis.
     if !(a.interval_mm.is_finite() && a.interval_mm > 0.0) {
         return Err(BadInput("--interval-mm must be a positive length".into()).into());
@@ -381,7 +396,7 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0.0, |d| d.as_secs_f64()),
     };
-    let mut store = open_store(db)?;
+    let mut store = spec.open()?;
     let (trace, report) = read_trace_file_with(
         &a.trace,
         &ReadOptions::default(),
@@ -421,8 +436,8 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
     t.program = a.program.clone();
     t.reference = a.reference;
     t.compensation_ref = a.compensation.clone();
-    let outcome = store.add(&t).map_err(|e| store_err(e, db))?;
-    super::series::announce_add(&store, &t, outcome, a.time.is_none().then_some(&*a.trace))?;
+    let outcome = store.add(&t).map_err(|e| store_err(e, spec))?;
+    super::series::announce_add(&*store, &t, outcome, a.time.is_none().then_some(&*a.trace))?;
     let (id, dup) = match outcome {
         AddOutcome::Added(id) => (id, false),
         AddOutcome::Duplicate(id) => (id, true),
@@ -450,14 +465,14 @@ fn add(db: &Path, a: &AddArgs) -> Result<()> {
     Ok(())
 }
 
-fn list(db: &Path, a: &ListArgs) -> Result<()> {
-    let store = open_store(db)?;
+fn list(spec: &StoreSpec, a: &ListArgs) -> Result<()> {
+    let store = spec.open()?;
     let rows = store
         .list(&Filter {
             machine: a.machine.clone(),
             axis: a.axis_name.clone(),
         })
-        .map_err(|e| store_err(e, db))?;
+        .map_err(|e| store_err(e, spec))?;
     let mut w = std::io::stdout().lock();
     match a.format {
         Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&rows)?)?,
@@ -485,9 +500,9 @@ fn list(db: &Path, a: &ListArgs) -> Result<()> {
     Ok(())
 }
 
-fn show(db: &Path, a: &ShowArgs) -> Result<()> {
-    let store = open_store(db)?;
-    let d = store.get(a.id).map_err(|e| store_err(e, db))?;
+fn show(spec: &StoreSpec, a: &ShowArgs) -> Result<()> {
+    let store = spec.open()?;
+    let d = store.get(a.id).map_err(|e| store_err(e, spec))?;
     let mut w = std::io::stdout().lock();
     match a.format {
         Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&d)?)?,
@@ -551,19 +566,19 @@ struct ExportRow<'a> {
     unit: &'a str,
 }
 
-fn export(db: &Path, a: &ExportArgs) -> Result<()> {
-    let store = open_store(db)?;
+fn export(spec: &StoreSpec, a: &ExportArgs) -> Result<()> {
+    let store = spec.open()?;
     let tests = store
         .list(&Filter {
             machine: a.machine.clone(),
             axis: a.axis_name.clone(),
         })
-        .map_err(|e| store_err(e, db))?;
+        .map_err(|e| store_err(e, spec))?;
     let details = tests
         .iter()
         .map(|t| store.get(t.id))
         .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| store_err(e, db))?;
+        .map_err(|e| store_err(e, spec))?;
     let rows: Vec<ExportRow> = details
         .iter()
         .flat_map(|d| {
@@ -617,9 +632,9 @@ fn csv_field(s: &str) -> String {
     }
 }
 
-fn remove(db: &Path, a: &RemoveArgs) -> Result<()> {
-    let mut store = open_store(db)?;
-    let d = store.get(a.id).map_err(|e| store_err(e, db))?;
+fn remove(spec: &StoreSpec, a: &RemoveArgs) -> Result<()> {
+    let mut store = spec.open()?;
+    let d = store.get(a.id).map_err(|e| store_err(e, spec))?;
     if !a.yes {
         eprint!(
             "remove test {} ({} {} {} at {}, {}) and its results? [y/N] ",
@@ -632,7 +647,7 @@ fn remove(db: &Path, a: &RemoveArgs) -> Result<()> {
             return Ok(());
         }
     }
-    store.remove(a.id).map_err(|e| store_err(e, db))?;
+    store.remove(a.id).map_err(|e| store_err(e, spec))?;
     outln!("removed test {}", a.id);
     Ok(())
 }
@@ -738,13 +753,13 @@ fn stroke_profiles(
     Ok(out)
 }
 
-fn trend(db: &Path, a: &TrendArgs) -> Result<bool> {
+fn trend(spec: &StoreSpec, a: &TrendArgs) -> Result<bool> {
     let thresholds = load_thresholds(a.thresholds.as_deref())?;
-    let store = open_store(db)?;
-    let axis = resolve_axis(&store, &a.machine, a.axis_name.as_deref())?;
-    let thresholds = with_axis_thresholds(&store, &a.machine, &axis, thresholds)?;
+    let store = spec.open()?;
+    let axis = resolve_axis(&*store, &a.machine, a.axis_name.as_deref())?;
+    let thresholds = with_axis_thresholds(&*store, &a.machine, &axis, thresholds)?;
     let t = axis_trends(
-        &store,
+        &*store,
         &a.machine,
         &axis,
         a.baseline_tests,
@@ -875,38 +890,156 @@ fn write_profile_changes(w: &mut impl Write, p: &feedscope::history::ProfileChan
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let db = db_path(args.db.as_deref());
+    if let HistoryCommand::Migrate(a) = &args.command {
+        if args.db.is_some() || args.store.is_some() {
+            return Err(BadInput(
+                "history migrate reads --from and writes --to; --db and --store do not apply"
+                    .into(),
+            )
+            .into());
+        }
+        return migrate(a);
+    }
+    let spec = StoreSpec::resolve(args.db.as_deref(), args.store.as_deref())?;
+    let db = &spec;
     match &args.command {
-        HistoryCommand::Add(a) => add(&db, a),
-        HistoryCommand::List(a) => list(&db, a),
-        HistoryCommand::Show(a) => show(&db, a),
-        HistoryCommand::Export(a) => export(&db, a),
-        HistoryCommand::Remove(a) => remove(&db, a),
+        HistoryCommand::Migrate(_) => unreachable!("handled above"),
+        HistoryCommand::Add(a) => add(db, a),
+        HistoryCommand::List(a) => list(db, a),
+        HistoryCommand::Show(a) => show(db, a),
+        HistoryCommand::Export(a) => export(db, a),
+        HistoryCommand::Remove(a) => remove(db, a),
         HistoryCommand::Trend(a) => {
-            let warn = trend(&db, a)?;
+            let warn = trend(db, a)?;
             if warn && a.fail_on_warning {
                 anyhow::bail!("an indicator is not ok (--fail-on-warning)");
             }
             Ok(())
         }
         HistoryCommand::Reference(a) => {
-            let mut store = open_store(&db)?;
-            store.set_reference(a.id).map_err(|e| store_err(e, &db))?;
+            let (db, name) = (args.db.as_deref(), args.store.as_deref());
+            let mut store = crate::store::open_store(db, name)?;
+            store
+                .set_reference(a.id)
+                .map_err(|e| anyhow::Error::new(e).context(crate::store::describe(db, name)))?;
             outln!("test {} is now the reference of its axis", a.id);
             Ok(())
         }
         HistoryCommand::Check => {
-            let store = open_store(&db)?;
+            let (store, version) = spec.open_versioned()?;
             store.check().map_err(|e| match e {
                 StoreError::Corrupt { .. } => anyhow::Error::new(CheckFailed(e)),
-                e => store_err(e, &db),
+                e => store_err(e, &spec),
             })?;
             outln!(
-                "{}: integrity ok, schema version {}",
-                db.display(),
-                store.schema_version()?
+                "{}: integrity ok, schema version {version}",
+                spec.describe()
             );
             Ok(())
         }
     }
+}
+
+/// What `history migrate` did.
+#[derive(Debug, Default, Serialize)]
+struct MigrateCounts {
+    /// Tests in the source.
+    tests: usize,
+    /// Copied into the target.
+    added: usize,
+    /// Already in the target (same axis, kind and trace content).
+    already_there: usize,
+}
+
+/// `history migrate`: every test of `--from` added to `--to` in the order of its ids, with
+/// the time it was first added; duplicates by content are counted, not copied.
+fn migrate(a: &MigrateArgs) -> Result<()> {
+    let from = StoreSpec::parse(&a.from);
+    let to = StoreSpec::parse(&a.to);
+    if from == to {
+        return Err(BadInput(format!(
+            "--from and --to are the same store ({}); nothing to copy",
+            from.describe()
+        ))
+        .into());
+    }
+    if let Some(p) = from.sqlite_path() {
+        // Opening would create an empty database there.
+        if !p.exists() {
+            return Err(BadInput(format!("--from {}: no such database file", p.display())).into());
+        }
+    }
+    let source = from.open().context("opening the source (--from)")?;
+    let mut target = to.open().context("opening the target (--to)")?;
+    let src_err = |e: StoreError| store_err(e, &from);
+    let mut rows = source.list(&Filter::default()).map_err(src_err)?;
+    rows.sort_by_key(|r| r.id);
+    let mut params: BTreeMap<(String, String), String> = BTreeMap::new();
+    let mut n = MigrateCounts {
+        tests: rows.len(),
+        ..MigrateCounts::default()
+    };
+    for r in &rows {
+        let d = source.get(r.id).map_err(src_err)?;
+        let key = (r.machine.clone(), r.axis.clone());
+        let axis_params_json = match params.get(&key) {
+            Some(p) => p.clone(),
+            None => {
+                let p = source
+                    .axis_params(&r.machine, &r.axis)
+                    .map_err(src_err)?
+                    .unwrap_or_else(|| "{}".into());
+                params.insert(key, p.clone());
+                p
+            }
+        };
+        let kind = match r.kind.as_str() {
+            "strokes" => TestKind::Strokes,
+            "triangle" => TestKind::Triangle,
+            other => {
+                return Err(src_err(StoreError::Corrupt {
+                    path: from.describe(),
+                    detail: format!("test {} has the unknown kind {other:?}", r.id),
+                }))
+            }
+        };
+        let t = NewTest {
+            machine: r.machine.clone(),
+            axis: r.axis.clone(),
+            axis_params_json,
+            time_utc: r.time_utc.clone(),
+            time_s: r.time_s,
+            kind,
+            source: r.source.clone(),
+            content_sha256: r.content_sha256.clone(),
+            program: r.program.clone(),
+            reference: r.reference,
+            compensation_ref: r.compensation_ref.clone(),
+            identified: d.identified,
+            intervals: d.intervals,
+            components: d.components,
+            indicators: d.indicators,
+            curves_json: source.curves(r.id).map_err(src_err)?,
+        };
+        match target
+            .add_copy(&t, &r.added_utc)
+            .map_err(|e| store_err(e, &to))
+            .with_context(|| format!("copying test {} of {}", r.id, from.describe()))?
+        {
+            AddOutcome::Added(_) => n.added += 1,
+            AddOutcome::Duplicate(_) => n.already_there += 1,
+        }
+    }
+    match a.format {
+        Format::Json => outln!("{}", serde_json::to_string_pretty(&n)?),
+        Format::Text => outln!(
+            "{} tests in {}: {} added to {}, {} already there",
+            n.tests,
+            from.describe(),
+            n.added,
+            to.describe(),
+            n.already_there
+        ),
+    }
+    Ok(())
 }

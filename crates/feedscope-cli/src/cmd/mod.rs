@@ -266,6 +266,23 @@ mod tests {
             2
         );
         assert_eq!(code(StoreError::Io(io(IoKind::PermissionDenied))), 1);
+        // PostgreSQL: another application's schema and an unusable URL are the user's
+        assert_eq!(
+            code(StoreError::ForeignSchema {
+                path: "postgres://u@h/db".into(),
+                schema: "public".into(),
+                tables: 3,
+                example: "invoices".into()
+            }),
+            2
+        );
+        assert_eq!(
+            code(StoreError::BadAddress {
+                path: "postgres://u@h/db".into(),
+                detail: "TLS is not supported yet".into()
+            }),
+            2
+        );
         let backend = |k| StoreError::Backend(BackendError::new(k, "engine says no"));
         assert_eq!(code(backend(BackendErrorKind::NotADatabase)), 2);
         assert_eq!(code(backend(BackendErrorKind::Other)), 1);

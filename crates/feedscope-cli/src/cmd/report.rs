@@ -3,10 +3,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 
-use super::history::{
-    axis_trends, db_path, load_thresholds, open_store, resolve_axis, DetectorArgs,
-};
+use super::history::{axis_trends, load_thresholds, resolve_axis, DetectorArgs};
 use crate::output::write_atomic;
+use crate::store::StoreSpec;
 
 /// Write the condition report of an axis: one self-contained HTML file.
 ///
@@ -18,12 +17,20 @@ use crate::output::write_atomic;
 /// curves of the triangle tests, a trend chart per indicator with baseline, ±3σ limits, EWMA
 /// and its limits, thresholds and projected crossings, and the tables behind them.
 ///
-/// Exit codes: 0 success; 2 bad input (no such database, axis or tests, bad thresholds file).
+/// The store is found as for `feedscope history`: --store SPEC (a postgres:// URL or an
+/// SQLite file), --db FILE, FEEDSCOPE_STORE, FEEDSCOPE_DB, feedscope.db.
+///
+/// Exit codes: 0 success; 1 the database server cannot be reached; 2 bad input (no such
+/// database, axis or tests, bad thresholds file or store URL).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Database file [env: FEEDSCOPE_DB] [default: feedscope.db].
     #[arg(long)]
     pub db: Option<PathBuf>,
+    /// Store: postgres://USER[:PASSWORD]@HOST[:PORT]/DB (PostgreSQL, no TLS) or an SQLite
+    /// file [env: FEEDSCOPE_STORE]; not with --db.
+    #[arg(long, value_name = "SPEC")]
+    pub store: Option<String>,
     /// Machine name.
     #[arg(long, default_value = "machine")]
     pub machine: String,
@@ -44,9 +51,9 @@ pub struct Args {
     pub output: PathBuf,
 }
 
-/// Write the report of `machine`/`axis` from the database at `db` to `out`.
+/// Write the report of `machine`/`axis` from the store `spec` to `out`.
 pub fn write_report(
-    db: &Path,
+    spec: &StoreSpec,
     machine: &str,
     axis: Option<&str>,
     baseline_tests: usize,
@@ -55,29 +62,35 @@ pub fn write_report(
     out: &Path,
 ) -> Result<()> {
     let thresholds = load_thresholds(thresholds)?;
-    if !db.exists() {
-        return Err(super::BadInput(format!("no database at {}", db.display())).into());
+    if let Some(db) = spec.sqlite_path() {
+        if !db.exists() {
+            return Err(super::BadInput(format!("no database at {}", db.display())).into());
+        }
     }
-    let store = open_store(db)?;
-    let axis = resolve_axis(&store, machine, axis)?;
-    let thresholds = super::history::with_axis_thresholds(&store, machine, &axis, thresholds)?;
+    let store = spec.open()?;
+    let axis = resolve_axis(&*store, machine, axis)?;
+    let thresholds = super::history::with_axis_thresholds(&*store, machine, &axis, thresholds)?;
     let t = axis_trends(
-        &store,
+        &*store,
         machine,
         &axis,
         baseline_tests,
         detectors,
         &thresholds,
     )?;
-    let html = crate::report::render(&store, &t, baseline_tests)?;
+    let html = crate::report::render(&*store, &t, baseline_tests)?;
     write_atomic(out, html.as_bytes())
 }
 
 /// Where the database was looked for, in words, when the file is not there: the flag, the
 /// environment variable, or the default name in the current folder, and how to make one.
-fn no_database(flag: Option<&Path>, db: &Path) -> super::BadInput {
+fn no_database(flag: Option<&Path>, store_flag: bool, db: &Path) -> super::BadInput {
     let looked = if flag.is_some() {
         format!("{} (--db)", db.display())
+    } else if store_flag {
+        format!("{} (--store)", db.display())
+    } else if std::env::var_os(crate::store::STORE_VAR).is_some_and(|v| !v.is_empty()) {
+        format!("{} (from FEEDSCOPE_STORE)", db.display())
     } else if std::env::var_os("FEEDSCOPE_DB").is_some() {
         format!("{} (from FEEDSCOPE_DB)", db.display())
     } else {
@@ -97,12 +110,14 @@ fn no_database(flag: Option<&Path>, db: &Path) -> super::BadInput {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let db = db_path(args.db.as_deref());
-    if !db.exists() {
-        return Err(no_database(args.db.as_deref(), &db).into());
+    let spec = StoreSpec::resolve(args.db.as_deref(), args.store.as_deref())?;
+    if let Some(db) = spec.sqlite_path() {
+        if !db.exists() {
+            return Err(no_database(args.db.as_deref(), args.store.is_some(), db).into());
+        }
     }
     write_report(
-        &db,
+        &spec,
         &args.machine,
         args.axis_name.as_deref(),
         args.baseline_tests,

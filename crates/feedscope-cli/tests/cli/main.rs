@@ -14,6 +14,7 @@ mod malformed;
 mod map;
 mod parquet;
 mod plan;
+mod postgres;
 mod program;
 mod real;
 mod report;
