@@ -1,0 +1,145 @@
+#!/usr/bin/env python3
+"""A real OPC UA server (PyPI `asyncua`) that publishes a feedscope trace as a control would.
+
+Used by crates/feedscope-live/tests/opcua.rs (run them with scripts/opcua-tests.sh).
+
+It listens on opc.tcp://127.0.0.1:PORT/feedscope/ with security None and anonymous access,
+and offers, in namespace `urn:feedscope:opcua-test` (index 2):
+
+    ns=2;s=X.ActPos       axis actual position (Double, mm)
+    ns=2;s=X.ActTorque    motor torque (Double, N·m)          (torque traces)
+    ns=2;s=X.ActCurrent   motor current (Double, A)           (current traces)
+    ns=2;s=X.ActLoad      drive load (Double, % of --rated-torque-nm)
+    ns=2;s=Channel.ProgName  the program name (String)
+
+Each variable starts with status BadWaitingForInitialData. Every row of the trace is then
+written at its own time, wall clock = EPOCH + time_s / SPEED, with SourceTimestamp =
+EPOCH + time_s (the trace's time, not sped up) and ServerTimestamp = the wall clock.
+
+Stopping and restarting: kill the process and start it again with the same --port and
+--epoch; it skips the rows whose time has passed and carries on, as a control would after a
+server restart. After the last row it keeps serving until killed.
+
+On stdout, once listening:  `listening PORT epoch EPOCH rows N`
+The trace: feedscope's long layout (time_s,channel,value) or wide layout
+(time_s,position_mm,torque_nm|current_a).
+"""
+
+import argparse
+import asyncio
+import csv
+import datetime
+import socket
+import sys
+import time
+
+from asyncua import Server, ua
+
+CHANNEL_NODES = {
+    "position_mm": "X.ActPos",
+    "torque_nm": "X.ActTorque",
+    "current_a": "X.ActCurrent",
+}
+
+
+def read_trace(path):
+    """Rows (time_s, channel, value), sorted by time."""
+    rows = []
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        cols = reader.fieldnames or []
+        long_layout = cols[:3] == ["time_s", "channel", "value"]
+        for rec in reader:
+            t = float(rec["time_s"])
+            if long_layout:
+                rows.append((t, rec["channel"], float(rec["value"])))
+            else:
+                for c in cols[1:]:
+                    if rec[c] != "":
+                        rows.append((t, c, float(rec[c])))
+    for _, c, _ in rows:
+        if c not in CHANNEL_NODES:
+            sys.exit(f"{path}: channel {c!r} is not one of {sorted(CHANNEL_NODES)}")
+    rows.sort(key=lambda r: r[0])
+    return rows
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def stamp(t):
+    return datetime.datetime.fromtimestamp(t, datetime.timezone.utc)
+
+
+async def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--csv", required=True, help="the trace (feedscope simulate's trace.csv)")
+    p.add_argument("--port", type=int, default=0, help="TCP port; 0 picks a free one")
+    p.add_argument("--epoch", type=float, default=None,
+                   help="control time (s since the Unix epoch) of trace time 0; default now + 1 s")
+    p.add_argument("--speed", type=float, default=1.0, help="replay speed factor")
+    p.add_argument("--rated-torque-nm", type=float, default=5.0,
+                   help="torque of 100 %% load, for X.ActLoad")
+    p.add_argument("--program", default="IDLE_STROKE.MPF", help="program name written at trace time 0")
+    a = p.parse_args()
+
+    rows = read_trace(a.csv)
+    port = a.port or free_port()
+    epoch = a.epoch if a.epoch is not None else time.time() + 1.0
+
+    server = Server()
+    await server.init()
+    server.set_endpoint(f"opc.tcp://127.0.0.1:{port}/feedscope/")
+    server.set_server_name("feedscope OPC UA test server")
+    server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
+    idx = await server.register_namespace("urn:feedscope:opcua-test")
+    objects = server.nodes.objects
+    axis = await objects.add_object(ua.NodeId("X", idx), ua.QualifiedName("X", idx))
+    channel = await objects.add_object(ua.NodeId("Channel", idx), ua.QualifiedName("Channel", idx))
+    nodes = {}
+    for name in ["X.ActPos", "X.ActTorque", "X.ActCurrent", "X.ActLoad"]:
+        nodes[name] = await axis.add_variable(
+            ua.NodeId(name, idx), ua.QualifiedName(name.split(".")[1], idx),
+            ua.Variant(0.0, ua.VariantType.Double))
+    nodes["Channel.ProgName"] = await channel.add_variable(
+        ua.NodeId("Channel.ProgName", idx), ua.QualifiedName("ProgName", idx),
+        ua.Variant("", ua.VariantType.String))
+
+    async with server:
+        now = time.time()
+        for node in nodes.values():
+            await server.write_attribute_value(node.nodeid, ua.DataValue(
+                StatusCode=ua.StatusCode(ua.StatusCodes.BadWaitingForInitialData),
+                SourceTimestamp=stamp(now), ServerTimestamp=stamp(now)))
+        print(f"listening {port} epoch {epoch:.6f} rows {len(rows)}", flush=True)
+
+        async def write(name, value, t, vtype):
+            wall = time.time()
+            await server.write_attribute_value(nodes[name].nodeid, ua.DataValue(
+                Value=ua.Variant(value, vtype), SourceTimestamp=stamp(t), ServerTimestamp=stamp(wall)))
+
+        program_written = False
+        for t, c, v in rows:
+            due = epoch + t / a.speed
+            if due < time.time():
+                continue  # passed while this server was down: lost, as on a real control
+            await asyncio.sleep(max(0.0, due - time.time()))
+            if not program_written:
+                await write("Channel.ProgName", a.program, epoch + t, ua.VariantType.String)
+                program_written = True
+            await write(CHANNEL_NODES[c], v, epoch + t, ua.VariantType.Double)
+            if c == "torque_nm":
+                await write("X.ActLoad", v / a.rated_torque_nm * 100.0, epoch + t, ua.VariantType.Double)
+        print("trace done", flush=True)
+        while True:
+            await asyncio.sleep(3600)
+
+
+if __name__ == "__main__":
+    try:
+        asyncio.run(main())
+    except KeyboardInterrupt:
+        pass
