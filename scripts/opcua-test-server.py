@@ -17,7 +17,7 @@ written at its own time, wall clock = EPOCH + time_s / SPEED, with SourceTimesta
 EPOCH + time_s (the trace's time, not sped up) and ServerTimestamp = the wall clock.
 
 Stopping and restarting: kill the process and start it again with the same --port and
---epoch; it skips the rows whose time has passed and carries on, as a control would after a
+--epoch (and --repeat); it skips the rows whose time has passed and carries on, as a control would after a
 server restart. After the last row it keeps serving until killed.
 
 On stdout, once listening:  `listening PORT epoch EPOCH rows N`
@@ -79,16 +79,23 @@ async def main():
     p.add_argument("--csv", required=True, help="the trace (feedscope simulate's trace.csv)")
     p.add_argument("--port", type=int, default=0, help="TCP port; 0 picks a free one")
     p.add_argument("--epoch", type=float, default=None,
-                   help="control time (s since the Unix epoch) of trace time 0; default now + 1 s")
+                   help="control time (s since the Unix epoch) of trace time 0; default 1 s after listening")
     p.add_argument("--speed", type=float, default=1.0, help="replay speed factor")
     p.add_argument("--rated-torque-nm", type=float, default=5.0,
                    help="torque of 100 %% load, for X.ActLoad")
+    p.add_argument("--repeat", type=int, default=1,
+                   help="publish the trace this many times back to back (a longer run for restarts)")
     p.add_argument("--program", default="IDLE_STROKE.MPF", help="program name written at trace time 0")
     a = p.parse_args()
 
     rows = read_trace(a.csv)
+    # Back to back: each repetition starts one sample interval (of the first channel) after
+    # the previous one ended.
+    first = sorted(t for t, c, _ in rows if c == rows[0][1])
+    step = first[1] - first[0] if len(first) > 1 else 1.0
+    period = max(r[0] for r in rows) - rows[0][0] + step
+    rows = [(t + k * period, c, v) for k in range(a.repeat) for t, c, v in rows]
     port = a.port or free_port()
-    epoch = a.epoch if a.epoch is not None else time.time() + 1.0
 
     server = Server()
     await server.init()
@@ -114,6 +121,7 @@ async def main():
             await server.write_attribute_value(node.nodeid, ua.DataValue(
                 StatusCode=ua.StatusCode(ua.StatusCodes.BadWaitingForInitialData),
                 SourceTimestamp=stamp(now), ServerTimestamp=stamp(now)))
+        epoch = a.epoch if a.epoch is not None else round(time.time() + 1.0, 6)
         print(f"listening {port} epoch {epoch:.6f} rows {len(rows)}", flush=True)
 
         async def write(name, value, t, vtype):

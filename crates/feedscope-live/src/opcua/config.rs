@@ -576,7 +576,8 @@ torque_per_load_nm = 0.05
             field_of(&MINIMAL.replace("torque_per_load_nm = 0.05", "")),
             "effort.torque_per_load_nm"
         );
-        assert_eq!(field_of(&format!("{MINIMAL}\nfoo = 1\n")), "foo");
+        assert_eq!(field_of(&format!("foo = 1\n{MINIMAL}")), "foo");
+        assert_eq!(field_of(&format!("{MINIMAL}foo = 1\n")), "effort.foo");
         assert_eq!(
             field_of(&MINIMAL.replace("[position]", "[position]\nnodes = \"x\"")),
             "position.nodes"

@@ -372,17 +372,46 @@ async fn run(
         detail,
     };
     let conn = &config.connection;
-    let mut builder = ClientBuilder::new()
-        .application_name("feedscope")
-        .application_uri("urn:feedscope:client")
-        .product_uri("urn:feedscope")
-        .pki_dir(conn.pki_dir.clone())
-        .session_retry_limit(-1)
-        .session_retry_initial(Duration::from_millis(conn.retry_initial_ms))
-        .session_retry_max(Duration::from_millis(conn.retry_max_ms))
-        .min_publish_interval(Duration::from_millis(
-            (config.subscription.publishing_interval_ms as u64).clamp(1, 100),
-        ));
+    // Two clients: one that never retries, for GetEndpoints (the first connection's attempts
+    // are counted here), and the session's, which reconnects for as long as the source lives.
+    // async-opcua takes both the channel's and the session's retries from one setting.
+    let make = |retry_limit: i32| {
+        let mut b = ClientBuilder::new()
+            .application_name("feedscope")
+            .application_uri("urn:feedscope:client")
+            .product_uri("urn:feedscope")
+            .pki_dir(conn.pki_dir.clone())
+            .session_retry_limit(retry_limit)
+            .session_retry_initial(Duration::from_millis(conn.retry_initial_ms))
+            .session_retry_max(Duration::from_millis(conn.retry_max_ms))
+            .min_publish_interval(Duration::from_millis(
+                (config.subscription.publishing_interval_ms as u64).clamp(1, 100),
+            ));
+        if let Security::Secure {
+            certificate,
+            private_key,
+            trust_server_certificate,
+            ..
+        } = &config.security
+        {
+            b = b
+                .certificate_path(certificate.clone())
+                .private_key_path(private_key.clone())
+                .trust_server_certs(*trust_server_certificate);
+        }
+        b.client().map_err(|errs| LiveError::Config {
+            file: config.origin.clone(),
+            field: "server".into(),
+            reason: format!("the OPC UA client refuses its setup: {}", errs.join("; ")),
+        })
+    };
+    let (discovery, client) = match (make(0), make(-1)) {
+        (Ok(d), Ok(c)) => (d, c),
+        (Err(e), _) | (_, Err(e)) => {
+            let _ = tx.send(Msg::Error(e));
+            return;
+        }
+    };
     let (policy_uri, mode) = match &config.security {
         Security::None => (
             "http://opcfoundation.org/UA/SecurityPolicy#None".to_string(),
@@ -391,14 +420,8 @@ async fn run(
         Security::Secure {
             encrypt,
             policy_uri,
-            certificate,
-            private_key,
-            trust_server_certificate,
+            ..
         } => {
-            builder = builder
-                .certificate_path(certificate.clone())
-                .private_key_path(private_key.clone())
-                .trust_server_certs(*trust_server_certificate);
             let mode = if *encrypt {
                 MessageSecurityMode::SignAndEncrypt
             } else {
@@ -407,36 +430,21 @@ async fn run(
             (policy_uri.clone(), mode)
         }
     };
-    let mut client = match builder.client() {
-        Ok(c) => c,
-        Err(errs) => {
-            let _ = tx.send(Msg::Error(LiveError::Config {
-                file: config.origin.clone(),
-                field: "server".into(),
-                reason: format!("the OPC UA client refuses its setup: {}", errs.join("; ")),
-            }));
-            return;
-        }
-    };
     let identity = match &config.user {
         Some((u, p)) => IdentityToken::UserName(u.clone(), Password(p.clone())),
         None => IdentityToken::Anonymous,
     };
 
-    // First connection: GetEndpoints, then a session, each attempt up to `attempts` times
-    // with the same doubling wait the event loop uses later.
+    // First contact: GetEndpoints up to `attempts` times, waiting as the session will later.
     let mut wait = Duration::from_millis(conn.retry_initial_ms);
     let mut attempt = 0;
-    let (session, event_loop) = loop {
+    let endpoints = loop {
         attempt += 1;
-        let r = client
-            .connect_to_matching_endpoint(
-                (config.endpoint.as_str(), policy_uri.as_str(), mode),
-                identity.clone(),
-            )
-            .await;
-        match r {
-            Ok(s) => break s,
+        match discovery
+            .get_server_endpoints_from_url(config.endpoint.as_str())
+            .await
+        {
+            Ok(e) => break e,
             Err(e) if attempt >= conn.attempts => {
                 let _ = tx.send(Msg::Error(connect_err(format!(
                     "{e} (after {attempt} attempts)"
@@ -447,6 +455,24 @@ async fn run(
                 tokio::time::sleep(wait).await;
                 wait = (wait * 2).min(Duration::from_millis(conn.retry_max_ms));
             }
+        }
+    };
+    drop(discovery);
+    let built = client
+        .session_builder()
+        .with_endpoints(endpoints)
+        .connect_to_matching_endpoint((config.endpoint.as_str(), policy_uri.as_str(), mode))
+        .map(|b| {
+            b.user_identity_token(identity)
+                .build(client.certificate_store().clone())
+        });
+    let (session, event_loop) = match built {
+        Ok(Ok(s)) => s,
+        Ok(Err(e)) | Err(e) => {
+            let _ = tx.send(Msg::Error(connect_err(format!(
+                "no endpoint with security policy {policy_uri} and mode {mode:?}: {e}"
+            ))));
+            return;
         }
     };
 
