@@ -33,6 +33,9 @@ import socket
 import sys
 import time
 
+import logging
+import os
+
 from asyncua import Server, ua
 
 CHANNEL_NODES = {
@@ -75,6 +78,8 @@ def stamp(t):
 
 
 async def main():
+    if os.environ.get("OPCUA_TEST_SERVER_DEBUG"):
+        logging.basicConfig(level=logging.INFO)
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--csv", required=True, help="the trace (feedscope simulate's trace.csv)")
     p.add_argument("--port", type=int, default=0, help="TCP port; 0 picks a free one")

@@ -48,7 +48,11 @@ fn read_trace() -> Vec<(f64, String, f64)> {
         .skip(1)
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
-            (f[0].parse().unwrap(), f[1].to_string(), f[2].parse().unwrap())
+            (
+                f[0].parse().unwrap(),
+                f[1].to_string(),
+                f[2].parse().unwrap(),
+            )
         })
         .collect()
 }
@@ -83,7 +87,9 @@ impl Server {
             .arg("--repeat")
             .arg(repeat.to_string())
             .stdout(Stdio::piped())
-            .stderr(Stdio::null());
+            .stderr(
+                std::fs::File::create(format!("/tmp/srv-{port}-{}.log", now_unix_s())).unwrap(),
+            );
         if let Some(e) = epoch {
             cmd.arg("--epoch").arg(format!("{e:.6}"));
         }
@@ -227,8 +233,8 @@ const TORQUE_Q: Quantity = Quantity::Effort(EffortKind::TorqueNm);
 fn samples_equal_the_published_trace() {
     let server = Server::start(0, None, 1);
     let dir = tempfile::tempdir().unwrap();
-    let config = OpcUaConfig::from_file(&write_config(dir.path(), &server.endpoint(), LOAD, ""))
-        .unwrap();
+    let config =
+        OpcUaConfig::from_file(&write_config(dir.path(), &server.endpoint(), LOAD, "")).unwrap();
     let mut source = OpcUaSource::connect(config).unwrap();
     assert!(source.describe().contains(&server.endpoint()));
     let last_s = server.epoch + TRACE_END_S - TIME_TOL_S;
@@ -246,7 +252,10 @@ fn samples_equal_the_published_trace() {
     });
 
     let trace = read_trace();
-    for (channel, q, to_si) in [("position_mm", Quantity::Position, 1e-3), ("torque_nm", TORQUE_Q, 1.0)] {
+    for (channel, q, to_si) in [
+        ("position_mm", Quantity::Position, 1e-3),
+        ("torque_nm", TORQUE_Q, 1.0),
+    ] {
         let want: Vec<(f64, f64)> = trace
             .iter()
             .filter(|(_, c, _)| c == channel)
@@ -255,18 +264,30 @@ fn samples_equal_the_published_trace() {
         let got = samples(&events, q);
         assert_eq!(got.len(), want.len(), "{channel}: sample count");
         for (i, (g, w)) in got.iter().zip(&want).enumerate() {
-            assert!((g.0 - w.0).abs() <= TIME_TOL_S, "{channel}[{i}]: time {} vs {}", g.0, w.0);
+            assert!(
+                (g.0 - w.0).abs() <= TIME_TOL_S,
+                "{channel}[{i}]: time {} vs {}",
+                g.0,
+                w.0
+            );
             // Position: one multiplication by 1e-3 in each; torque: load % = T / 5 × 100 on
             // the server, × 0.05 here, a few roundings of a value below 10 N·m.
             let tol = 4.0 * f64::EPSILON * w.1.abs().max(1e-3);
-            assert!((g.1 - w.1).abs() <= tol, "{channel}[{i}]: value {} vs {}", g.1, w.1);
+            assert!(
+                (g.1 - w.1).abs() <= tol,
+                "{channel}[{i}]: value {} vs {}",
+                g.1,
+                w.1
+            );
         }
     }
     // Each variable starts BadWaitingForInitialData: reported as unavailable, not as a sample.
     assert!(events.iter().any(|r| matches!(
         r.event,
         Event::Gap {
-            reason: GapReason::Unavailable { quantity: Quantity::Position },
+            reason: GapReason::Unavailable {
+                quantity: Quantity::Position
+            },
             ..
         }
     )));
@@ -277,8 +298,13 @@ fn samples_equal_the_published_trace() {
     )));
 
     // (e) the trace is sampled every 100 ms on each channel.
-    let interval = source.sample_interval_s().expect("an interval once samples came");
-    assert!((interval - 0.1).abs() <= 2.0 * TIME_TOL_S, "sample_interval_s = {interval}");
+    let interval = source
+        .sample_interval_s()
+        .expect("an interval once samples came");
+    assert!(
+        (interval - 0.1).abs() <= 2.0 * TIME_TOL_S,
+        "sample_interval_s = {interval}"
+    );
 
     // The server writes each value at wall time = its SourceTimestamp (speed 1, same clock),
     // so arrival − time_s is the delay from the server's value change to the event.
@@ -314,7 +340,10 @@ fn unknown_node_is_a_clear_error() {
             let msg = e.to_string();
             assert!(msg.contains("effort.node ns=2;s=X.NoSuchNode"), "{msg}");
             assert!(msg.contains("BadNodeIdUnknown"), "{msg}");
-            assert!(!msg.contains("X.ActPos"), "only the bad node is named: {msg}");
+            assert!(
+                !msg.contains("X.ActPos"),
+                "only the bad node is named: {msg}"
+            );
         }
         Err(e) => panic!("expected a protocol error, got {e}"),
         Ok(_) => panic!("expected an error for an unknown node"),
@@ -333,9 +362,11 @@ fn reconnects_after_a_server_restart() {
         OpcUaConfig::from_file(&write_config(dir.path(), &server.endpoint(), TORQUE, "")).unwrap();
     let mut source = OpcUaSource::connect(config).unwrap();
     // Until 1.5 s into the trace.
-    let before = collect(&mut source, Duration::from_secs(30), |e| {
-        matches!(e, Event::Sample { quantity: Quantity::Position, time_s, .. } if *time_s >= epoch + 1.5 - TIME_TOL_S)
-    });
+    let before = collect(
+        &mut source,
+        Duration::from_secs(30),
+        |e| matches!(e, Event::Sample { quantity: Quantity::Position, time_s, .. } if *time_s >= epoch + 1.5 - TIME_TOL_S),
+    );
     server.kill();
     let killed_s = now_unix_s();
     std::thread::sleep(Duration::from_millis(500));
@@ -408,7 +439,10 @@ fn unreachable_endpoint_is_a_connect_error() {
         .replace("retry_initial_ms = 200", "retry_initial_ms = 50");
     std::fs::write(&path, text).unwrap();
     match OpcUaSource::connect(OpcUaConfig::from_file(&path).unwrap()) {
-        Err(LiveError::Connect { endpoint: e, detail }) => {
+        Err(LiveError::Connect {
+            endpoint: e,
+            detail,
+        }) => {
             assert_eq!(e, endpoint);
             assert!(detail.contains("2 attempts"), "{detail}");
         }
@@ -429,11 +463,31 @@ fn bad_config_files_name_the_field() {
     ))
     .unwrap();
     let cases = [
-        ("missing-field.toml", good.replace("unit = \"mm\"\n", ""), "position.unit"),
-        ("unknown-key.toml", good.replace("[program]\n", "[program]\nnodeid = \"x\"\n"), "program.nodeid"),
-        ("bad-unit.toml", good.replace("unit = \"Nm\"", "unit = \"kW\""), "effort.unit"),
-        ("bad-node-type.toml", good.replace("queue_size = 20", "queue_size = \"20\""), "subscription.queue_size"),
-        ("no-table.toml", good.replace("[effort]\n", "[effrot]\n"), "effort"),
+        (
+            "missing-field.toml",
+            good.replace("unit = \"mm\"\n", ""),
+            "position.unit",
+        ),
+        (
+            "unknown-key.toml",
+            good.replace("[program]\n", "[program]\nnodeid = \"x\"\n"),
+            "program.nodeid",
+        ),
+        (
+            "bad-unit.toml",
+            good.replace("unit = \"Nm\"", "unit = \"kW\""),
+            "effort.unit",
+        ),
+        (
+            "bad-node-type.toml",
+            good.replace("queue_size = 20", "queue_size = \"20\""),
+            "subscription.queue_size",
+        ),
+        (
+            "no-table.toml",
+            good.replace("[effort]\n", "[effrot]\n"),
+            "effort",
+        ),
     ];
     for (name, text, field) in cases {
         let path = dir.path().join(name);
@@ -441,7 +495,9 @@ fn bad_config_files_name_the_field() {
         assert_ne!(text, good, "{name}: the edit applied");
         match OpcUaConfig::from_file(&path) {
             Err(e @ LiveError::Config { .. }) => {
-                let LiveError::Config { file, field: f, .. } = &e else { unreachable!() };
+                let LiveError::Config { file, field: f, .. } = &e else {
+                    unreachable!()
+                };
                 assert_eq!(f, field, "{name}: {e}");
                 assert_eq!(file, &path.display().to_string(), "{name}: {e}");
             }

@@ -225,7 +225,9 @@ impl OpcUaConfig {
         let policy = server.opt_string("security_policy")?;
         let certificate = server.opt_string("certificate")?;
         let private_key = server.opt_string("private_key")?;
-        let trust = server.opt_bool("trust_server_certificate")?.unwrap_or(false);
+        let trust = server
+            .opt_bool("trust_server_certificate")?
+            .unwrap_or(false);
         let security = match mode.as_str() {
             "none" => {
                 if let Some(p) = policy.as_deref().filter(|p| *p != "None") {
@@ -349,7 +351,9 @@ impl OpcUaConfig {
                 &format!("{publishing_interval_ms} is not >= 1 ms"),
             ));
         }
-        let queue_size = sub.opt_u64("queue_size", 1, u64::from(u32::MAX))?.unwrap_or(10) as u32;
+        let queue_size = sub
+            .opt_u64("queue_size", 1, u64::from(u32::MAX))?
+            .unwrap_or(10) as u32;
         let trigger = match sub.opt_string("trigger")?.as_deref() {
             None | Some("status_value") => Trigger::StatusValue,
             Some("status_value_timestamp") => Trigger::StatusValueTimestamp,
@@ -368,7 +372,9 @@ impl OpcUaConfig {
             .opt_table("connection")?
             .unwrap_or_else(|| Fields::new(origin, "connection", Table::new()));
         let attempts = conn.opt_u64("attempts", 1, 1000)?.unwrap_or(3) as u32;
-        let retry_initial_ms = conn.opt_u64("retry_initial_ms", 1, 3_600_000)?.unwrap_or(500);
+        let retry_initial_ms = conn
+            .opt_u64("retry_initial_ms", 1, 3_600_000)?
+            .unwrap_or(500);
         let retry_max_ms = conn
             .opt_u64("retry_max_ms", retry_initial_ms, 3_600_000)?
             .unwrap_or(10_000.max(retry_initial_ms));
@@ -571,7 +577,10 @@ torque_per_load_nm = 0.05
 
     #[test]
     fn errors_name_the_field() {
-        assert_eq!(field_of(&MINIMAL.replace("unit = \"mm\"", "unit = \"inch\"")), "position.unit");
+        assert_eq!(
+            field_of(&MINIMAL.replace("unit = \"mm\"", "unit = \"inch\"")),
+            "position.unit"
+        );
         assert_eq!(
             field_of(&MINIMAL.replace("torque_per_load_nm = 0.05", "")),
             "effort.torque_per_load_nm"
@@ -587,7 +596,9 @@ torque_per_load_nm = 0.05
             "server.endpoint"
         );
         assert_eq!(
-            field_of(&format!("{MINIMAL}[subscription]\nsampling_interval_ms = 0.5\n")),
+            field_of(&format!(
+                "{MINIMAL}[subscription]\nsampling_interval_ms = 0.5\n"
+            )),
             "subscription.sampling_interval_ms"
         );
         assert_eq!(

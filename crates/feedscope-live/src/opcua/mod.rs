@@ -38,12 +38,12 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use futures_core::Stream;
 use opcua::client::{
     ClientBuilder, DataChangeCallback, IdentityToken, MonitoredItem, Password, Session,
-    SessionPollResult,
+    SessionConnectMode, SessionPollResult,
 };
 use opcua::types::{
-    DataChangeFilter, DataChangeTrigger, DataValue, DateTime, ExtensionObject,
-    MessageSecurityMode, MonitoredItemCreateRequest, MonitoringMode, MonitoringParameters, NodeId,
-    ReadValueId, StatusCode, TimestampsToReturn, Variant,
+    DataChangeFilter, DataChangeTrigger, DataValue, DateTime, ExtensionObject, MessageSecurityMode,
+    MonitoredItemCreateRequest, MonitoringMode, MonitoringParameters, NodeId, ReadValueId,
+    StatusCode, TimestampsToReturn, Variant,
 };
 
 pub use config::{
@@ -62,7 +62,9 @@ const INTERVAL_WINDOW: usize = 64;
 /// What the client thread sends to [`OpcUaSource`].
 enum Msg {
     /// Subscription made; the server's revised sampling interval of the position item (ms).
-    Ready { revised_sampling_ms: f64 },
+    Ready {
+        revised_sampling_ms: f64,
+    },
     Event(Event),
     Error(LiveError),
 }
@@ -295,7 +297,11 @@ impl Converter {
         let (node, quantity, scale) = match channel {
             Channel::Position => (&self.position.0, Quantity::Position, self.position.1),
             Channel::Effort => (&self.effort.0, self.effort.2, self.effort.1),
-            Channel::Program => (self.program.as_ref().expect("program item"), Quantity::Position, 1.0),
+            Channel::Program => (
+                self.program.as_ref().expect("program item"),
+                Quantity::Position,
+                1.0,
+            ),
         };
         let status = dv.status.unwrap_or(StatusCode::Good);
         if status.is_bad() {
@@ -480,6 +486,7 @@ async fn run(
     let (state_tx, mut state_rx) = tokio::sync::watch::channel(LinkState::Connecting);
     let drive = tokio::spawn(drive_session(
         event_loop.enter(),
+        session.clone(),
         tx.clone(),
         state_tx,
         conn.attempts,
@@ -554,6 +561,7 @@ enum LinkState {
 /// reconnects; connection losses become [`GapReason::Reconnected`] once made good again.
 async fn drive_session(
     stream: impl Stream<Item = Result<SessionPollResult, StatusCode>>,
+    session: Arc<Session>,
     tx: mpsc::Sender<Msg>,
     state: tokio::sync::watch::Sender<LinkState>,
     first_attempts: u32,
@@ -570,13 +578,25 @@ async fn drive_session(
                 if !connected_once {
                     connected_once = true;
                     let _ = state.send(LinkState::Connected);
-                } else if let Some(code) = lost.take() {
+                } else {
+                    // async-opcua 0.19 recreates the subscriptions while it reconnects, but its
+                    // new publish loop starts idle and only wakes on a trigger made after it
+                    // was built, so without this nothing is published on the new session.
+                    session.trigger_publish_now();
+                }
+                if let Some(code) = lost.take() {
                     let _ = tx.send(Msg::Event(Event::Gap {
                         time_s: *last_event_s.lock().expect("not poisoned"),
                         reason: GapReason::Reconnected {
                             detail: format!(
                                 "connection lost ({code}); reconnected after {failures} failed \
-                                 attempts ({mode:?})"
+                                 attempts, {}",
+                                match mode {
+                                    SessionConnectMode::NewSession(_) =>
+                                        "new session, subscription made again",
+                                    SessionConnectMode::ReactivatedSession(_) =>
+                                        "session reactivated",
+                                }
                             ),
                         },
                     }));
@@ -649,7 +669,11 @@ async fn subscribe(
         Trigger::StatusValueTimestamp => DataChangeTrigger::StatusValueTimestamp,
     };
     let mut channels = vec![
-        (Channel::Position, "position.node", config.position.node.as_str()),
+        (
+            Channel::Position,
+            "position.node",
+            config.position.node.as_str(),
+        ),
         (Channel::Effort, "effort.node", config.effort.node.as_str()),
     ];
     if let Some(p) = &config.program_node {
