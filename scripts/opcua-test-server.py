@@ -20,6 +20,8 @@ Stopping and restarting: kill the process and start it again with the same --por
 --epoch (and --repeat); it skips the rows whose time has passed and carries on, as a control would after a
 server restart. After the last row it keeps serving until killed.
 
+With FEEDSCOPE_TEST_SERVER_LOG set, asyncua logs at INFO level to stderr.
+
 On stdout, once listening:  `listening PORT epoch EPOCH rows N`
 The trace: feedscope's long layout (time_s,channel,value) or wide layout
 (time_s,position_mm,torque_nm|current_a).
@@ -78,7 +80,7 @@ def stamp(t):
 
 
 async def main():
-    if os.environ.get("OPCUA_TEST_SERVER_DEBUG"):
+    if os.environ.get("FEEDSCOPE_TEST_SERVER_LOG"):
         logging.basicConfig(level=logging.INFO)
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--csv", required=True, help="the trace (feedscope simulate's trace.csv)")

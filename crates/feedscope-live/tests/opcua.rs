@@ -87,9 +87,12 @@ impl Server {
             .arg("--repeat")
             .arg(repeat.to_string())
             .stdout(Stdio::piped())
-            .stderr(
-                std::fs::File::create(format!("/tmp/srv-{port}-{}.log", now_unix_s())).unwrap(),
-            );
+            .stderr(Stdio::null());
+        // FEEDSCOPE_TEST_SERVER_LOG=DIR: the server logs at INFO level to a file there.
+        if let Some(dir) = std::env::var_os("FEEDSCOPE_TEST_SERVER_LOG") {
+            let log = Path::new(&dir).join(format!("opcua-server-{}.log", now_unix_s()));
+            cmd.stderr(std::fs::File::create(log).expect("create the server log"));
+        }
         if let Some(e) = epoch {
             cmd.arg("--epoch").arg(format!("{e:.6}"));
         }
