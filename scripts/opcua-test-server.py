@@ -92,6 +92,9 @@ async def main():
                    help="torque of 100 %% load, for X.ActLoad")
     p.add_argument("--repeat", type=int, default=1,
                    help="publish the trace this many times back to back (a longer run for restarts)")
+    p.add_argument("--secure", metavar="DIR", default=None,
+                   help="offer only Basic256Sha256 SignAndEncrypt; write the server's and a client's "
+                        "key (PEM) and certificate (DER) to DIR (client-key.pem, client-cert.der)")
     p.add_argument("--program", default="IDLE_STROKE.MPF", help="program name written at trace time 0")
     a = p.parse_args()
 
@@ -108,7 +111,28 @@ async def main():
     await server.init()
     server.set_endpoint(f"opc.tcp://127.0.0.1:{port}/feedscope/")
     server.set_server_name("feedscope OPC UA test server")
-    server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
+    if a.secure:
+        from pathlib import Path
+        from cryptography.x509.oid import ExtendedKeyUsageOID
+        from asyncua.crypto.cert_gen import setup_self_signed_certificate
+        d = Path(a.secure)
+        d.mkdir(parents=True, exist_ok=True)
+        subject = {"organizationName": "feedscope tests"}
+        # Host name 127.0.0.1, the endpoint's: async-opcua checks it against the certificate.
+        await setup_self_signed_certificate(
+            d / "server-key.pem", d / "server-cert.der", "urn:feedscope:opcua-test-server",
+            "127.0.0.1", [ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH], subject)
+        # The client's: the application URI async-opcua's client announces (urn:feedscope:client).
+        await setup_self_signed_certificate(
+            d / "client-key.pem", d / "client-cert.der", "urn:feedscope:client",
+            "localhost", [ExtendedKeyUsageOID.CLIENT_AUTH], subject)
+        # The certificate's URI must be the server's application URI (checked by the client).
+        await server.set_application_uri("urn:feedscope:opcua-test-server")
+        await server.load_certificate(str(d / "server-cert.der"))
+        await server.load_private_key(str(d / "server-key.pem"))
+        server.set_security_policy([ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt])
+    else:
+        server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
     idx = await server.register_namespace("urn:feedscope:opcua-test")
     objects = server.nodes.objects
     axis = await objects.add_object(ua.NodeId("X", idx), ua.QualifiedName("X", idx))

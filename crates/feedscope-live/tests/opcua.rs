@@ -75,6 +75,12 @@ impl Server {
     /// Starts the server (port 0: a free one) publishing the trace `repeat` times back to
     /// back, and waits until it listens.
     fn start(port: u16, epoch: Option<f64>, repeat: u32) -> Server {
+        Self::start_with(port, epoch, repeat, None)
+    }
+
+    /// As [`Server::start`]; with `secure`, only Basic256Sha256 SignAndEncrypt, and the
+    /// server's and a client's keys and certificates are written to that directory.
+    fn start_with(port: u16, epoch: Option<f64>, repeat: u32, secure: Option<&Path>) -> Server {
         let python = std::env::var("FEEDSCOPE_TEST_PYTHON").unwrap_or_else(|_| {
             panic!("FEEDSCOPE_TEST_PYTHON is not set: run scripts/opcua-tests.sh ({NEEDS_SERVER})")
         });
@@ -92,6 +98,9 @@ impl Server {
         if let Some(dir) = std::env::var_os("FEEDSCOPE_TEST_SERVER_LOG") {
             let log = Path::new(&dir).join(format!("opcua-server-{}.log", now_unix_s()));
             cmd.stderr(std::fs::File::create(log).expect("create the server log"));
+        }
+        if let Some(dir) = secure {
+            cmd.arg("--secure").arg(dir);
         }
         if let Some(e) = epoch {
             cmd.arg("--epoch").arg(format!("{e:.6}"));
@@ -420,6 +429,46 @@ fn reconnects_after_a_server_restart() {
                 && (0..RECONNECT_REPEAT).any(|k| {
                     (epoch + tt + f64::from(k) * TRACE_PERIOD_S - t).abs() <= TIME_TOL_S
                 })
+                && (vv * 1e-3 - v).abs() <= 1e-15),
+            "sample ({t}, {v}) is not in the trace"
+        );
+    }
+}
+
+/// A secure channel (Basic256Sha256, SignAndEncrypt) with client certificate and key; the
+/// server's certificate is trusted on first contact.
+#[test]
+#[ignore = "needs an OPC UA server: scripts/opcua-tests.sh"]
+fn sign_and_encrypt_delivers_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let certs = dir.path().join("certs");
+    let server = Server::start_with(0, None, 1, Some(&certs));
+    let extra = "";
+    let path = write_config(dir.path(), &server.endpoint(), TORQUE, extra);
+    let text = std::fs::read_to_string(&path).unwrap().replace(
+        "[server]\n",
+        "[server]\nsecurity_mode = \"sign_and_encrypt\"\nsecurity_policy = \"Basic256Sha256\"\n\
+         certificate = \"certs/client-cert.der\"\nprivate_key = \"certs/client-key.pem\"\n\
+         trust_server_certificate = true\n",
+    );
+    std::fs::write(&path, text).unwrap();
+    let mut source = OpcUaSource::connect(OpcUaConfig::from_file(&path).unwrap()).unwrap();
+    let mut n = 0;
+    let events = collect(&mut source, Duration::from_secs(30), |e| {
+        n += usize::from(matches!(
+            e,
+            Event::Sample {
+                quantity: Quantity::Position,
+                ..
+            }
+        ));
+        n >= 5
+    });
+    let trace = read_trace();
+    for (t, v) in samples(&events, Quantity::Position) {
+        assert!(
+            trace.iter().any(|(tt, c, vv)| c == "position_mm"
+                && (server.epoch + tt - t).abs() <= TIME_TOL_S
                 && (vv * 1e-3 - v).abs() <= 1e-15),
             "sample ({t}, {v}) is not in the trace"
         );
