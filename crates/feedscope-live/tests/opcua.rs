@@ -82,7 +82,7 @@ impl Server {
     /// server's and a client's keys and certificates are written to that directory.
     fn start_with(port: u16, epoch: Option<f64>, repeat: u32, secure: Option<&Path>) -> Server {
         let python = std::env::var("FEEDSCOPE_TEST_PYTHON").unwrap_or_else(|_| {
-            panic!("FEEDSCOPE_TEST_PYTHON is not set: run scripts/opcua-tests.sh ({NEEDS_SERVER})")
+            panic!("FEEDSCOPE_TEST_PYTHON is not set: this test {NEEDS_SERVER}")
         });
         let mut cmd = Command::new(python);
         cmd.arg(repo().join("scripts/opcua-test-server.py"))
