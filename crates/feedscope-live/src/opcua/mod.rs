@@ -99,6 +99,8 @@ pub struct OpcUaSource {
     endpoint: String,
     describe: String,
     rx: mpsc::Receiver<Msg>,
+    /// Events that arrived while `connect` waited for the subscription.
+    pending: VecDeque<Event>,
     intervals: Arc<Mutex<Intervals>>,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     thread: Option<std::thread::JoinHandle<()>>,
@@ -162,7 +164,8 @@ impl OpcUaSource {
                 endpoint: endpoint.clone(),
                 detail: format!("cannot start the client thread: {e}"),
             })?;
-        let source = Self {
+        let mut source = Self {
+            pending: VecDeque::new(),
             endpoint,
             describe,
             rx,
@@ -171,20 +174,25 @@ impl OpcUaSource {
             thread: Some(thread),
             failed: false,
         };
-        match source.rx.recv() {
-            Ok(Msg::Ready {
-                revised_sampling_ms,
-            }) => {
-                source.intervals.lock().expect("not poisoned").revised_s =
-                    Some(revised_sampling_ms / 1000.0);
-                Ok(source)
+        loop {
+            match source.rx.recv() {
+                Ok(Msg::Ready {
+                    revised_sampling_ms,
+                }) => {
+                    source.intervals.lock().expect("not poisoned").revised_s =
+                        Some(revised_sampling_ms / 1000.0);
+                    return Ok(source);
+                }
+                Ok(Msg::Error(e)) => return Err(e),
+                // The first values can come in before the subscription call has returned.
+                Ok(Msg::Event(e)) => source.pending.push_back(e),
+                Err(_) => {
+                    return Err(LiveError::Connect {
+                        endpoint: source.endpoint.clone(),
+                        detail: "the client thread stopped before connecting".into(),
+                    })
+                }
             }
-            Ok(Msg::Error(e)) => Err(e),
-            Ok(Msg::Event(_)) => unreachable!("events only follow Ready"),
-            Err(_) => Err(LiveError::Connect {
-                endpoint: source.endpoint.clone(),
-                detail: "the client thread stopped before connecting".into(),
-            }),
         }
     }
 }
@@ -195,6 +203,9 @@ impl Source for OpcUaSource {
     }
 
     fn next_event(&mut self, deadline: Instant) -> Result<Option<Event>, LiveError> {
+        if let Some(e) = self.pending.pop_front() {
+            return Ok(Some(e));
+        }
         if self.failed {
             return Err(LiveError::Ended {
                 endpoint: self.endpoint.clone(),
