@@ -9,6 +9,7 @@
 #![warn(missing_docs)]
 #![deny(clippy::float_cmp)]
 
+pub mod opcua;
 pub mod source;
 
 pub use source::{Event, GapReason, LiveError, Quantity, Source};
