@@ -506,41 +506,40 @@ pub fn text_from(tokens: &[String], start: usize) -> String {
     tokens.get(start..).map(|t| t.join("|")).unwrap_or_default()
 }
 
-impl ShdrLog {
-    /// True when the spans of two segments overlap (a recording may still fit in a pause of
-    /// another; [`ChannelReport::interleaved`] tells whether samples really interleave).
-    pub fn segments_overlap(&self) -> bool {
-        let mut v: Vec<(Timestamp, Timestamp)> =
-            self.segments.iter().map(|g| (g.start, g.end)).collect();
-        v.sort();
-        v.windows(2).any(|w| w[1].0 < w[0].1)
-    }
+/// The position and load data items of one axis and the torque per percent of load, chosen by
+/// the rules of [`ShdrLog::to_trace`] (shared with the live MTConnect sources).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisItems {
+    /// Index of the axis in [`super::devices::Device::axes`].
+    pub axis: usize,
+    /// Index of the position item in [`super::devices::Device::items`].
+    pub position: usize,
+    /// Index of the load item.
+    pub load: usize,
+    /// Motor torque at 100 % load (N·m), checked positive: a load value `L` (%) is a torque
+    /// of `L / 100 × torque_per_load_nm`.
+    pub torque_per_load_nm: f64,
+    /// What was assumed (units not declared).
+    pub warnings: Vec<Diagnostic>,
+}
 
-    /// The device the log was read against.
-    pub fn device<'m>(&self, model: &'m DeviceModel) -> &'m super::devices::Device {
-        &model.devices[self.device]
-    }
-
-    /// Convert the position and load of one axis into a trace (position in m, torque in N·m,
-    /// time in s from [`ShdrConvertParams::time_origin`]).
-    ///
-    /// Samples stay where the log has them (no forward fill): a change-only log writes a value
-    /// when it changes, so between two samples the true value held and then jumped, while a
-    /// trace reader interpolates. Repeated timestamps keep the last value; samples earlier than
-    /// the channel's previous one are dropped; both are counted in the report.
-    ///
-    /// # Errors
-    /// [`ImportError::UnknownAxis`] listing the axes; [`ImportError::Item`] when the axis has no
-    /// position or load item, several and no choice, or units that are not mm / %;
-    /// [`ImportError::NeedTorqueScale`] without `torque_per_load_nm`;
-    /// [`ImportError::TooFewSamples`] when a channel has fewer than [`MIN_SAMPLES`].
-    pub fn to_trace(
-        &self,
-        model: &DeviceModel,
-        axis: &str,
-        params: &ShdrConvertParams,
-    ) -> Result<Imported, ImportError> {
-        let dev = self.device(model);
+/// Choose the position and load items of `axis` in device `device` of `model`: the explicit
+/// keys when given, else the axis's `POSITION` `ACTUAL` sample (machine coordinates when there
+/// are several) and its only `LOAD` sample; check their units (mm, %) and the required torque
+/// scale. `source_name` names the data source in [`ImportError::NeedTorqueScale`].
+///
+/// # Errors
+/// As [`ShdrLog::to_trace`], apart from the sample counts.
+pub fn axis_items(
+    model: &DeviceModel,
+    device: usize,
+    axis: &str,
+    position_key: Option<&str>,
+    load_key: Option<&str>,
+    torque_per_load_nm: Option<f64>,
+    source_name: &str,
+) -> Result<AxisItems, ImportError> {
+        let dev = &model.devices[device];
         let a = dev.find_axis(axis, &model.source_name)?;
         let ax = &dev.axes[a];
         let item_err = |reason: String| ImportError::Item {
@@ -611,7 +610,7 @@ impl ShdrLog {
         };
         let it = |k: usize| &dev.items[k];
         let pos = pick(
-            &params.position_key,
+            &position_key.map(str::to_string),
             "POSITION (ACTUAL)",
             "--position-key",
             &|k| {
@@ -622,7 +621,7 @@ impl ShdrLog {
             &|k| it(k).coordinate_system.as_deref() == Some("MACHINE"),
         )?;
         let load = pick(
-            &params.load_key,
+            &load_key.map(str::to_string),
             "LOAD",
             "--load-key",
             &|k| it(k).category == Category::Sample && it(k).type_name == "LOAD",
@@ -659,10 +658,10 @@ impl ShdrLog {
                 )))
             }
         }
-        let scale = match params.torque_per_load_nm {
+        let scale = match torque_per_load_nm {
             None => {
                 return Err(ImportError::NeedTorqueScale {
-                    source_name: self.source_name.clone(),
+                    source_name: source_name.to_string(),
                     load_key: it(load).key().to_string(),
                 })
             }
@@ -673,6 +672,66 @@ impl ShdrLog {
                 )))
             }
         };
+    Ok(AxisItems {
+        axis: a,
+        position: pos,
+        load,
+        torque_per_load_nm: scale,
+        warnings,
+    })
+}
+
+impl ShdrLog {
+    /// True when the spans of two segments overlap (a recording may still fit in a pause of
+    /// another; [`ChannelReport::interleaved`] tells whether samples really interleave).
+    pub fn segments_overlap(&self) -> bool {
+        let mut v: Vec<(Timestamp, Timestamp)> =
+            self.segments.iter().map(|g| (g.start, g.end)).collect();
+        v.sort();
+        v.windows(2).any(|w| w[1].0 < w[0].1)
+    }
+
+    /// The device the log was read against.
+    pub fn device<'m>(&self, model: &'m DeviceModel) -> &'m super::devices::Device {
+        &model.devices[self.device]
+    }
+
+    /// Convert the position and load of one axis into a trace (position in m, torque in N·m,
+    /// time in s from [`ShdrConvertParams::time_origin`]).
+    ///
+    /// Samples stay where the log has them (no forward fill): a change-only log writes a value
+    /// when it changes, so between two samples the true value held and then jumped, while a
+    /// trace reader interpolates. Repeated timestamps keep the last value; samples earlier than
+    /// the channel's previous one are dropped; both are counted in the report.
+    ///
+    /// # Errors
+    /// [`ImportError::UnknownAxis`] listing the axes; [`ImportError::Item`] when the axis has no
+    /// position or load item, several and no choice, or units that are not mm / %;
+    /// [`ImportError::NeedTorqueScale`] without `torque_per_load_nm`;
+    /// [`ImportError::TooFewSamples`] when a channel has fewer than [`MIN_SAMPLES`].
+    pub fn to_trace(
+        &self,
+        model: &DeviceModel,
+        axis: &str,
+        params: &ShdrConvertParams,
+    ) -> Result<Imported, ImportError> {
+        let dev = self.device(model);
+        let AxisItems {
+            position: pos,
+            load,
+            torque_per_load_nm: scale,
+            mut warnings,
+            ..
+        } = axis_items(
+            model,
+            self.device,
+            axis,
+            params.position_key.as_deref(),
+            params.load_key.as_deref(),
+            params.torque_per_load_nm,
+            &self.source_name,
+        )?;
+        let it = |k: usize| &dev.items[k];
         let empty = Vec::new();
         let values = |k: usize| {
             self.series
