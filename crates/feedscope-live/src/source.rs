@@ -99,6 +99,9 @@ pub enum Event {
     Notice {
         /// Words for the log.
         message: String,
+        /// Whether the source is connected now: while it is not, the caller's clock must not
+        /// end an episode (the data of that time may still come).
+        connected: bool,
     },
 }
 

@@ -12,7 +12,7 @@
 //! - triangle ([`TestKind::Triangle`]): alternating moves around one centre whose feed rises
 //!   level by level (at least 3 levels), as [`feedscope::plan::triangle_program`] plans them.
 //!
-//! An episode holding a [`Event::Gap`] is discarded, never returned as a test. Memory is
+//! An episode is discarded at the first [`Event::Gap`] in it, never returned as a test. Memory is
 //! bounded: an episode longer than [`RecognizerParams::max_samples`] samples per channel is
 //! discarded.
 //!
@@ -225,14 +225,13 @@ impl Recognizer {
                 // a position seen after it.
                 self.rest = None;
                 self.last_effort = None;
-                if let Some(ep) = &mut self.episode {
-                    if ep.spoiled.is_none() {
-                        ep.spoiled = Some(format!("data gap during the motion: {reason}"));
-                        ep.position = Vec::new();
-                        ep.effort = Vec::new();
-                    }
-                }
-                None
+                // An episode with a gap is thrown away at once: its data cannot be trusted.
+                self.episode.take().map(|ep| Outcome::Discarded {
+                    start_time_s: ep.start_s,
+                    reason: ep.spoiled.unwrap_or_else(|| {
+                        format!("data gap during the motion ({reason}); the test is not stored")
+                    }),
+                })
             }
             _ => None,
         }
@@ -569,7 +568,7 @@ mod tests {
         assert_eq!(t.feeds_m_s.len(), 1);
         assert!((t.feeds_m_s[0] - 0.01).abs() < 1e-3);
         assert!((t.sample_interval_s - 0.25).abs() < 1e-9);
-        assert!((t.start_time_s - 1001.0).abs() < 1e-9);
+        assert!((t.start_time_s - 1001.25).abs() < 1e-9);
         // 10 mm lead at 600 mm/min every 0.25 s: order 2.
         assert!((t.resolvable_order(0.010) - 2.0).abs() < 1e-9);
         // Two strokes only: not a test.
@@ -588,9 +587,10 @@ mod tests {
         );
         let out: Vec<Outcome> = ev.iter().filter_map(|e| r.push(e)).collect();
         assert!(
-            matches!(&out[..], [Outcome::Discarded { reason, .. }] if reason.contains("3 observations")),
+            matches!(&out[0], Outcome::Discarded { reason, .. } if reason.contains("3 observations")),
             "{out:?}"
         );
+        assert!(!out.iter().any(|o| matches!(o, Outcome::Test(_))), "{out:?}");
         // Shut down mid-test.
         let mut r = Recognizer::new(RecognizerParams::default());
         for e in &strokes(4, 0.0)[..120] {

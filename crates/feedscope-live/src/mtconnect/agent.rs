@@ -489,6 +489,7 @@ impl Source for AgentSource {
                                 self.base(),
                                 self.next_sequence
                             ),
+                            connected: true,
                         });
                     }
                     self.failing = false;
@@ -514,6 +515,7 @@ impl Source for AgentSource {
                             self.next_sequence,
                             self.backoff.delay().as_secs_f64() / 2.0
                         ),
+                        connected: false,
                     });
                 }
             }

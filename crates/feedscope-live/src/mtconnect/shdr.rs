@@ -16,8 +16,8 @@
 //!   already delivered are the adapter's state dump and are dropped (counted in
 //!   [`ShdrStats::stale`]). A sample earlier than its channel's previous sample is dropped and
 //!   counted ([`ShdrStats::reordered`]); it cannot enter a trace.
-//! - When the adapter goes away the client reconnects with a doubling back-off and reports
-//!   [`GapReason::Reconnected`].
+//! - When the adapter goes away the client reports [`GapReason::Reconnected`] at once (an
+//!   adapter does not replay what it said meanwhile) and reconnects with a doubling back-off.
 use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, ErrorKind, Write};
 use std::net::{TcpStream, ToSocketAddrs};
@@ -430,6 +430,17 @@ impl ShdrSource {
     }
 
     fn drop_connection(&mut self, why: String) {
+        // An adapter does not replay what was said while nobody listened: data is lost.
+        self.pending.push_back(Event::Gap {
+            time_s: self.decoder.latest_s,
+            reason: GapReason::Reconnected {
+                detail: format!("connection to {} lost: {why}", self.address()),
+            },
+        });
+        self.pending.push_back(Event::Notice {
+            message: format!("adapter {}: {why}; reconnecting", self.address()),
+            connected: false,
+        });
         self.stream = None;
         self.line.clear();
         self.decoder.reconnected();
@@ -494,10 +505,10 @@ impl Source for ShdrSource {
                     Ok(()) => {
                         self.decoder.stats.connections += 1;
                         self.backoff.succeeded();
-                        if let Some(why) = self.lost.take() {
-                            self.pending.push_back(Event::Gap {
-                                time_s: self.decoder.latest_s,
-                                reason: GapReason::Reconnected { detail: why },
+                        if self.lost.take().is_some() {
+                            self.pending.push_back(Event::Notice {
+                                message: format!("adapter {}: connected again", self.address()),
+                                connected: true,
                             });
                         }
                     }
@@ -510,6 +521,7 @@ impl Source for ShdrSource {
                                 self.address(),
                                 self.backoff.delay().as_secs_f64() / 2.0
                             ),
+                            connected: false,
                         });
                     }
                 }
