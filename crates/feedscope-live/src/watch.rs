@@ -419,9 +419,14 @@ fn check_strokes(
 ) -> Result<(usize, Vec<f64>), String> {
     let z = &position.value;
     let steady: Vec<&MoveSpan> = moves.iter().filter(|m| !m.strokes.is_empty()).collect();
-    let (lo, hi) = steady.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, m| {
-        (a.0.min(z[m.first].min(z[m.last])), a.1.max(z[m.first].max(z[m.last])))
-    });
+    let (lo, hi) = steady
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |a, m| {
+            (
+                a.0.min(z[m.first].min(z[m.last])),
+                a.1.max(z[m.first].max(z[m.last])),
+            )
+        });
     let span = hi - lo;
     if steady.is_empty() || span <= 0.0 {
         return Err("no steady stroke".into());
@@ -447,8 +452,14 @@ fn check_strokes(
     }
     // Any other move between them (not a steady stroke) longer than the tolerance breaks the
     // pattern: machining moves in between.
-    let first = moves.iter().position(|m| !m.strokes.is_empty()).unwrap_or(0);
-    let last = moves.iter().rposition(|m| !m.strokes.is_empty()).unwrap_or(0);
+    let first = moves
+        .iter()
+        .position(|m| !m.strokes.is_empty())
+        .unwrap_or(0);
+    let last = moves
+        .iter()
+        .rposition(|m| !m.strokes.is_empty())
+        .unwrap_or(0);
     if let Some(m) = moves[first..=last]
         .iter()
         .find(|m| m.strokes.is_empty() && (z[m.last] - z[m.first]).abs() > tol)
@@ -499,10 +510,15 @@ fn check_triangle(moves: &[MoveSpan], position: &Channel) -> Result<(usize, Vec<
         ));
     }
     // Turning points lie symmetric around one centre.
-    let tps: Vec<f64> = steady.iter().flat_map(|m| [z[m.first], z[m.last]]).collect();
+    let tps: Vec<f64> = steady
+        .iter()
+        .flat_map(|m| [z[m.first], z[m.last]])
+        .collect();
     let (lo, hi) = tps
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |a, &v| (a.0.min(v), a.1.max(v)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |a, &v| {
+            (a.0.min(v), a.1.max(v))
+        });
     let c = 0.5 * (lo + hi);
     let half = 0.5 * (hi - lo);
     let asym = steady
@@ -548,7 +564,11 @@ mod tests {
             for i in 1..=n {
                 let z = a + (b - a) * i as f64 / n as f64;
                 ev.push(sample(pos, t + i as f64 * dt, z));
-                ev.push(sample(eff, t + i as f64 * dt, if b > a { 1.0 } else { -1.0 }));
+                ev.push(sample(
+                    eff,
+                    t + i as f64 * dt,
+                    if b > a { 1.0 } else { -1.0 },
+                ));
             }
             t += n as f64 * dt + 1.0;
         }
@@ -559,7 +579,10 @@ mod tests {
     #[test]
     fn four_strokes_are_a_test_and_gaps_spoil_it() {
         let mut r = Recognizer::new(RecognizerParams::default());
-        let out: Vec<Outcome> = strokes(4, 1000.0).iter().filter_map(|e| r.push(e)).collect();
+        let out: Vec<Outcome> = strokes(4, 1000.0)
+            .iter()
+            .filter_map(|e| r.push(e))
+            .collect();
         assert_eq!(out.len(), 1, "{out:?}");
         let Outcome::Test(t) = &out[0] else {
             panic!("{out:?}")
@@ -590,7 +613,10 @@ mod tests {
             matches!(&out[0], Outcome::Discarded { reason, .. } if reason.contains("3 observations")),
             "{out:?}"
         );
-        assert!(!out.iter().any(|o| matches!(o, Outcome::Test(_))), "{out:?}");
+        assert!(
+            !out.iter().any(|o| matches!(o, Outcome::Test(_))),
+            "{out:?}"
+        );
         // Shut down mid-test.
         let mut r = Recognizer::new(RecognizerParams::default());
         for e in &strokes(4, 0.0)[..120] {

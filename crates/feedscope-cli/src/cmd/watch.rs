@@ -328,7 +328,9 @@ fn watch(
                                 None => String::new(),
                             }
                         );
-                        eprintln!("analysed and stored {ms:.0} ms after the test's last sample arrived");
+                        eprintln!(
+                            "analysed and stored {ms:.0} ms after the test's last sample arrived"
+                        );
                         stored += 1;
                         if w.once {
                             return Ok(());
@@ -404,15 +406,11 @@ fn store_test(
 
 /// The axis's trend in one word: the worst indicator status, or why there is none yet.
 fn trend_status(store: &feedscope_store::SqliteStore, machine: &str, axis: &str) -> String {
-    let thresholds = match super::history::with_axis_thresholds(
-        store,
-        machine,
-        axis,
-        Default::default(),
-    ) {
-        Ok(t) => t,
-        Err(e) => return format!("unknown ({e})"),
-    };
+    let thresholds =
+        match super::history::with_axis_thresholds(store, machine, axis, Default::default()) {
+            Ok(t) => t,
+            Err(e) => return format!("unknown ({e})"),
+        };
     match super::history::axis_trends(
         store,
         machine,

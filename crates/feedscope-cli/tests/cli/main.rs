@@ -20,3 +20,4 @@ mod report;
 mod simulate;
 mod store_robust;
 mod util;
+mod watch;

@@ -131,8 +131,12 @@ pub fn parse_streams(xml: &str, device: Option<&str>) -> Result<Streams, String>
                 .filter(|n| n.is_element() && n.tag_name().name() == "DeviceStream")
             {
                 let mine = device.is_none_or(|d| {
-                    [ds.attribute("name"), ds.attribute("uuid"), ds.attribute("id")]
-                        .contains(&Some(d))
+                    [
+                        ds.attribute("name"),
+                        ds.attribute("uuid"),
+                        ds.attribute("id"),
+                    ]
+                    .contains(&Some(d))
                 });
                 if !mine {
                     continue;
@@ -341,9 +345,7 @@ impl AgentSource {
                     self.next_sequence = self.next_sequence.max(n);
                 }
                 // More waiting in the buffer: ask again at once.
-                let behind = h
-                    .last_sequence
-                    .is_some_and(|l| l >= self.next_sequence);
+                let behind = h.last_sequence.is_some_and(|l| l >= self.next_sequence);
                 self.next_poll = if full || behind {
                     Instant::now()
                 } else {

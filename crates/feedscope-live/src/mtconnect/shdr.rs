@@ -220,10 +220,12 @@ impl LineDecoder {
             let shape = if other_device {
                 let d = self.model.find_device(prefix.unwrap_or("")).unwrap_or(0);
                 let od = &self.model.devices[d];
-                od.find_item(key).map_or(Shape::Single, |k| od.items[k].shape())
+                od.find_item(key)
+                    .map_or(Shape::Single, |k| od.items[k].shape())
             } else {
                 let dev = &self.model.devices[self.axis.device];
-                dev.find_item(key).map_or(Shape::Single, |k| dev.items[k].shape())
+                dev.find_item(key)
+                    .map_or(Shape::Single, |k| dev.items[k].shape())
             };
             let value = tokens.get(i + 1).map(String::as_str).unwrap_or("");
             if !other_device {
@@ -395,7 +397,9 @@ impl ShdrSource {
 
     fn address(&self) -> String {
         let a = self.params.adapter.trim();
-        if a.rsplit_once(':').is_some_and(|(_, p)| p.parse::<u16>().is_ok()) {
+        if a.rsplit_once(':')
+            .is_some_and(|(_, p)| p.parse::<u16>().is_ok())
+        {
             a.to_string()
         } else {
             format!("{a}:{DEFAULT_PORT}")
