@@ -158,8 +158,9 @@ struct Episode {
 
 fn push(v: &mut Vec<(f64, f64)>, t: f64, x: f64) {
     match v.last_mut() {
-        // Several observations with one timestamp: the last one holds.
-        Some(l) if l.0 == t => l.1 = x,
+        // Several observations with one timestamp (the same parsed text, so the same f64
+        // bits): the last one holds.
+        Some(l) if l.0.to_bits() == t.to_bits() => l.1 = x,
         Some(l) if t < l.0 => {}
         _ => v.push((t, x)),
     }

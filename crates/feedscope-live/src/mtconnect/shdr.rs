@@ -10,7 +10,7 @@
 //!   `* PONG <ms>`. Other `*` commands, asset commands and multi-line asset bodies are skipped.
 //! - `UNAVAILABLE` on the position or load item is [`GapReason::Unavailable`].
 //! - Timestamps come from the lines. A line stamped more than
-//!   [`SEGMENT_BACKSTEP_S`](feedscope_io::import::shdr::SEGMENT_BACKSTEP_S) before the latest
+//!   [`SEGMENT_BACKSTEP_S`] before the latest
 //!   (an adapter that restarted and replays its state, a clock reset) is a
 //!   [`GapReason::TimeStepBack`]; after a reconnection, lines stamped before the latest time
 //!   already delivered are the adapter's state dump and are dropped (counted in
