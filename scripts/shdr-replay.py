@@ -2,12 +2,14 @@
 """Serve a recorded SHDR log over TCP as an MTConnect adapter does (test helper).
 
 Usage: shdr-replay.py LOG [--start-line N] [--seconds S] [--speed F] [--cut-after-s S]
+                       [--mark-time ISO]
 Binds 127.0.0.1 on a free port and prints `PORT <n>` on stdout, then waits for one client and
 sends the data lines of the window (from the first timestamped line at or after --start-line,
 for --seconds of log time) at their recorded timing divided by --speed. Multi-line asset
 bodies are sent as they are. `* PING` from the client is answered `* PONG 10000`, as adapters
 do. --cut-after-s closes the connection that many log seconds into the window (a dropped
-adapter). At the end the connection is held open until the client leaves (or --close).
+adapter). --mark-time prints `MARK <unix time>` (wall clock, s) just after the first line
+stamped at or after that log time was sent (for end-to-end delays). At the end the connection is held open until the client leaves (or --close).
 """
 import argparse, datetime, socket, sys, threading, time
 
@@ -28,6 +30,7 @@ def main():
     ap.add_argument("--speed", type=float, default=1.0)
     ap.add_argument("--cut-after-s", type=float, default=None)
     ap.add_argument("--close", action="store_true")
+    ap.add_argument("--mark-time", default=None)
     a = ap.parse_args()
     lines = open(a.log, encoding="utf-8", errors="replace").read().splitlines()[a.start_line - 1:]
     window, t0 = [], None
@@ -47,6 +50,7 @@ def main():
     conn, _ = srv.accept()
     conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
     lock = threading.Lock()
+    mark = ts(a.mark_time) if a.mark_time else None
 
     def reader():
         buf = b""
@@ -83,7 +87,15 @@ def main():
             if delay > 0:
                 time.sleep(delay)
         with lock:
-            conn.sendall((l + "\n").encode())
+            try:
+                conn.sendall((l + "\n").encode())
+            except OSError:
+                # The client left (e.g. watch --once after its test): nothing more to serve.
+                print("GONE", flush=True)
+                return
+        if mark is not None and t is not None and t >= mark:
+            print("MARK", repr(time.time()), flush=True)
+            mark = None
     print("DONE", len(window), flush=True)
     if a.close:
         conn.close()
