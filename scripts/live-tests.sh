@@ -6,7 +6,7 @@ here="$(cd "$(dirname "$0")/.." && pwd)"
 venv="$(mktemp -d)/venv"
 trap 'rm -rf "$(dirname "$venv")"' EXIT
 python3 -m venv "$venv"
-"$venv/bin/pip" install --quiet mtconnect
+"$venv/bin/pip" install --quiet mtconnect==0.3.3
 export FEEDSCOPE_TEST_PYTHON="$venv/bin/python"
 cd "$here"
 cargo test --release --locked -p feedscope-live -p feedscope-cli -- --ignored watch

@@ -21,3 +21,4 @@ mod simulate;
 mod store_robust;
 mod util;
 mod watch;
+mod watch_agent;

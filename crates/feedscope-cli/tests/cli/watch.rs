@@ -11,12 +11,12 @@ const AXIS: &str = "name = \"guessed\"\nlead_mm = 10.0\ntable_mass_kg = 300.0\n\
                     inertia_kgm2 = 0.001\ndamping_nms_per_rad = 0.0\n\
                     torque_constant_nm_per_a = 1.0\n";
 
-fn repo() -> PathBuf {
+pub(crate) fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
 /// The Python of the live test environment; the test fails without it.
-fn python() -> String {
+pub(crate) fn python() -> String {
     std::env::var("FEEDSCOPE_TEST_PYTHON")
         .expect("FEEDSCOPE_TEST_PYTHON is not set: run scripts/live-tests.sh")
 }
@@ -131,22 +131,22 @@ fn real_machining_over_shdr_stores_no_test() {
 
 /// Torque of the twin's drive at 100 % load (N·m): the idle friction torque (≈ 0.45 N·m)
 /// is then ≈ 9 % of load, reported to 0.1 % (0.005 N·m, ≈ 3 N of axial force).
-const TWIN_TORQUE_PER_LOAD_NM: f64 = 5.0;
+pub(crate) const TWIN_TORQUE_PER_LOAD_NM: f64 = 5.0;
 
 /// The twin test as an MTConnect control would report it.
-struct Twin {
+pub(crate) struct Twin {
     /// The SHDR log (change-only, one observation per line).
-    log: PathBuf,
+    pub log: PathBuf,
     /// The axis file `feedscope simulate` wrote.
-    axis: PathBuf,
+    pub axis: PathBuf,
     /// The samples of the test as watch keeps them, written as a trace CSV.
-    trace: PathBuf,
+    pub trace: PathBuf,
     /// Control time of the episode start (s since the epoch).
-    start_s: f64,
+    pub start_s: f64,
     /// Timestamp text of the test's last moving sample.
-    end_text: String,
+    pub end_text: String,
     /// Observations of the position and load items in the log.
-    observations: usize,
+    pub observations: usize,
 }
 
 /// `2026-11-26T10:MM:SS.ffffffZ` for `us` µs after 10:00:00 (the twin lasts < 1 h).
@@ -173,7 +173,7 @@ fn twin_time(us: i64) -> String {
 /// the last sample that moved; times from the episode start; written by the same CSV writer
 /// with the same facts (load quantum, unsigned), so that `history add` of it and watch's
 /// stored test must agree to the bit.
-fn twin(dir: &Path) -> Twin {
+pub(crate) fn twin(dir: &Path) -> Twin {
     let o = feedscope(dir)
         .args(["simulate", "--print-default-config"])
         .output()
@@ -315,7 +315,7 @@ fn twin(dir: &Path) -> Twin {
     }
 }
 
-fn twin_devices() -> PathBuf {
+pub(crate) fn twin_devices() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/live/twin_Devices.xml")
 }
 
@@ -352,7 +352,7 @@ fn watch_twin(dir: &Path, port: u16, db: &str, once: bool) -> std::process::Chil
 /// `history show ID --format json` without what differs by design between two stores of one
 /// trace: the row id, the source name, the test time (watch: the episode start; history add:
 /// given) and the time it was added.
-fn shown(dir: &Path, db: &str, id: &str) -> serde_json::Value {
+pub(crate) fn shown(dir: &Path, db: &str, id: &str) -> serde_json::Value {
     let o = feedscope(dir)
         .args(["history", "show", id, "--db", db, "--format", "json"])
         .output()
@@ -416,10 +416,16 @@ fn twin_test_over_shdr_is_stored_as_history_add_stores_it() {
             .unwrap_or("?")
     );
 
+    assert_stored_as_history_add(d.path(), &tw, "w.db");
+}
+
+/// Test 1 of `db` in `dir` against `history add` of the twin's trace file: the same content
+/// hash, indicators and components (another store), and `history add` into `db` finds it there.
+pub(crate) fn assert_stored_as_history_add(dir: &Path, tw: &Twin, db: &str) {
     // The same samples through history add: another store, then watch's own.
     let time = feedscope_store::time::format_rfc3339(tw.start_s);
     let add = |db: &str| {
-        feedscope(d.path())
+        feedscope(dir)
             .args(["history", "add", "--kind", "strokes", "--axis"])
             .arg(&tw.axis)
             .args(["--db", db, "--time", &time, "--program", "TWIN_STROKES"])
@@ -429,14 +435,14 @@ fn twin_test_over_shdr_is_stored_as_history_add_stores_it() {
     };
     let a = add("f.db");
     assert!(a.status.success(), "{}", stderr(&a));
-    let (w, f) = (shown(d.path(), "w.db", "1"), shown(d.path(), "f.db", "1"));
+    let (w, f) = (shown(dir, db, "1"), shown(dir, "f.db", "1"));
     assert!(
         w["intervals"].as_array().is_some_and(|v| !v.is_empty()),
         "{w}"
     );
     assert_eq!(w, f, "watch and history add of the same samples differ");
     // Same bytes: history add into watch's store finds the test there.
-    let a = add("w.db");
+    let a = add(db);
     assert!(a.status.success(), "{}", stderr(&a));
     assert!(
         format!("{}{}", stdout(&a), stderr(&a)).contains("already stored as test 1"),

@@ -10,6 +10,10 @@
 //!   number lost, and the client goes on from the buffer's `firstSequence`.
 //! - A new `instanceId` (the agent restarted, its sequence numbers start again): a
 //!   [`GapReason::Restart`], and the client goes on from the new buffer's `firstSequence`.
+//! - Timestamps of the axis's items stepping back more than [`SEGMENT_BACKSTEP_S`] (an
+//!   adapter that restarted and replays its state, a clock reset): a
+//!   [`GapReason::TimeStepBack`], as in the SHDR stream; a smaller step back of one channel
+//!   drops that sample (counted in [`AgentStats::reordered`]).
 //! - HTTP errors and timeouts: retried with a doubling back-off from the same `from`; an
 //!   [`Event::Notice`] says so, and a gap follows only if data was lost meanwhile.
 use std::collections::VecDeque;
@@ -17,6 +21,7 @@ use std::time::{Duration, Instant};
 
 use feedscope::trace::EffortKind;
 use feedscope_io::import::devices::DeviceModel;
+use feedscope_io::import::shdr::SEGMENT_BACKSTEP_S;
 
 use super::{parse_time_s, AxisSelection, Backoff, IntervalEstimate, ResolvedAxis};
 use crate::source::{Event, GapReason, LiveError, Quantity, Source};
@@ -189,6 +194,10 @@ pub struct AgentStats {
     pub restarts: u64,
     /// Failed requests (HTTP errors, timeouts).
     pub failures: u64,
+    /// Samples dropped for being earlier than their channel's previous sample.
+    pub reordered: u64,
+    /// Backward time steps of more than [`SEGMENT_BACKSTEP_S`] reported as gaps.
+    pub time_step_backs: u64,
 }
 
 /// One axis of an MTConnect agent.
@@ -291,6 +300,7 @@ impl AgentSource {
         self.next_sequence = h.first_sequence.or(h.next_sequence).unwrap_or(0);
         self.last_position_s = None;
         self.last_load_s = None;
+        self.last_time_s = None;
         self.interval.break_here();
     }
 
@@ -394,7 +404,24 @@ impl AgentSource {
             }
             return;
         };
-        self.last_time_s = Some(self.last_time_s.map_or(o.time_s, |l| l.max(o.time_s)));
+        match self.last_time_s {
+            // The agent's timestamps stepped back (an adapter that restarted and replays its
+            // state, a clock reset): what came before and after cannot be joined.
+            Some(l) if l - o.time_s > SEGMENT_BACKSTEP_S => {
+                self.stats.time_step_backs += 1;
+                self.pending.push_back(Event::Gap {
+                    time_s: Some(l),
+                    reason: GapReason::TimeStepBack {
+                        back_s: l - o.time_s,
+                    },
+                });
+                self.last_position_s = None;
+                self.last_load_s = None;
+                self.interval.break_here();
+                self.last_time_s = Some(o.time_s);
+            }
+            _ => self.last_time_s = Some(self.last_time_s.map_or(o.time_s, |l| l.max(o.time_s))),
+        }
         if o.value.eq_ignore_ascii_case("UNAVAILABLE") {
             self.pending.push_back(Event::Gap {
                 time_s: Some(o.time_s),
@@ -410,6 +437,7 @@ impl AgentSource {
             Quantity::Effort(_) => &mut self.last_load_s,
         };
         if last.is_some_and(|l| o.time_s < l) {
+            self.stats.reordered += 1;
             return;
         }
         *last = Some(o.time_s);
