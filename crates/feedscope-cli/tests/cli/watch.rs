@@ -245,7 +245,8 @@ pub(crate) fn twin(dir: &Path) -> Twin {
     let time = |t: &str| feedscope_live::mtconnect::parse_time_s(t).unwrap();
     let mut rest: Option<(f64, f64)> = None;
     let mut last_load: Option<f64> = None;
-    let (mut pos, mut eff): (Vec<(f64, f64)>, Vec<(f64, f64)>) = (Vec::new(), Vec::new());
+    let mut pos: Vec<(f64, f64)> = Vec::new();
+    let mut eff: Vec<(f64, f64)> = Vec::new();
     let mut start_s = None;
     let (mut motion_s, mut motion_z, mut end_text) = (0.0, 0.0, String::new());
     for (text, is_pos, v) in &obs {
