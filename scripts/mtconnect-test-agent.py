@@ -176,6 +176,7 @@ class Agent(mt_agent.MTConnect):
                 "'from' must be between {} and {}".format(b.first_sequence, b.last_sequence + 1),
                 404,
             )
+        # cppagent answers a count above the buffer with what the buffer holds; so does this.
         count = min(count, b.size())
         end = min(start + count - 1, b.last_sequence)
         groups = {}
