@@ -176,7 +176,8 @@ class Agent(mt_agent.MTConnect):
                 "'from' must be between {} and {}".format(b.first_sequence, b.last_sequence + 1),
                 404,
             )
-        # cppagent answers a count above the buffer with what the buffer holds; so does this.
+        # A count above the buffer is clamped here, not refused (the package refuses it; a real
+        # agent may too, so a client's count should stay below the agent's bufferSize).
         count = min(count, b.size())
         end = min(start + count - 1, b.last_sequence)
         groups = {}
