@@ -43,6 +43,27 @@ pub enum GapReason {
         /// The channel.
         quantity: Quantity,
     },
+    /// The control's timestamps stepped back (an adapter that restarted and replays its state,
+    /// a clock reset): what came before and after cannot be joined into one trace.
+    TimeStepBack {
+        /// How far back (s).
+        back_s: f64,
+    },
+}
+
+impl std::fmt::Display for GapReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Skipped { lost: Some(n) } => write!(f, "{n} observations skipped"),
+            Self::Skipped { lost: None } => write!(f, "observations skipped"),
+            Self::Restart { detail } => write!(f, "the source restarted ({detail})"),
+            Self::Reconnected { detail } => write!(f, "reconnected ({detail})"),
+            Self::Unavailable { quantity } => write!(f, "{quantity:?} unavailable"),
+            Self::TimeStepBack { back_s } => {
+                write!(f, "control timestamps stepped back {back_s:.3} s")
+            }
+        }
+    }
 }
 
 /// One thing a live source reports.
@@ -71,6 +92,16 @@ pub enum Event {
         time_s: Option<f64>,
         /// Why.
         reason: GapReason,
+    },
+    /// News of the connection for the log (lost, retrying, made again) when no data is known
+    /// to be missing: a source that resumes where it stopped (MTConnect sequence numbers)
+    /// reports a lost connection here and a [`Event::Gap`] only if data was lost.
+    Notice {
+        /// Words for the log.
+        message: String,
+        /// Whether the source is connected now: while it is not, the caller's clock must not
+        /// end an episode (the data of that time may still come).
+        connected: bool,
     },
 }
 

@@ -360,7 +360,7 @@ pub fn load_thresholds(path: Option<&Path>) -> Result<BTreeMap<String, Threshold
     }
 }
 
-fn axis_name(flag: Option<&str>, axis: &AxisParams, path: &Path) -> String {
+pub(crate) fn axis_name(flag: Option<&str>, axis: &AxisParams, path: &Path) -> String {
     flag.map(str::to_string)
         .or_else(|| axis.name.clone())
         .unwrap_or_else(|| {
@@ -403,40 +403,25 @@ fn add(spec: &StoreSpec, a: &AddArgs) -> Result<()> {
         &GlitchParams::for_axis(&axis),
     )?;
     crate::output::print_read_warnings(&a.trace.display().to_string(), &report);
-    let params = TestStudyParams {
-        strokes: StrokeStudyParams {
-            interval_mm: a.interval_mm,
-            ..StrokeStudyParams::default()
-        },
-        ..TestStudyParams::default()
+    let meta = TestMeta {
+        machine: a.machine.clone(),
+        axis: axis_name(a.axis_name.as_deref(), &axis, &a.axis),
+        time_s,
+        source: a.trace.display().to_string(),
+        program: a.program.clone(),
+        reference: a.reference,
+        compensation: a.compensation.clone(),
     };
-    let analysis = analyze_test(&trace, &axis, a.kind, &params)
-        .with_context(|| format!("analysing {}", a.trace.display()))?;
-    if let feedscope::study::TestAnalysis::Strokes(st) = &analysis {
-        eprintln!("{}", st.verdict.headline());
-        if !st.withheld.is_empty() {
-            let which: Vec<String> = st.withheld.iter().map(|w| w.stroke.to_string()).collect();
-            eprintln!(
-                "verdict: {} stroke(s) give no indicator, their data support no profile \
-                 (strokes {}; `feedscope estimate` says why)",
-                st.withheld.len(),
-                which.join(", ")
-            );
-        }
-    }
-    if let feedscope::study::TestAnalysis::Triangle(tri) = &analysis {
-        axis.resolve_identified(tri.identification.fit.j_total_kgm2);
-    }
-    let mut t = NewTest::from_analysis(&analysis, &axis, &bytes);
-    t.machine = a.machine.clone();
-    t.axis = axis_name(a.axis_name.as_deref(), &axis, &a.axis);
-    t.time_s = time_s;
-    t.time_utc = format_rfc3339(time_s);
-    t.source = a.trace.display().to_string();
-    t.program = a.program.clone();
-    t.reference = a.reference;
-    t.compensation_ref = a.compensation.clone();
-    let outcome = store.add(&t).map_err(|e| store_err(e, spec))?;
+    let (outcome, t) = analyse_and_store(
+        &mut *store,
+        spec,
+        &trace,
+        &mut axis,
+        a.kind,
+        a.interval_mm,
+        &bytes,
+        meta,
+    )?;
     super::series::announce_add(&*store, &t, outcome, a.time.is_none().then_some(&*a.trace))?;
     let (id, dup) = match outcome {
         AddOutcome::Added(id) => (id, false),
@@ -463,6 +448,69 @@ fn add(spec: &StoreSpec, a: &AddArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// What `history add` stores with a test besides its analysis.
+pub struct TestMeta {
+    pub machine: String,
+    pub axis: String,
+    /// Test time (s since the Unix epoch, UTC).
+    pub time_s: f64,
+    pub source: String,
+    pub program: Option<String>,
+    pub reference: bool,
+    pub compensation: Option<String>,
+}
+
+/// The analyse-and-store step of `history add`, shared with `feedscope watch`: analyse the
+/// trace as its kind asks, print the verdict on stderr, store the test with its results (one
+/// transaction; `bytes` are the trace's content, whose hash finds duplicates).
+#[allow(clippy::too_many_arguments)]
+pub fn analyse_and_store(
+    store: &mut dyn Store,
+    spec: &StoreSpec,
+    trace: &feedscope::trace::Trace,
+    axis: &mut AxisParams,
+    kind: TestKind,
+    interval_mm: f64,
+    bytes: &[u8],
+    meta: TestMeta,
+) -> Result<(AddOutcome, NewTest)> {
+    let params = TestStudyParams {
+        strokes: StrokeStudyParams {
+            interval_mm,
+            ..StrokeStudyParams::default()
+        },
+        ..TestStudyParams::default()
+    };
+    let analysis = analyze_test(trace, axis, kind, &params)
+        .with_context(|| format!("analysing {}", meta.source))?;
+    if let feedscope::study::TestAnalysis::Strokes(st) = &analysis {
+        eprintln!("{}", st.verdict.headline());
+        if !st.withheld.is_empty() {
+            let which: Vec<String> = st.withheld.iter().map(|w| w.stroke.to_string()).collect();
+            eprintln!(
+                "verdict: {} stroke(s) give no indicator, their data support no profile \
+                 (strokes {}; `feedscope estimate` says why)",
+                st.withheld.len(),
+                which.join(", ")
+            );
+        }
+    }
+    if let feedscope::study::TestAnalysis::Triangle(tri) = &analysis {
+        axis.resolve_identified(tri.identification.fit.j_total_kgm2);
+    }
+    let mut t = NewTest::from_analysis(&analysis, axis, bytes);
+    t.machine = meta.machine;
+    t.axis = meta.axis;
+    t.time_s = meta.time_s;
+    t.time_utc = format_rfc3339(meta.time_s);
+    t.source = meta.source;
+    t.program = meta.program;
+    t.reference = meta.reference;
+    t.compensation_ref = meta.compensation;
+    let outcome = store.add(&t).map_err(|e| store_err(e, spec))?;
+    Ok((outcome, t))
 }
 
 fn list(spec: &StoreSpec, a: &ListArgs) -> Result<()> {

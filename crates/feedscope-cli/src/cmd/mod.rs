@@ -20,6 +20,7 @@ mod plan;
 mod report;
 mod series;
 mod simulate;
+mod watch;
 
 /// feedscope: how are the ball-screw feed drives of this machine doing?
 ///
@@ -56,6 +57,8 @@ pub enum Command {
     Report(report::Args),
     // Help text from the doc comment of `import::Args`.
     Import(import::Args),
+    // Help text from the doc comment of `watch::Args`.
+    Watch(watch::Args),
 }
 
 /// Marks an error as the user's input being wrong (exit code 2): a usage error found by the
@@ -123,6 +126,7 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Command::History(a) => history::run(a),
         Command::Report(a) => report::run(a),
         Command::Import(a) => import::run(a),
+        Command::Watch(a) => watch::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

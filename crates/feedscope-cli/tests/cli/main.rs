@@ -21,3 +21,5 @@ mod report;
 mod simulate;
 mod store_robust;
 mod util;
+mod watch;
+mod watch_agent;

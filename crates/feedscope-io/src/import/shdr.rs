@@ -506,6 +506,181 @@ pub fn text_from(tokens: &[String], start: usize) -> String {
     tokens.get(start..).map(|t| t.join("|")).unwrap_or_default()
 }
 
+/// The position and load data items of one axis and the torque per percent of load, chosen by
+/// the rules of [`ShdrLog::to_trace`] (shared with the live MTConnect sources).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisItems {
+    /// Index of the axis in [`super::devices::Device::axes`].
+    pub axis: usize,
+    /// Index of the position item in [`super::devices::Device::items`].
+    pub position: usize,
+    /// Index of the load item.
+    pub load: usize,
+    /// Motor torque at 100 % load (N·m), checked positive: a load value `L` (%) is a torque
+    /// of `L / 100 × torque_per_load_nm`.
+    pub torque_per_load_nm: f64,
+    /// What was assumed (units not declared).
+    pub warnings: Vec<Diagnostic>,
+}
+
+/// Choose the position and load items of `axis` in device `device` of `model`: the explicit
+/// keys when given, else the axis's `POSITION` `ACTUAL` sample (machine coordinates when there
+/// are several) and its only `LOAD` sample; check their units (mm, %) and the required torque
+/// scale. `source_name` names the data source in [`ImportError::NeedTorqueScale`].
+///
+/// # Errors
+/// As [`ShdrLog::to_trace`], apart from the sample counts.
+pub fn axis_items(
+    model: &DeviceModel,
+    device: usize,
+    axis: &str,
+    position_key: Option<&str>,
+    load_key: Option<&str>,
+    torque_per_load_nm: Option<f64>,
+    source_name: &str,
+) -> Result<AxisItems, ImportError> {
+    let dev = &model.devices[device];
+    let a = dev.find_axis(axis, &model.source_name)?;
+    let ax = &dev.axes[a];
+    let item_err = |reason: String| ImportError::Item {
+        source_name: model.source_name.clone(),
+        axis: ax.label().to_string(),
+        reason,
+    };
+    // Names in a message: each once, at most SHOWN_ITEMS, then a count (a model may
+    // declare thousands of items on an axis).
+    let shown = |names: Vec<String>| {
+        let mut seen = std::collections::HashSet::new();
+        let unique: Vec<String> = names
+            .into_iter()
+            .filter(|n| seen.insert(n.clone()))
+            .collect();
+        let more = unique.len().saturating_sub(SHOWN_ITEMS);
+        let mut text = unique
+            .into_iter()
+            .take(SHOWN_ITEMS)
+            .collect::<Vec<_>>()
+            .join(", ");
+        if more > 0 {
+            text.push_str(&format!(" and {more} more"));
+        }
+        text
+    };
+    let list = |v: &[usize]| shown(v.iter().map(|&k| dev.items[k].key().to_string()).collect());
+    let all_items = || {
+        shown(
+            ax.items
+                .iter()
+                .map(|&k| format!("{} ({})", dev.items[k].key(), dev.items[k].type_label()))
+                .collect(),
+        )
+    };
+    let pick = |wanted: &Option<String>,
+                what: &str,
+                option: &str,
+                ok: &dyn Fn(usize) -> bool,
+                prefer: &dyn Fn(usize) -> bool|
+     -> Result<usize, ImportError> {
+        if let Some(w) = wanted {
+            return match dev.find_item(w) {
+                Some(k) => Ok(k),
+                None => Err(item_err(format!(
+                    "{option} {w}: no such data item in device {}",
+                    dev.label()
+                ))),
+            };
+        }
+        let cands: Vec<usize> = ax.items.iter().copied().filter(|&k| ok(k)).collect();
+        let preferred: Vec<usize> = cands.iter().copied().filter(|&k| prefer(k)).collect();
+        match (cands.as_slice(), preferred.as_slice()) {
+            ([], _) => Err(item_err(format!(
+                "no {what} data item (items: {}); choose one with {option}",
+                if ax.items.is_empty() {
+                    "none".to_string()
+                } else {
+                    all_items()
+                }
+            ))),
+            ([k], _) | (_, [k]) => Ok(*k),
+            (many, _) => Err(item_err(format!(
+                "several {what} data items ({}); choose one with {option}",
+                list(many)
+            ))),
+        }
+    };
+    let it = |k: usize| &dev.items[k];
+    let pos = pick(
+        &position_key.map(str::to_string),
+        "POSITION (ACTUAL)",
+        "--position-key",
+        &|k| {
+            it(k).category == Category::Sample
+                && it(k).type_name == "POSITION"
+                && it(k).sub_type.as_deref().is_none_or(|s| s == "ACTUAL")
+        },
+        &|k| it(k).coordinate_system.as_deref() == Some("MACHINE"),
+    )?;
+    let load = pick(
+        &load_key.map(str::to_string),
+        "LOAD",
+        "--load-key",
+        &|k| it(k).category == Category::Sample && it(k).type_name == "LOAD",
+        &|_| false,
+    )?;
+    let mut warnings = Vec::new();
+    match it(pos).units.as_deref() {
+        Some("MILLIMETER") => {}
+        None => warnings.push(Diagnostic::new(
+            "position-units-assumed",
+            format!(
+                "{} declares no units; taken as MILLIMETER (the MTConnect unit of POSITION)",
+                it(pos).key()
+            ),
+        )),
+        Some(u) => {
+            return Err(item_err(format!(
+                "{} is in {u}; feedscope traces need a linear position in MILLIMETER{}",
+                it(pos).key(),
+                if ax.kind == "Rotary" {
+                    " (this is a rotary axis)"
+                } else {
+                    ""
+                }
+            )))
+        }
+    }
+    match it(load).units.as_deref() {
+        Some("PERCENT") | None => {}
+        Some(u) => {
+            return Err(item_err(format!(
+                "{} is in {u}; only PERCENT load is converted",
+                it(load).key()
+            )))
+        }
+    }
+    let scale = match torque_per_load_nm {
+        None => {
+            return Err(ImportError::NeedTorqueScale {
+                source_name: source_name.to_string(),
+                load_key: it(load).key().to_string(),
+            })
+        }
+        Some(x) if x.is_finite() && x > 0.0 => x,
+        Some(x) => {
+            return Err(ImportError::BadParam(format!(
+                "--torque-per-load-nm {x} must be a positive torque"
+            )))
+        }
+    };
+    Ok(AxisItems {
+        axis: a,
+        position: pos,
+        load,
+        torque_per_load_nm: scale,
+        warnings,
+    })
+}
+
 impl ShdrLog {
     /// True when the spans of two segments overlap (a recording may still fit in a pause of
     /// another; [`ChannelReport::interleaved`] tells whether samples really interleave).
@@ -541,138 +716,22 @@ impl ShdrLog {
         params: &ShdrConvertParams,
     ) -> Result<Imported, ImportError> {
         let dev = self.device(model);
-        let a = dev.find_axis(axis, &model.source_name)?;
-        let ax = &dev.axes[a];
-        let item_err = |reason: String| ImportError::Item {
-            source_name: model.source_name.clone(),
-            axis: ax.label().to_string(),
-            reason,
-        };
-        // Names in a message: each once, at most SHOWN_ITEMS, then a count (a model may
-        // declare thousands of items on an axis).
-        let shown = |names: Vec<String>| {
-            let mut seen = std::collections::HashSet::new();
-            let unique: Vec<String> = names
-                .into_iter()
-                .filter(|n| seen.insert(n.clone()))
-                .collect();
-            let more = unique.len().saturating_sub(SHOWN_ITEMS);
-            let mut text = unique
-                .into_iter()
-                .take(SHOWN_ITEMS)
-                .collect::<Vec<_>>()
-                .join(", ");
-            if more > 0 {
-                text.push_str(&format!(" and {more} more"));
-            }
-            text
-        };
-        let list = |v: &[usize]| shown(v.iter().map(|&k| dev.items[k].key().to_string()).collect());
-        let all_items = || {
-            shown(
-                ax.items
-                    .iter()
-                    .map(|&k| format!("{} ({})", dev.items[k].key(), dev.items[k].type_label()))
-                    .collect(),
-            )
-        };
-        let pick = |wanted: &Option<String>,
-                    what: &str,
-                    option: &str,
-                    ok: &dyn Fn(usize) -> bool,
-                    prefer: &dyn Fn(usize) -> bool|
-         -> Result<usize, ImportError> {
-            if let Some(w) = wanted {
-                return match dev.find_item(w) {
-                    Some(k) => Ok(k),
-                    None => Err(item_err(format!(
-                        "{option} {w}: no such data item in device {}",
-                        dev.label()
-                    ))),
-                };
-            }
-            let cands: Vec<usize> = ax.items.iter().copied().filter(|&k| ok(k)).collect();
-            let preferred: Vec<usize> = cands.iter().copied().filter(|&k| prefer(k)).collect();
-            match (cands.as_slice(), preferred.as_slice()) {
-                ([], _) => Err(item_err(format!(
-                    "no {what} data item (items: {}); choose one with {option}",
-                    if ax.items.is_empty() {
-                        "none".to_string()
-                    } else {
-                        all_items()
-                    }
-                ))),
-                ([k], _) | (_, [k]) => Ok(*k),
-                (many, _) => Err(item_err(format!(
-                    "several {what} data items ({}); choose one with {option}",
-                    list(many)
-                ))),
-            }
-        };
+        let AxisItems {
+            position: pos,
+            load,
+            torque_per_load_nm: scale,
+            mut warnings,
+            ..
+        } = axis_items(
+            model,
+            self.device,
+            axis,
+            params.position_key.as_deref(),
+            params.load_key.as_deref(),
+            params.torque_per_load_nm,
+            &self.source_name,
+        )?;
         let it = |k: usize| &dev.items[k];
-        let pos = pick(
-            &params.position_key,
-            "POSITION (ACTUAL)",
-            "--position-key",
-            &|k| {
-                it(k).category == Category::Sample
-                    && it(k).type_name == "POSITION"
-                    && it(k).sub_type.as_deref().is_none_or(|s| s == "ACTUAL")
-            },
-            &|k| it(k).coordinate_system.as_deref() == Some("MACHINE"),
-        )?;
-        let load = pick(
-            &params.load_key,
-            "LOAD",
-            "--load-key",
-            &|k| it(k).category == Category::Sample && it(k).type_name == "LOAD",
-            &|_| false,
-        )?;
-        let mut warnings = Vec::new();
-        match it(pos).units.as_deref() {
-            Some("MILLIMETER") => {}
-            None => warnings.push(Diagnostic::new(
-                "position-units-assumed",
-                format!(
-                    "{} declares no units; taken as MILLIMETER (the MTConnect unit of POSITION)",
-                    it(pos).key()
-                ),
-            )),
-            Some(u) => {
-                return Err(item_err(format!(
-                    "{} is in {u}; feedscope traces need a linear position in MILLIMETER{}",
-                    it(pos).key(),
-                    if ax.kind == "Rotary" {
-                        " (this is a rotary axis)"
-                    } else {
-                        ""
-                    }
-                )))
-            }
-        }
-        match it(load).units.as_deref() {
-            Some("PERCENT") | None => {}
-            Some(u) => {
-                return Err(item_err(format!(
-                    "{} is in {u}; only PERCENT load is converted",
-                    it(load).key()
-                )))
-            }
-        }
-        let scale = match params.torque_per_load_nm {
-            None => {
-                return Err(ImportError::NeedTorqueScale {
-                    source_name: self.source_name.clone(),
-                    load_key: it(load).key().to_string(),
-                })
-            }
-            Some(x) if x.is_finite() && x > 0.0 => x,
-            Some(x) => {
-                return Err(ImportError::BadParam(format!(
-                    "--torque-per-load-nm {x} must be a positive torque"
-                )))
-            }
-        };
         let empty = Vec::new();
         let values = |k: usize| {
             self.series

@@ -1,0 +1,443 @@
+//! `feedscope watch`: follow one axis of a running control, recognise the planned tests it
+//! runs and store each in the history as `history add` does (docs/live.md).
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result};
+use clap::builder::{EnumValueParser, TypedValueParser};
+use clap::{Subcommand, ValueEnum};
+use feedscope::trace::GlitchParams;
+use feedscope_io::trace::{parse_trace_with, write_csv, Layout, ReadOptions};
+use feedscope_live::mtconnect::agent::{AgentParams, AgentSource};
+use feedscope_live::mtconnect::shdr::{ShdrParams, ShdrSource};
+use feedscope_live::mtconnect::AxisSelection;
+use feedscope_live::watch::{feed_for_order_m_s, Outcome, Recognizer, RecognizerParams};
+use feedscope_live::{Event, Source};
+use feedscope_store::time::format_rfc3339;
+use feedscope_store::{AddOutcome, TestKind};
+
+use super::history::{analyse_and_store, TestMeta};
+use super::BadInput;
+use crate::store::StoreSpec;
+
+/// Watch a running control: recognise the planned tests and store each in the history.
+///
+/// Follows one axis over MTConnect (an agent's REST API or an adapter's SHDR stream), splits
+/// the motion into episodes at standstill, and stores every episode that is the test
+/// `feedscope plan` writes (--kind) exactly as `history add` would. An episode with a data
+/// gap, or cut short by Ctrl-C, is discarded with a message, never stored.
+///
+/// Exit codes: 0 stopped (Ctrl-C, or --once after the first stored test); 1 the source
+/// failed for good; 2 bad input (axis file, device model, items, flags).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    pub source: WatchSource,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum WatchSource {
+    /// An MTConnect agent (REST: /probe, /current, /sample).
+    Mtconnect(MtconnectArgs),
+    /// An MTConnect adapter's SHDR stream over TCP (needs the adapter's Devices.xml).
+    Shdr(ShdrArgs),
+}
+
+/// The items of the axis, as `feedscope import shdr` chooses them.
+#[derive(Debug, clap::Args)]
+pub struct ItemArgs {
+    /// Device name, id or uuid [default: the only device].
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Axis name, id or native name in the device model (e.g. X, Z1).
+    #[arg(long)]
+    pub axis: String,
+    /// Position data item (name or id) [default: the axis's POSITION ACTUAL, machine
+    /// coordinates].
+    #[arg(long)]
+    pub position_key: Option<String>,
+    /// Load data item (name or id) [default: the axis's only LOAD].
+    #[arg(long)]
+    pub load_key: Option<String>,
+    /// Motor torque at 100 % load (N·m); required, feedscope never guesses a drive's rating.
+    #[arg(long)]
+    pub torque_per_load_nm: f64,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct MtconnectArgs {
+    /// Agent base URL, e.g. http://HOST:5000.
+    #[arg(long)]
+    pub agent: String,
+    /// Observations asked per /sample request.
+    #[arg(long, default_value_t = 1000)]
+    pub count: u64,
+    /// Wait between polls when the agent has nothing new (ms).
+    #[arg(long, default_value_t = 250)]
+    pub poll_ms: u64,
+    #[command(flatten)]
+    pub items: ItemArgs,
+    #[command(flatten)]
+    pub watch: WatchArgs,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ShdrArgs {
+    /// Adapter address HOST:PORT (port 7878 when left out).
+    #[arg(long)]
+    pub adapter: String,
+    /// The adapter's device model (Devices.xml).
+    #[arg(long)]
+    pub devices: PathBuf,
+    #[command(flatten)]
+    pub items: ItemArgs,
+    #[command(flatten)]
+    pub watch: WatchArgs,
+}
+
+/// What to look for and where to store it (shared by every source).
+#[derive(Debug, clap::Args)]
+pub struct WatchArgs {
+    /// Axis parameters (TOML or JSON), as for `history add`.
+    #[arg(long)]
+    pub axis_file: PathBuf,
+    /// Machine name in the history.
+    #[arg(long, default_value = "machine")]
+    pub machine: String,
+    /// Axis name in the history [default: the axis file's `name`, else its file stem].
+    #[arg(long)]
+    pub axis_name: Option<String>,
+    /// Which test to recognise.
+    #[arg(long, value_parser = EnumValueParser::<KindArg>::new().map(TestKind::from))]
+    pub kind: TestKind,
+    /// Only motion while the control's program name contains this.
+    #[arg(long)]
+    pub program: Option<String>,
+    /// Stop after the first stored test.
+    #[arg(long)]
+    pub once: bool,
+    /// Database file [env: FEEDSCOPE_DB] [default: feedscope.db].
+    #[arg(long, conflicts_with = "store")]
+    pub db: Option<PathBuf>,
+    /// History store: a postgres://USER@HOST/DB URL or an SQLite file [env: FEEDSCOPE_STORE]
+    /// (docs/history.md).
+    #[arg(long)]
+    pub store: Option<String>,
+    /// Standstill that ends a motion episode (s).
+    #[arg(long, default_value_t = 2.0)]
+    pub standstill_s: f64,
+    /// Position changes up to this are no motion (mm).
+    #[arg(long, default_value_t = 0.001)]
+    pub position_quantum_mm: f64,
+    /// Width of the position intervals of the mean-friction indicators (mm).
+    #[arg(long, default_value_t = feedscope::study::StrokeStudyParams::default().interval_mm)]
+    pub interval_mm: f64,
+    /// Also say which feed resolves this screw order at the observed sample interval.
+    #[arg(long)]
+    pub want_order: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum KindArg {
+    /// Constant-feed idle strokes over one range (paper 000).
+    Strokes,
+    /// Triangular wave of rising feed (paper 002).
+    Triangle,
+}
+
+impl From<KindArg> for TestKind {
+    fn from(k: KindArg) -> Self {
+        match k {
+            KindArg::Strokes => TestKind::Strokes,
+            KindArg::Triangle => TestKind::Triangle,
+        }
+    }
+}
+
+fn selection(i: &ItemArgs) -> AxisSelection {
+    AxisSelection {
+        device: i.device.clone(),
+        axis: i.axis.clone(),
+        position_key: i.position_key.clone(),
+        load_key: i.load_key.clone(),
+        torque_per_load_nm: Some(i.torque_per_load_nm),
+    }
+}
+
+fn live_err(e: feedscope_live::LiveError) -> anyhow::Error {
+    match e {
+        feedscope_live::LiveError::Config { .. } => BadInput(e.to_string()).into(),
+        e => anyhow::Error::new(e),
+    }
+}
+
+pub fn run(args: Args) -> Result<()> {
+    match args.source {
+        WatchSource::Mtconnect(a) => {
+            let w = check(&a.watch, &a.items)?;
+            let params = AgentParams {
+                url: a.agent.clone(),
+                count: a.count.max(1),
+                poll: Duration::from_millis(a.poll_ms),
+                ..AgentParams::default()
+            };
+            let src = AgentSource::connect(params, &selection(&a.items)).map_err(live_err)?;
+            watch(Box::new(src), &a.watch, w, a.items.torque_per_load_nm)
+        }
+        WatchSource::Shdr(a) => {
+            let w = check(&a.watch, &a.items)?;
+            let model = feedscope_io::import::devices::DeviceModel::read(&a.devices)?;
+            let params = ShdrParams {
+                adapter: a.adapter.clone(),
+                ..ShdrParams::default()
+            };
+            let src = ShdrSource::new(params, model, &selection(&a.items)).map_err(live_err)?;
+            watch(Box::new(src), &a.watch, w, a.items.torque_per_load_nm)
+        }
+    }
+}
+
+/// Validate the flags and read the axis file before any connection.
+fn check(w: &WatchArgs, i: &ItemArgs) -> Result<feedscope::axis::AxisParams> {
+    if !(i.torque_per_load_nm.is_finite() && i.torque_per_load_nm > 0.0) {
+        return Err(BadInput("--torque-per-load-nm must be a positive torque".into()).into());
+    }
+    if !(w.standstill_s.is_finite() && w.standstill_s > 0.0) {
+        return Err(BadInput("--standstill-s must be a positive time".into()).into());
+    }
+    if !(w.position_quantum_mm.is_finite() && w.position_quantum_mm >= 0.0) {
+        return Err(BadInput("--position-quantum-mm must be ≥ 0".into()).into());
+    }
+    if !(w.interval_mm.is_finite() && w.interval_mm > 0.0) {
+        return Err(BadInput("--interval-mm must be a positive length".into()).into());
+    }
+    if w.want_order.is_some_and(|k| !(k.is_finite() && k > 0.0)) {
+        return Err(BadInput("--want-order must be a positive order".into()).into());
+    }
+    Ok(match w.kind {
+        TestKind::Triangle => feedscope_io::axis::load_for_identification(&w.axis_file)?,
+        _ => feedscope_io::axis::load(&w.axis_file)?,
+    })
+}
+
+fn watch(
+    mut src: Box<dyn Source>,
+    w: &WatchArgs,
+    axis: feedscope::axis::AxisParams,
+    torque_per_load_nm: f64,
+) -> Result<()> {
+    let spec = StoreSpec::resolve(w.db.as_deref(), w.store.as_deref())?;
+    let mut store = spec.open()?;
+    let axis_name = super::history::axis_name(w.axis_name.as_deref(), &axis, &w.axis_file);
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst))
+            .context("installing the Ctrl-C handler")?;
+    }
+    let mut rec = Recognizer::new(RecognizerParams {
+        kind: match w.kind {
+            TestKind::Triangle => feedscope::plan::TestKind::Triangle,
+            _ => feedscope::plan::TestKind::Strokes,
+        },
+        standstill_s: w.standstill_s,
+        position_quantum_m: w.position_quantum_mm * 1e-3,
+        program: w.program.clone(),
+        // SHDR and agent load: whole percent, a magnitude.
+        effort_quantum: Some(torque_per_load_nm / 100.0),
+        effort_signed: Some(false),
+        ..RecognizerParams::default()
+    });
+    eprintln!(
+        "watching {} for {} tests of machine {:?} axis {:?} (store {}); Ctrl-C stops",
+        src.describe(),
+        w.kind.as_str(),
+        w.machine,
+        axis_name,
+        spec.describe()
+    );
+    let lead_m = axis.lead_m();
+    let mut connected = true;
+    let mut last_event = Instant::now();
+    let mut stored = 0usize;
+    loop {
+        if stop.load(Ordering::SeqCst) {
+            if let Some(Outcome::Discarded { reason, .. }) = rec.shutdown() {
+                eprintln!("{reason}");
+            }
+            eprintln!("stopped; {stored} test(s) stored");
+            return Ok(());
+        }
+        let deadline = Instant::now() + Duration::from_millis(200);
+        let outcome = match src.next_event(deadline).map_err(anyhow::Error::new)? {
+            Some(ev) => {
+                last_event = Instant::now();
+                match &ev {
+                    Event::Notice {
+                        message,
+                        connected: c,
+                    } => {
+                        connected = *c;
+                        eprintln!("{message}");
+                    }
+                    Event::Gap { reason, .. } => eprintln!("gap: {reason}"),
+                    _ => {}
+                }
+                rec.push(&ev)
+            }
+            // Control time goes on while the axis stands still and a change-only stream says
+            // nothing: the wall clock since the last event stands in for it, unless the source
+            // is disconnected (the data of that time may still come).
+            None if connected => rec
+                .now_s()
+                .and_then(|t| rec.tick(t + last_event.elapsed().as_secs_f64())),
+            None => None,
+        };
+        let Some(outcome) = outcome else { continue };
+        match outcome {
+            Outcome::NotATest {
+                start_time_s,
+                reason,
+            } => eprintln!(
+                "motion at {}: not a {} test ({reason})",
+                format_rfc3339(start_time_s),
+                w.kind.as_str()
+            ),
+            Outcome::Discarded {
+                start_time_s,
+                reason,
+            } => eprintln!(
+                "motion at {} discarded: {reason}",
+                format_rfc3339(start_time_s)
+            ),
+            Outcome::Test(t) => {
+                let finished = Instant::now();
+                match store_test(&mut *store, &spec, &t, &axis, &axis_name, w) {
+                    Ok(line) => {
+                        let ms = finished.elapsed().as_secs_f64() * 1e3;
+                        crate::output::outln!("{line}");
+                        let k = t.resolvable_order(lead_m);
+                        crate::output::outln!(
+                            "  sample interval {:.3} s: screw orders up to {k:.1} resolvable at \
+                             {:.1} mm/min (lead {} mm){}",
+                            t.sample_interval_s,
+                            t.feeds_m_s.last().copied().unwrap_or(f64::NAN) * 6e4,
+                            axis.lead_mm,
+                            match w.want_order {
+                                Some(o) => format!(
+                                    "; order {o} needs a feed ≤ {:.1} mm/min",
+                                    feed_for_order_m_s(lead_m, o, t.sample_interval_s) * 6e4
+                                ),
+                                None => String::new(),
+                            }
+                        );
+                        eprintln!(
+                            "analysed and stored {ms:.0} ms after the test's last sample arrived"
+                        );
+                        stored += 1;
+                        if w.once {
+                            return Ok(());
+                        }
+                    }
+                    Err(e) => eprintln!(
+                        "test at {} not stored: {e:#}",
+                        format_rfc3339(t.start_time_s)
+                    ),
+                }
+            }
+        }
+    }
+}
+
+/// Analyse and store one test as `history add` does; the line to print.
+fn store_test(
+    store: &mut dyn feedscope_store::Store,
+    spec: &StoreSpec,
+    t: &feedscope_live::watch::FinishedTest,
+    axis: &feedscope::axis::AxisParams,
+    axis_name: &str,
+    w: &WatchArgs,
+) -> Result<String> {
+    // The trace goes through the CSV writer and reader, as a file given to `history add`
+    // would: the same glitch screening, and its bytes identify duplicates.
+    let mut bytes = Vec::new();
+    write_csv(&t.trace, &mut bytes, Layout::Long)?;
+    let source = format!("watch {}", format_rfc3339(t.start_time_s));
+    let (trace, _) = parse_trace_with(
+        &bytes,
+        &source,
+        &ReadOptions::default(),
+        &GlitchParams::for_axis(axis),
+    )?;
+    let mut axis = axis.clone();
+    let meta = TestMeta {
+        machine: w.machine.clone(),
+        axis: axis_name.to_string(),
+        time_s: t.start_time_s,
+        source,
+        program: t.program.clone(),
+        reference: false,
+        compensation: None,
+    };
+    let (outcome, nt) = analyse_and_store(
+        store,
+        spec,
+        &trace,
+        &mut axis,
+        w.kind,
+        w.interval_mm,
+        &bytes,
+        meta,
+    )?;
+    let stored = match outcome {
+        AddOutcome::Added(id) => format!("stored test {id}"),
+        AddOutcome::Duplicate(id) => format!("duplicate of test {id}"),
+    };
+    let feeds: Vec<String> = t
+        .feeds_m_s
+        .iter()
+        .map(|f| format!("{:.1}", f * 6e4))
+        .collect();
+    let status = trend_status(store, &w.machine, axis_name);
+    Ok(format!(
+        "{}  {} strokes  feed {} mm/min  {stored}  trend {status}",
+        nt.time_utc,
+        t.strokes,
+        feeds.join("/"),
+    ))
+}
+
+/// The axis's trend in one word: the worst indicator status, or why there is none yet.
+fn trend_status(store: &dyn feedscope_store::Store, machine: &str, axis: &str) -> String {
+    let thresholds =
+        match super::history::with_axis_thresholds(store, machine, axis, Default::default()) {
+            Ok(t) => t,
+            Err(e) => return format!("unknown ({e})"),
+        };
+    match super::history::axis_trends(
+        store,
+        machine,
+        axis,
+        feedscope::study::TrendStudyParams::default().baseline_tests,
+        &super::history::DetectorArgs::default(),
+        &thresholds,
+    ) {
+        Ok(t) if t.trends.is_empty() => "baseline not yet formed".into(),
+        Ok(t) => {
+            let bad: Vec<&str> = t
+                .trends
+                .iter()
+                .filter(|x| x.status != feedscope::history::Status::Ok)
+                .map(|x| x.status.as_str())
+                .collect();
+            if bad.is_empty() {
+                "ok".into()
+            } else {
+                format!("{} indicator(s) not ok ({})", bad.len(), bad[0])
+            }
+        }
+        Err(e) => format!("not available ({e:#})"),
+    }
+}
