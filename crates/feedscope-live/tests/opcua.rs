@@ -181,7 +181,7 @@ pki_dir = "pki"
     path
 }
 
-const LOAD: &str = "node = \"ns=2;s=X.ActLoad\"\nunit = \"percent\"\ntorque_per_load_nm = 0.05";
+const LOAD: &str = "node = \"ns=2;s=X.ActLoad\"\nunit = \"percent\"\ntorque_per_load_nm = 5.0";
 const TORQUE: &str = "node = \"ns=2;s=X.ActTorque\"\nunit = \"Nm\"";
 
 /// One received event and the client's wall clock when it came (s since the Unix epoch).

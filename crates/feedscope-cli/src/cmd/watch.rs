@@ -13,6 +13,7 @@ use feedscope_io::trace::{parse_trace_with, write_csv, Layout, ReadOptions};
 use feedscope_live::mtconnect::agent::{AgentParams, AgentSource};
 use feedscope_live::mtconnect::shdr::{ShdrParams, ShdrSource};
 use feedscope_live::mtconnect::AxisSelection;
+use feedscope_live::opcua::{EffortUnit, OpcUaConfig, OpcUaSource};
 use feedscope_live::watch::{feed_for_order_m_s, Outcome, Recognizer, RecognizerParams};
 use feedscope_live::{Event, Source};
 use feedscope_store::time::format_rfc3339;
@@ -24,7 +25,8 @@ use crate::store::StoreSpec;
 
 /// Watch a running control: recognise the planned tests and store each in the history.
 ///
-/// Follows one axis over MTConnect (an agent's REST API or an adapter's SHDR stream), splits
+/// Follows one axis over MTConnect (an agent's REST API or an adapter's SHDR stream) or OPC UA
+/// (a subscription to the nodes a source file names), splits
 /// the motion into episodes at standstill, and stores every episode that is the test
 /// `feedscope plan` writes (--kind) exactly as `history add` would. An episode with a data
 /// gap, or cut short by Ctrl-C, is discarded with a message, never stored.
@@ -43,6 +45,19 @@ pub enum WatchSource {
     Mtconnect(MtconnectArgs),
     /// An MTConnect adapter's SHDR stream over TCP (needs the adapter's Devices.xml).
     Shdr(ShdrArgs),
+    /// An OPC UA server (SINUMERIK, a CNC companion-spec server): subscribes to the nodes a
+    /// TOML source file names (docs/opcua.md; examples/opcua/).
+    Opcua(OpcUaArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct OpcUaArgs {
+    /// Source file (TOML): endpoint, security, the position and effort nodes with their units,
+    /// the sampling interval (docs/opcua.md).
+    #[arg(long)]
+    pub source: PathBuf,
+    #[command(flatten)]
+    pub watch: WatchArgs,
 }
 
 /// The items of the axis, as `feedscope import shdr` chooses them.
@@ -184,7 +199,11 @@ pub fn run(args: Args) -> Result<()> {
                 ..AgentParams::default()
             };
             let src = AgentSource::connect(params, &selection(&a.items)).map_err(live_err)?;
-            watch(Box::new(src), &a.watch, w, a.items.torque_per_load_nm)
+            let effort = EffortHints {
+                quantum: Some(a.items.torque_per_load_nm / 100.0),
+                signed: Some(false),
+            };
+            watch(Box::new(src), &a.watch, w, effort)
         }
         WatchSource::Shdr(a) => {
             let w = check(&a.watch, &a.items)?;
@@ -194,9 +213,40 @@ pub fn run(args: Args) -> Result<()> {
                 ..ShdrParams::default()
             };
             let src = ShdrSource::new(params, model, &selection(&a.items)).map_err(live_err)?;
-            watch(Box::new(src), &a.watch, w, a.items.torque_per_load_nm)
+            let effort = EffortHints {
+                // SHDR and agent load: whole percent of the torque at 100 %, a magnitude.
+                quantum: Some(a.items.torque_per_load_nm / 100.0),
+                signed: Some(false),
+            };
+            watch(Box::new(src), &a.watch, w, effort)
+        }
+        WatchSource::Opcua(a) => {
+            let w = check_watch(&a.watch)?;
+            let config = OpcUaConfig::from_file(&a.source).map_err(live_err)?;
+            for warning in config.warnings() {
+                eprintln!("warning: {}: {warning}", a.source.display());
+            }
+            let effort = match config.effort.unit {
+                // A load reading is a magnitude; its resolution is not known in advance.
+                EffortUnit::Percent { .. } => EffortHints {
+                    quantum: None,
+                    signed: Some(false),
+                },
+                _ => EffortHints::default(),
+            };
+            let src = OpcUaSource::connect(config).map_err(live_err)?;
+            watch(Box::new(src), &a.watch, w, effort)
         }
     }
+}
+
+/// What the source says about its effort channel, for the analysis of each test.
+#[derive(Debug, Default, Clone, Copy)]
+struct EffortHints {
+    /// Resolution of the effort in SI units, when the protocol fixes it.
+    quantum: Option<f64>,
+    /// `Some(false)` for a magnitude (a drive load), `None` to judge from the data.
+    signed: Option<bool>,
 }
 
 /// Validate the flags and read the axis file before any connection.
@@ -204,6 +254,11 @@ fn check(w: &WatchArgs, i: &ItemArgs) -> Result<feedscope::axis::AxisParams> {
     if !(i.torque_per_load_nm.is_finite() && i.torque_per_load_nm > 0.0) {
         return Err(BadInput("--torque-per-load-nm must be a positive torque".into()).into());
     }
+    check_watch(w)
+}
+
+/// Validate the flags every source shares and read the axis file.
+fn check_watch(w: &WatchArgs) -> Result<feedscope::axis::AxisParams> {
     if !(w.standstill_s.is_finite() && w.standstill_s > 0.0) {
         return Err(BadInput("--standstill-s must be a positive time".into()).into());
     }
@@ -226,7 +281,7 @@ fn watch(
     mut src: Box<dyn Source>,
     w: &WatchArgs,
     axis: feedscope::axis::AxisParams,
-    torque_per_load_nm: f64,
+    effort: EffortHints,
 ) -> Result<()> {
     let spec = StoreSpec::resolve(w.db.as_deref(), w.store.as_deref())?;
     let mut store = spec.open()?;
@@ -245,9 +300,8 @@ fn watch(
         standstill_s: w.standstill_s,
         position_quantum_m: w.position_quantum_mm * 1e-3,
         program: w.program.clone(),
-        // SHDR and agent load: whole percent, a magnitude.
-        effort_quantum: Some(torque_per_load_nm / 100.0),
-        effort_signed: Some(false),
+        effort_quantum: effort.quantum,
+        effort_signed: effort.signed,
         ..RecognizerParams::default()
     });
     eprintln!(

@@ -96,9 +96,9 @@ pub enum EffortUnit {
     A,
     /// Motor torque, newton-metres (`"Nm"`).
     Nm,
-    /// Drive load in % (`"percent"`); torque = load × `torque_per_load_nm` (N·m per 1 %).
+    /// Drive load in % (`"percent"`); torque = load / 100 × `torque_per_load_nm`.
     Percent {
-        /// N·m per 1 % of load (rated torque / 100).
+        /// Motor torque at 100 % load (N·m), as `feedscope import shdr` and `watch` take it.
         torque_per_load_nm: f64,
     },
 }
@@ -125,7 +125,7 @@ impl EffortNode {
     pub fn to_si(&self) -> f64 {
         match self.unit {
             EffortUnit::A | EffortUnit::Nm => 1.0,
-            EffortUnit::Percent { torque_per_load_nm } => torque_per_load_nm,
+            EffortUnit::Percent { torque_per_load_nm } => torque_per_load_nm / 100.0,
         }
     }
 }
@@ -309,7 +309,7 @@ impl OpcUaConfig {
             ("percent", None) => {
                 return Err(eff.err(
                     "torque_per_load_nm",
-                    "required with unit = \"percent\" (N·m per 1 % load = rated torque / 100)",
+                    "required with unit = \"percent\" (the motor torque at 100 % load, N·m)",
                 ))
             }
             ("A" | "Nm", Some(_)) => {
@@ -549,7 +549,7 @@ unit = "mm"
 [effort]
 node = "ns=2;s=X.ActLoad"
 unit = "percent"
-torque_per_load_nm = 0.05
+torque_per_load_nm = 5.0
 "#;
 
     fn parse(text: &str) -> Result<OpcUaConfig, LiveError> {
@@ -582,7 +582,7 @@ torque_per_load_nm = 0.05
             "position.unit"
         );
         assert_eq!(
-            field_of(&MINIMAL.replace("torque_per_load_nm = 0.05", "")),
+            field_of(&MINIMAL.replace("torque_per_load_nm = 5.0", "")),
             "effort.torque_per_load_nm"
         );
         assert_eq!(field_of(&format!("foo = 1\n{MINIMAL}")), "foo");
