@@ -10,7 +10,8 @@ trap 'rm -rf "$(dirname "$venv")"' EXIT
 python3 -m venv "$venv"
 # The MTConnect agent documents of scripts/mtconnect-test-agent.py (pinned: the script works
 # round this version's bugs).
-"$venv/bin/pip" install --quiet mtconnect==0.3.3
+"$venv/bin/pip" install --quiet mtconnect==0.3.3 asyncua
+# (asyncua: the OPC UA test server of scripts/opcua-test-server.py, for `watch opcua`.)
 export FEEDSCOPE_TEST_PYTHON="$venv/bin/python"
 cd "$here"
 start=$(date +%s)

@@ -634,3 +634,100 @@ fn watch_shdr_window_of_real_logs_is_exact() {
     );
     assert!(n > 40, "{n}");
 }
+
+/// `feedscope watch opcua`: the twin's idle-stroke test published by the asyncua test server
+/// (scripts/opcua-test-server.py, ActTorque in N·m with the trace's times as SourceTimestamps,
+/// sped up 4×) is recognised and stored once, and its interval means agree with `history
+/// add` of the whole simulated trace to 2 N (change-only delivery drops repeated values and the
+/// episode starts at the first move, so the samples differ slightly; the friction is ~250 N
+/// with ±2.5 N of effort noise per sample).
+#[test]
+#[ignore = "needs the live test servers: scripts/live-tests.sh"]
+fn watch_opcua_stores_the_twin_test() {
+    let d = tempfile::tempdir().unwrap();
+    let _tw = twin(d.path());
+    let mut server = Command::new(python())
+        .arg(repo().join("scripts/opcua-test-server.py"))
+        .arg("--csv")
+        .arg(d.path().join("sim/trace.csv"))
+        .args(["--port", "0", "--speed", "4"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("starting scripts/opcua-test-server.py");
+    let mut line = String::new();
+    BufReader::new(server.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let f: Vec<&str> = line.split_whitespace().collect();
+    assert_eq!(f.first(), Some(&"listening"), "server said {line:?}");
+    let port = f[1];
+    std::fs::write(
+        d.path().join("source.toml"),
+        format!(
+            "[server]\nendpoint = \"opc.tcp://127.0.0.1:{port}/feedscope/\"\n\
+             security_mode = \"none\"\n\n[position]\nnode = \"ns=2;s=X.ActPos\"\nunit = \"mm\"\n\n\
+             [effort]\nnode = \"ns=2;s=X.ActTorque\"\nunit = \"Nm\"\n\n\
+             [subscription]\nsampling_interval_ms = 5\npublishing_interval_ms = 50\n\
+             queue_size = 100\ntrigger = \"status_value_timestamp\"\n"
+        ),
+    )
+    .unwrap();
+    let started = Instant::now();
+    let o = feedscope(d.path())
+        .args(["watch", "opcua", "--source", "source.toml"])
+        .args(["--axis-file", "sim/axis.toml", "--kind", "strokes"])
+        .args(["--db", "w.db", "--once"])
+        .output()
+        .unwrap();
+    let _ = server.kill();
+    let (so, se) = (stdout(&o), stderr(&o));
+    assert_eq!(o.status.code(), Some(0), "{so}\n{se}");
+    assert_eq!(so.matches("stored test 1").count(), 1, "{so}\n{se}");
+    assert!(so.contains("4 strokes  feed 300.0 mm/min"), "{so}");
+    eprintln!(
+        "watch opcua: stored after {:.1} s of a 4x replay ({})",
+        started.elapsed().as_secs_f64(),
+        se.lines()
+            .find(|l| l.starts_with("analysed and stored"))
+            .unwrap_or("?")
+    );
+    // The whole simulated trace through history add, interval by interval.
+    let a = feedscope(d.path())
+        .args(["history", "add", "--kind", "strokes", "--axis", "sim/axis.toml"])
+        .args(["--db", "f.db", "--time", "2026-11-26T10:00:00Z", "sim/trace.csv"])
+        .output()
+        .unwrap();
+    assert!(a.status.success(), "{}", stderr(&a));
+    let (w, f) = (shown(d.path(), "w.db", "1"), shown(d.path(), "f.db", "1"));
+    let means = |v: &serde_json::Value| -> Vec<(String, f64, f64)> {
+        v["intervals"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|i| {
+                (
+                    i["direction"].as_str().unwrap().to_string(),
+                    i["start_mm"].as_f64().unwrap(),
+                    i["mean_n"].as_f64().unwrap(),
+                )
+            })
+            .collect()
+    };
+    let (mw, mf) = (means(&w), means(&f));
+    assert!(mw.len() >= 10, "{w}");
+    let mut compared = 0;
+    for (dir, start, mean) in &mw {
+        if let Some((_, _, want)) = mf
+            .iter()
+            .find(|(d2, s2, _)| d2 == dir && (s2 - start).abs() < 1e-9)
+        {
+            assert!(
+                (mean - want).abs() <= 2.0,
+                "{dir} {start} mm: watch {mean:.2} N, history add {want:.2} N"
+            );
+            compared += 1;
+        }
+    }
+    assert!(compared * 10 >= mw.len() * 8, "{compared} of {} intervals compared", mw.len());
+}
