@@ -363,7 +363,7 @@ fn windows(
 
 /// As [`smoothing_moments`], solved in overlapping windows of `window` knots so that the
 /// work arrays stay bounded on a long stroke: each window's core takes its moments and
-/// smoothed values from a solve that reaches [`SMOOTH_OVERLAP_TIME_CONSTANTS`] settling time
+/// smoothed values from a solve that reaches 36 settling time
 /// constants τ = √2/ω_c (ω_c from α and the mean spacing, [`alpha_for_cutoff`]) and 48 knots
 /// beyond it, where the kernel has decayed below double precision: the result equals the
 /// whole solve to rounding (tested to 1e-9 relative). Up to `window` knots plus the overlaps

@@ -311,6 +311,11 @@ impl PlotData {
     }
 }
 
+/// A piece of a stroke formatted as CSV rows, in chunks.
+type CsvRows = Vec<Vec<u8>>;
+/// (position mm, friction N) points of a piece, decimated for the plot.
+type PlotPoints = Vec<(f64, f64)>;
+
 /// What an estimate run produced; `csv` is written but not yet in place (see
 /// [`AtomicFile::commit`]), so the caller can commit all outputs together.
 pub struct Outcome {
@@ -359,7 +364,7 @@ pub fn estimate_to_csv(
             params,
             2 * n_threads,
             |s: StrokeFriction| (friction_csv::format_stroke(&s), PlotData::points(&s)),
-            |piece: StrokePiece<(Vec<Vec<u8>>, Vec<(f64, f64)>)>| -> Result<()> {
+            |piece: StrokePiece<(CsvRows, PlotPoints)>| -> Result<()> {
                 match piece {
                     StrokePiece::Rows((rows, p)) => {
                         // A send fails only when the writer stopped on an error; join()

@@ -681,6 +681,7 @@ fn watch_opcua_stores_the_twin_test() {
         .output()
         .unwrap();
     let _ = server.kill();
+    let _ = server.wait();
     let (so, se) = (stdout(&o), stderr(&o));
     assert_eq!(o.status.code(), Some(0), "{so}\n{se}");
     assert_eq!(so.matches("stored test 1").count(), 1, "{so}\n{se}");
@@ -694,8 +695,21 @@ fn watch_opcua_stores_the_twin_test() {
     );
     // The whole simulated trace through history add, interval by interval.
     let a = feedscope(d.path())
-        .args(["history", "add", "--kind", "strokes", "--axis", "sim/axis.toml"])
-        .args(["--db", "f.db", "--time", "2026-11-26T10:00:00Z", "sim/trace.csv"])
+        .args([
+            "history",
+            "add",
+            "--kind",
+            "strokes",
+            "--axis",
+            "sim/axis.toml",
+        ])
+        .args([
+            "--db",
+            "f.db",
+            "--time",
+            "2026-11-26T10:00:00Z",
+            "sim/trace.csv",
+        ])
         .output()
         .unwrap();
     assert!(a.status.success(), "{}", stderr(&a));
@@ -729,5 +743,9 @@ fn watch_opcua_stores_the_twin_test() {
             compared += 1;
         }
     }
-    assert!(compared * 10 >= mw.len() * 8, "{compared} of {} intervals compared", mw.len());
+    assert!(
+        compared * 10 >= mw.len() * 8,
+        "{compared} of {} intervals compared",
+        mw.len()
+    );
 }
