@@ -1634,7 +1634,7 @@ pub fn estimate_pieces_streaming<T: Send, E: From<EstimateError>>(
         let end = (k..planned.spans.len())
             .take(batch)
             .find(|&j| long(&planned.spans[j]))
-            .unwrap_or((k + batch).min(planned.spans.len()));
+            .unwrap_or(k.saturating_add(batch).min(planned.spans.len()));
         let chunk = &planned.spans[k..end];
         let results: Vec<_> = chunk
             .par_iter()
