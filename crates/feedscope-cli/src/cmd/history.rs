@@ -284,7 +284,7 @@ impl DetectorArgs {
 
 /// `--kind`: the store's [`TestKind`] as clap sees it (the store crate knows no clap).
 #[derive(Debug, Clone, Copy, ValueEnum)]
-enum KindArg {
+pub(crate) enum KindArg {
     /// Constant-feed idle strokes: estimate + analyze (paper 000).
     Strokes,
     /// Variable-amplitude, variable-velocity triangular wave: one-test identification (paper 002).

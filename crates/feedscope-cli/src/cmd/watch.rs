@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use clap::builder::{EnumValueParser, TypedValueParser};
-use clap::{Subcommand, ValueEnum};
+use clap::Subcommand;
 use feedscope::trace::GlitchParams;
 use feedscope_io::trace::{parse_trace_with, write_csv, Layout, ReadOptions};
 use feedscope_live::mtconnect::agent::{AgentParams, AgentSource};
@@ -19,7 +19,7 @@ use feedscope_live::{Event, Source};
 use feedscope_store::time::format_rfc3339;
 use feedscope_store::{AddOutcome, TestKind};
 
-use super::history::{analyse_and_store, TestMeta};
+use super::history::{analyse_and_store, KindArg, TestMeta};
 use super::BadInput;
 use crate::store::StoreSpec;
 
@@ -152,23 +152,6 @@ pub struct WatchArgs {
     /// Also say which feed resolves this screw order at the observed sample interval.
     #[arg(long)]
     pub want_order: Option<f64>,
-}
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum KindArg {
-    /// Constant-feed idle strokes over one range (paper 000).
-    Strokes,
-    /// Triangular wave of rising feed (paper 002).
-    Triangle,
-}
-
-impl From<KindArg> for TestKind {
-    fn from(k: KindArg) -> Self {
-        match k {
-            KindArg::Strokes => TestKind::Strokes,
-            KindArg::Triangle => TestKind::Triangle,
-        }
-    }
 }
 
 fn selection(i: &ItemArgs) -> AxisSelection {
