@@ -50,6 +50,7 @@
 pub mod floor;
 pub mod moves;
 pub mod segment;
+pub mod stream;
 mod view;
 
 use rayon::prelude::*;
@@ -665,6 +666,7 @@ fn recording_reasons(
     params: &EstimateParams,
     backward_positive: bool,
     means: &DirectionMeans,
+    effort_never_negative: bool,
 ) -> Vec<Diagnostic> {
     let mut out = Vec::new();
     let f = &trace.facts;
@@ -697,7 +699,7 @@ fn recording_reasons(
             "the effort is a magnitude: friction takes the sign of the direction of motion; \
              a force that assists the motion (gravity on a vertical axis) cannot be told apart",
         ));
-    } else if backward_positive && trace.effort.value.iter().all(|&e| e >= 0.0) {
+    } else if backward_positive && effort_never_negative {
         out.push(Diagnostic::new(
             "effort-maybe-unsigned",
             "the effort is never negative and backward strokes have positive friction: if the \
@@ -1684,7 +1686,13 @@ pub fn estimate_pieces_streaming<T: Send, E: From<EstimateError>>(
         verdict: DataVerdict::from_strokes(
             &seen.verdicts,
             friction_sign(trace, params),
-            recording_reasons(trace, params, seen.any_backward_positive, &seen.means),
+            recording_reasons(
+                trace,
+                params,
+                seen.any_backward_positive,
+                &seen.means,
+                trace.effort.value.iter().all(|&e| e >= 0.0),
+            ),
         ),
     })
 }

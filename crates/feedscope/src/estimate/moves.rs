@@ -116,7 +116,7 @@ impl ProgrammedMove {
 /// the servo's following make the plateau a few per cent slow).
 const RAPID_FRACTION: f64 = 0.9;
 /// Without a rapid rate: the slowest speed taken for a rapid (mm/min) ...
-const INFERRED_RAPID_MIN_MM_MIN: f64 = 3000.0;
+pub(crate) const INFERRED_RAPID_MIN_MM_MIN: f64 = 3000.0;
 /// ... and how much faster than every other move it must be.
 const INFERRED_RAPID_RATIO: f64 = 2.0;
 
@@ -129,10 +129,9 @@ pub(crate) fn classify(
 ) -> (Vec<Move>, Option<String>) {
     // Rapids are told by their top speed: a long rapid spends much of its time on its ramps,
     // which pull the plateau (a median) below the rapid rate.
-    let top_mm_min = |m: &MoveSpan| feed_m_s_to_mm_min(m.top_speed_m_s);
     let mut note = None;
     let rapid_above = match rapid_rate_mm_min {
-        Some(r) => Some(RAPID_FRACTION * r),
+        Some(r) => Some(rapid_above_rate(r)),
         None => {
             let fastest = moves.iter().map(top_mm_min).fold(0.0, f64::max);
             let fast_cut = RAPID_FRACTION * fastest;
@@ -157,32 +156,45 @@ pub(crate) fn classify(
             }
         }
     };
-    let (t, z) = (&position.time_s, &position.value);
     let out = moves
         .iter()
-        .map(|m| {
-            let kind = if rapid_above.is_some_and(|r| top_mm_min(m) >= r) {
-                MoveKind::Rapid
-            } else if m.strokes.is_empty() {
-                MoveKind::Positioning
-            } else {
-                MoveKind::Measuring
-            };
-            Move {
-                kind,
-                direction: m.direction,
-                start_time_s: t[m.first],
-                end_time_s: t[m.last],
-                start_mm: z[m.first] * 1e3,
-                end_mm: z[m.last] * 1e3,
-                feed_mm_min: steady_feed_mm_min(position, m),
-                strokes: Vec::new(),
-                program_line: None,
-                programmed_feed_mm_min: None,
-            }
-        })
+        .map(|m| classify_one(position, m, rapid_above))
         .collect();
     (out, note)
+}
+
+/// The top speed of a move (mm/min), what tells a rapid.
+pub(crate) fn top_mm_min(m: &MoveSpan) -> f64 {
+    feed_m_s_to_mm_min(m.top_speed_m_s)
+}
+
+/// One move classified, with moves at or above `rapid_above` (mm/min) taken for rapids.
+pub(crate) fn classify_one(position: &Channel, m: &MoveSpan, rapid_above: Option<f64>) -> Move {
+    let (t, z) = (&position.time_s, &position.value);
+    let kind = if rapid_above.is_some_and(|r| top_mm_min(m) >= r) {
+        MoveKind::Rapid
+    } else if m.strokes.is_empty() {
+        MoveKind::Positioning
+    } else {
+        MoveKind::Measuring
+    };
+    Move {
+        kind,
+        direction: m.direction,
+        start_time_s: t[m.first],
+        end_time_s: t[m.last],
+        start_mm: z[m.first] * 1e3,
+        end_mm: z[m.last] * 1e3,
+        feed_mm_min: steady_feed_mm_min(position, m),
+        strokes: Vec::new(),
+        program_line: None,
+        programmed_feed_mm_min: None,
+    }
+}
+
+/// The speed at or above which a move is a rapid when the axis gives its rapid rate (mm/min).
+pub(crate) fn rapid_above_rate(rapid_rate_mm_min: f64) -> f64 {
+    RAPID_FRACTION * rapid_rate_mm_min
 }
 
 /// The feed of a move: the mean speed over its steady strokes (exact also when single chords

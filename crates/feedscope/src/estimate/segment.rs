@@ -111,16 +111,26 @@ impl Default for SegmentParams {
 }
 
 /// The smallest non-zero position step in the data (m): the quantum, or 0 if none.
-fn position_quantum_m(z: &[f64]) -> f64 {
+pub(crate) fn position_quantum_m(z: &[f64]) -> f64 {
     let q = z
         .windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .filter(|d| *d > 1e-12)
-        .fold(f64::INFINITY, f64::min);
+        .fold(f64::INFINITY, |q, w| step_min(q, w[0], w[1]));
     if q.is_finite() {
         q
     } else {
         0.0
+    }
+}
+
+/// `q` lowered to the step from `a` to `b` when that step is a non-zero one smaller than it
+/// (one fold step of [`position_quantum_m`], shared with the streamed segmentation).
+#[inline]
+pub(crate) fn step_min(q: f64, a: f64, b: f64) -> f64 {
+    let d = (b - a).abs();
+    if d > 1e-12 {
+        q.min(d)
+    } else {
+        q
     }
 }
 
@@ -131,61 +141,237 @@ fn hysteresis_m(z: &[f64], quantum: f64) -> f64 {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
             (a.min(v), b.max(v))
         });
+    hysteresis_of(quantum, lo, hi)
+}
+
+/// Hysteresis for turning points (m) from the position quantum and the lowest and highest
+/// position (m).
+pub(crate) fn hysteresis_of(quantum: f64, lo: f64, hi: f64) -> f64 {
     (8.0 * quantum).max(1e-4 * (hi - lo)).max(1e-7)
 }
 
 /// Indices of alternating extremes (first and last sample included).
 fn turning_points(z: &[f64], eps: f64) -> Vec<usize> {
+    let mut finder = TurnFinder::new(eps);
     let mut tp = Vec::new();
-    let n = z.len();
-    // Until a direction is known, track both extremes.
-    let (mut imin, mut imax) = (0usize, 0usize);
-    let mut k = 0;
-    let mut up;
-    loop {
-        if k >= n {
-            return vec![0, n - 1];
-        }
-        if z[k] < z[imin] {
-            imin = k;
-        }
-        if z[k] > z[imax] {
-            imax = k;
-        }
-        if z[k] - z[imin] > eps {
-            up = true;
-            tp.push(imin);
-            break;
-        }
-        if z[imax] - z[k] > eps {
-            up = false;
-            tp.push(imax);
-            break;
-        }
-        k += 1;
-    }
-    let mut ext = k;
-    for k in k..n {
-        if up {
-            if z[k] >= z[ext] {
-                ext = k;
-            } else if z[ext] - z[k] > eps {
-                tp.push(ext);
-                up = false;
-                ext = k;
-            }
-        } else if z[k] <= z[ext] {
-            ext = k;
-        } else if z[k] - z[ext] > eps {
-            tp.push(ext);
-            up = true;
-            ext = k;
+    for (k, &v) in z.iter().enumerate() {
+        if let Some(i) = finder.push(k, v) {
+            tp.push(i);
         }
     }
-    if *tp.last().unwrap_or(&usize::MAX) != ext {
-        tp.push(ext);
-    }
+    finder.finish(z.len(), &mut tp);
     tp
+}
+
+/// Where [`TurnFinder`] is.
+#[derive(Debug, Clone, Copy)]
+enum Heading {
+    /// No direction yet: the running lowest and highest samples (index, value), the largest
+    /// rise above the running low and fall below the running high, each split into before
+    /// and since that extreme was last renewed.
+    Unknown {
+        low: (usize, f64),
+        high: (usize, f64),
+        rise: Excursion,
+        fall: Excursion,
+    },
+    /// Rising (`up`) or falling from the last turning point: the running extreme (index,
+    /// value), the largest counter-move before it, and since it the deepest retreat and the
+    /// largest move back from that retreat.
+    Moving {
+        up: bool,
+        ext: (usize, f64),
+        counter: f64,
+        retreat_to: f64,
+        back: f64,
+    },
+}
+
+/// The largest excursion seen before a running extreme was last renewed, and since (m).
+#[derive(Debug, Clone, Copy, Default)]
+struct Excursion {
+    before: f64,
+    since: f64,
+}
+
+/// Turning points by hysteresis, one sample at a time (step 1 of the module docs): what
+/// [`find_moves`] runs over a whole trace and the streamed estimation over a trace as it is
+/// read.
+///
+/// Besides the turning points, the finder keeps what tells which other hysteresis ε' finds
+/// the same ones: `counter_max`, the largest move against the direction within a move (and
+/// any move at all before the first turning point and after the last extreme), and
+/// `travel_min`, the smallest travel between turning points. Every ε' with
+/// `counter_max ≤ ε' < travel_min` finds exactly these turning points: within a move nothing
+/// turns, each reversal is taken, and it is taken at the same extreme, because a retreat that
+/// first exceeds a hysteresis is lower (higher) than every sample since the extreme. That lets
+/// a stream segment with an ε fixed from a prefix and check it against the whole trace's.
+#[derive(Debug, Clone)]
+pub(crate) struct TurnFinder {
+    eps: f64,
+    heading: Heading,
+    /// The last turning point (index, value).
+    last_tp: Option<(usize, f64)>,
+    /// See the type's docs (m).
+    pub(crate) counter_max: f64,
+    pub(crate) travel_min: f64,
+}
+
+impl TurnFinder {
+    pub(crate) fn new(eps: f64) -> Self {
+        Self {
+            eps,
+            heading: Heading::Unknown {
+                low: (0, f64::NAN),
+                high: (0, f64::NAN),
+                rise: Excursion::default(),
+                fall: Excursion::default(),
+            },
+            last_tp: None,
+            counter_max: 0.0,
+            travel_min: f64::INFINITY,
+        }
+    }
+
+    /// The hysteresis in use (m).
+    pub(crate) fn eps(&self) -> f64 {
+        self.eps
+    }
+
+    /// A turning point at `tp`, found at sample `k` of value `v`, turning `up` (rising from
+    /// now) or not; `counter` is the largest counter-move the new move already holds.
+    fn turn(&mut self, tp: (usize, f64), k: usize, v: f64, up: bool, counter: f64) -> usize {
+        if let Some((_, z)) = self.last_tp {
+            self.travel_min = self.travel_min.min((tp.1 - z).abs());
+        }
+        self.last_tp = Some(tp);
+        self.heading = Heading::Moving {
+            up,
+            ext: (k, v),
+            counter,
+            retreat_to: v,
+            back: 0.0,
+        };
+        tp.0
+    }
+
+    /// Sample `k` (consecutive from 0) of value `v`; returns a turning point when this sample
+    /// confirms one.
+    #[inline]
+    pub(crate) fn push(&mut self, k: usize, v: f64) -> Option<usize> {
+        match self.heading {
+            Heading::Unknown {
+                mut low,
+                mut high,
+                mut rise,
+                mut fall,
+            } => {
+                if k == 0 {
+                    low = (0, v);
+                    high = (0, v);
+                }
+                if v < low.1 {
+                    low = (k, v);
+                    rise.before = rise.before.max(rise.since);
+                    rise.since = 0.0;
+                }
+                if v > high.1 {
+                    high = (k, v);
+                    fall.before = fall.before.max(fall.since);
+                    fall.since = 0.0;
+                }
+                let (up, down) = (v - low.1, high.1 - v);
+                if up > self.eps {
+                    // Rises before the low and every fall would have turned a smaller ε.
+                    let c = rise.before.max(fall.before).max(fall.since).max(down);
+                    self.counter_max = self.counter_max.max(c);
+                    return Some(self.turn(low, k, v, true, 0.0));
+                }
+                if down > self.eps {
+                    let c = fall.before.max(rise.before).max(rise.since).max(up);
+                    self.counter_max = self.counter_max.max(c);
+                    return Some(self.turn(high, k, v, false, 0.0));
+                }
+                rise.since = rise.since.max(up);
+                fall.since = fall.since.max(down);
+                self.heading = Heading::Unknown {
+                    low,
+                    high,
+                    rise,
+                    fall,
+                };
+                None
+            }
+            Heading::Moving {
+                up,
+                ext,
+                counter,
+                retreat_to,
+                back,
+            } => {
+                // Distances counted along the move's direction.
+                let (ahead, deeper) = if up {
+                    (v >= ext.1, v < retreat_to)
+                } else {
+                    (v <= ext.1, v > retreat_to)
+                };
+                if ahead {
+                    // The retreat since the extreme came back: a counter-move inside the move.
+                    let c = counter.max((ext.1 - retreat_to).abs());
+                    self.heading = Heading::Moving {
+                        up,
+                        ext: (k, v),
+                        counter: c,
+                        retreat_to: v,
+                        back: 0.0,
+                    };
+                    return None;
+                }
+                let retreat_to = if deeper { v } else { retreat_to };
+                let back = back.max((v - retreat_to).abs());
+                if (ext.1 - v).abs() > self.eps {
+                    // The retreat's own samples begin the next move: their moves back count
+                    // against it.
+                    self.counter_max = self.counter_max.max(counter);
+                    return Some(self.turn(ext, k, v, !up, back));
+                }
+                self.heading = Heading::Moving {
+                    up,
+                    ext,
+                    counter,
+                    retreat_to,
+                    back,
+                };
+                None
+            }
+        }
+    }
+
+    /// The turning points that end a channel of `n` samples (pushed onto `tp`): the last
+    /// extreme, or the first and last sample when no direction was ever found.
+    pub(crate) fn finish(&mut self, n: usize, tp: &mut Vec<usize>) {
+        match self.heading {
+            Heading::Unknown { rise, fall, .. } => {
+                let c = rise.before.max(rise.since).max(fall.before).max(fall.since);
+                self.counter_max = self.counter_max.max(c);
+                tp.clear();
+                tp.extend([0, n - 1]);
+            }
+            Heading::Moving {
+                ext,
+                counter,
+                retreat_to,
+                ..
+            } => {
+                // A smaller ε would turn at the retreat after the last extreme.
+                let c = counter.max((ext.1 - retreat_to).abs());
+                self.counter_max = self.counter_max.max(c);
+                if self.last_tp.map(|t| t.0) != Some(ext.0) {
+                    tp.push(ext.0);
+                }
+            }
+        }
+    }
 }
 
 /// `v` as an integer that orders like [`f64::total_cmp`]: selections then compare integers
@@ -314,133 +500,180 @@ pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
     let eps = hysteresis_m(z, quantum);
     let tp = turning_points(z, eps);
     let mut moves: Vec<MoveSpan> = Vec::new();
-    // The chord speeds' order keys (see `order_key`; a speed is `from_order_key` of its key),
-    // and a copy of them for selections on a short move.
-    let (mut keys, mut sel) = (Vec::new(), Vec::new());
+    let mut scratch = MoveScratch::default();
     for w in tp.windows(2) {
         let (i0, i1) = (w[0], w[1]);
         if i1 <= i0 || (z[i1] - z[i0]).abs() <= eps {
             continue;
         }
-        let dir = if z[i1] > z[i0] {
-            Direction::Forward
-        } else {
-            Direction::Backward
-        };
-        moves.push(MoveSpan {
-            direction: dir,
-            first: i0,
-            last: i1,
-            plateau_speed_m_s: 0.0,
-            top_speed_m_s: 0.0,
-            strokes: Vec::new(),
-        });
-        let move_index = moves.len() - 1;
-        let this = &mut moves[move_index];
-        if i1 <= i0 + 1 {
-            continue;
-        }
-        let s = dir.sign();
-        // Chords span w samples so that each covers at least 8 position quanta: at a slow feed
-        // with coarse quantisation, consecutive samples often repeat a position and single-step
-        // chord speeds jump between 0 and one quantum per interval.
-        let mean_step = (z[i1] - z[i0]).abs() / (i1 - i0) as f64;
-        let w = if mean_step > 0.0 {
-            ((8.0 * quantum / mean_step).ceil() as usize).clamp(1, ((i1 - i0) / 4).max(1))
-        } else {
-            1
-        };
-        if i1 < i0 + w {
-            continue;
-        }
-        let chord = |k: usize| s * (z[k + w] - z[k]) / (t[k + w] - t[k]);
-        keys.clear();
-        keys.extend((i0..=i1 - w).map(|k| order_key(chord(k))));
-        let speed = |c: usize| from_order_key(keys[c]);
-        let rank = ((keys.len() - 1) as f64 * 0.95).round() as usize;
-        // A long move is ranked in place by radix passes (the same element as the copy's
-        // selection): a copy of a 10 M-sample stroke's keys would cost 80 MB.
-        let long = keys.len() > RADIX_SELECT_MIN;
-        let p95 = if long {
-            radix_select(&keys, |_| true, rank)
-        } else {
-            sel.clear();
-            sel.extend_from_slice(&keys);
-            select_key(&mut sel, rank)
-        };
-        if p95.is_nan() || p95 <= 0.0 {
-            continue;
-        }
-        let fast = |k: &i64| from_order_key(*k) >= 0.25 * p95;
-        let plateau = if long {
-            let count = keys.iter().filter(|k| fast(k)).count();
-            if count == 0 {
-                f64::NAN
-            } else {
-                radix_select(&keys, fast, count / 2)
-            }
-        } else {
-            sel.clear();
-            sel.extend(keys.iter().filter(|k| fast(k)));
-            median_key(&mut sel)
-        };
-        this.plateau_speed_m_s = plateau;
-        this.top_speed_m_s = p95;
-        let threshold = params.steady_fraction * plateau;
-        // Maximal runs of steady chords.
-        let mut c = 0;
-        while c < keys.len() {
-            if speed(c) < threshold {
-                c += 1;
-                continue;
-            }
-            let c0 = c;
-            while c < keys.len() && speed(c) >= threshold {
-                c += 1;
-            }
-            let c1 = c - 1; // last steady chord
-            if !holds_a_plateau(&keys[c0..=c1], &mut sel) {
-                continue;
-            }
-            // Chord c joins knots i0+c and i0+c+w. A steady chord may straddle the start (or
-            // end) of the motion, so the stroke keeps only knots inside every steady chord's
-            // reach: from the end of the first to the start of the last (for w = 1 this is
-            // the whole run), then trims.
-            let first = i0 + c0 + (w - 1) + params.trim_knots;
-            let last = (i0 + c1 + 1).saturating_sub(params.trim_knots);
-            if last < first || last + 1 - first < params.min_knots.max(4) {
-                continue;
-            }
-            if (z[last] - z[first]).abs() < params.min_stroke_mm * 1e-3 {
-                continue;
-            }
-            // The feed of the stroke: its mean speed, exact also when single chords are coarse.
-            let speed = (z[last] - z[first]).abs() / (t[last] - t[first]);
-            this.strokes.push(StrokeSpan {
-                direction: dir,
-                first,
-                last,
-                plateau_speed_m_s: speed,
-                move_index,
-                move_first: i0,
-                move_last: i1,
-            });
-        }
+        let m = move_between(t, z, i0, i1, quantum, params, moves.len(), &mut scratch);
+        moves.push(m);
     }
     moves
+}
+
+/// Buffers [`move_between`] reuses from move to move.
+#[derive(Debug, Default)]
+pub(crate) struct MoveScratch {
+    /// The chord speeds' order keys (see `order_key`; a speed is `from_order_key` of its key).
+    keys: Vec<i64>,
+    /// A copy of them for selections on a short move.
+    sel: Vec<i64>,
+}
+
+/// Samples a chord spans in the move from knot `i0` to `i1`, so that each covers at least 8
+/// position quanta: at a slow feed with coarse quantisation, consecutive samples often repeat
+/// a position and single-step chord speeds jump between 0 and one quantum per interval.
+pub(crate) fn chord_samples(z: &[f64], i0: usize, i1: usize, quantum: f64) -> usize {
+    chord_samples_of((z[i1] - z[i0]).abs(), i1 - i0, quantum)
+}
+
+/// [`chord_samples`] of a move that travels `travel_m` over `steps` sample intervals.
+pub(crate) fn chord_samples_of(travel_m: f64, steps: usize, quantum: f64) -> usize {
+    let mean_step = travel_m / steps as f64;
+    if mean_step > 0.0 {
+        ((8.0 * quantum / mean_step).ceil() as usize).clamp(1, (steps / 4).max(1))
+    } else {
+        1
+    }
+}
+
+/// The move between the turning points `i0` < `i1` (whose travel exceeds the hysteresis), with
+/// its plateau and top speed and its steady strokes (steps 2-3); it is move number
+/// `move_index`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn move_between(
+    t: &[f64],
+    z: &[f64],
+    i0: usize,
+    i1: usize,
+    quantum: f64,
+    params: &SegmentParams,
+    move_index: usize,
+    scratch: &mut MoveScratch,
+) -> MoveSpan {
+    let dir = if z[i1] > z[i0] {
+        Direction::Forward
+    } else {
+        Direction::Backward
+    };
+    let mut this = MoveSpan {
+        direction: dir,
+        first: i0,
+        last: i1,
+        plateau_speed_m_s: 0.0,
+        top_speed_m_s: 0.0,
+        strokes: Vec::new(),
+    };
+    if i1 <= i0 + 1 {
+        return this;
+    }
+    let s = dir.sign();
+    let w = chord_samples(z, i0, i1, quantum);
+    if i1 < i0 + w {
+        return this;
+    }
+    let MoveScratch { keys, sel } = scratch;
+    let chord = |k: usize| s * (z[k + w] - z[k]) / (t[k + w] - t[k]);
+    keys.clear();
+    keys.extend((i0..=i1 - w).map(|k| order_key(chord(k))));
+    let speed = |c: usize| from_order_key(keys[c]);
+    let rank = ((keys.len() - 1) as f64 * 0.95).round() as usize;
+    // A long move is ranked in place by radix passes (the same element as the copy's
+    // selection): a copy of a 10 M-sample stroke's keys would cost 80 MB.
+    let long = keys.len() > RADIX_SELECT_MIN;
+    let p95 = if long {
+        radix_select(keys, |_| true, rank)
+    } else {
+        sel.clear();
+        sel.extend_from_slice(keys);
+        select_key(sel, rank)
+    };
+    if p95.is_nan() || p95 <= 0.0 {
+        return this;
+    }
+    let fast = |k: &i64| from_order_key(*k) >= 0.25 * p95;
+    let plateau = if long {
+        let count = keys.iter().filter(|k| fast(k)).count();
+        if count == 0 {
+            f64::NAN
+        } else {
+            radix_select(keys, fast, count / 2)
+        }
+    } else {
+        sel.clear();
+        sel.extend(keys.iter().filter(|k| fast(k)));
+        median_key(sel)
+    };
+    this.plateau_speed_m_s = plateau;
+    this.top_speed_m_s = p95;
+    let threshold = params.steady_fraction * plateau;
+    // Maximal runs of steady chords.
+    let mut c = 0;
+    while c < keys.len() {
+        if speed(c) < threshold {
+            c += 1;
+            continue;
+        }
+        let c0 = c;
+        while c < keys.len() && speed(c) >= threshold {
+            c += 1;
+        }
+        let c1 = c - 1; // last steady chord
+        if !holds_a_plateau(&keys[c0..=c1], sel) {
+            continue;
+        }
+        // Chord c joins knots i0+c and i0+c+w. A steady chord may straddle the start (or
+        // end) of the motion, so the stroke keeps only knots inside every steady chord's
+        // reach: from the end of the first to the start of the last (for w = 1 this is
+        // the whole run), then trims.
+        let first = i0 + c0 + (w - 1) + params.trim_knots;
+        let last = (i0 + c1 + 1).saturating_sub(params.trim_knots);
+        if last < first || last + 1 - first < params.min_knots.max(4) {
+            continue;
+        }
+        if (z[last] - z[first]).abs() < params.min_stroke_mm * 1e-3 {
+            continue;
+        }
+        // The feed of the stroke: its mean speed, exact also when single chords are coarse.
+        let speed = (z[last] - z[first]).abs() / (t[last] - t[first]);
+        this.strokes.push(StrokeSpan {
+            direction: dir,
+            first,
+            last,
+            plateau_speed_m_s: speed,
+            move_index,
+            move_first: i0,
+            move_last: i1,
+        });
+    }
+    this
 }
 
 /// The stretches of the trace not covered by `strokes` (in time order).
 pub fn zones_between(position: &Channel, strokes: &[StrokeSpan]) -> Vec<Zone> {
     let (t, z) = (&position.time_s, &position.value);
-    let n = t.len();
+    zones_of(t.len(), strokes, |k| (t[k], z[k]))
+}
+
+/// [`zones_between`] over a channel of `n` samples known only through `at(k)`, the time (s)
+/// and position (m) of sample `k`: it asks only for the first and last sample and the ends of
+/// the strokes (what a streamed estimate keeps).
+pub(crate) fn zones_of(
+    n: usize,
+    strokes: &[StrokeSpan],
+    at: impl Fn(usize) -> (f64, f64),
+) -> Vec<Zone> {
     let mut zones = Vec::new();
-    let zone = |kind, a: usize, b: usize| Zone {
-        kind,
-        start_time_s: t[a],
-        end_time_s: t[b],
-        start_position_mm: z[a] * 1e3,
-        end_position_mm: z[b] * 1e3,
+    let zone = |kind, a: usize, b: usize| {
+        let ((ta, za), (tb, zb)) = (at(a), at(b));
+        Zone {
+            kind,
+            start_time_s: ta,
+            end_time_s: tb,
+            start_position_mm: za * 1e3,
+            end_position_mm: zb * 1e3,
+        }
     };
     if let Some(f) = strokes.first() {
         if f.first > 0 {
