@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::ValueEnum;
 use feedscope::axis::AxisParams;
+use feedscope::estimate::stream::{StreamEstimator, Streamed};
 use feedscope::estimate::{
     estimate_pieces_streaming, EffortSign, EstimateParams, Move, MoveKind, PositionSmoothing,
     StrokeFriction, StrokePiece, StrokeSummary, TimeOfPosition, Zone,
@@ -15,7 +16,10 @@ use feedscope::trace::{EffortKind, GlitchParams, Trace};
 use feedscope::units::feed_m_s_to_mm_min;
 use feedscope::verdict::{DataVerdict, FrictionSign};
 use feedscope_io::friction_csv;
-use feedscope_io::trace::{read_trace_file_with, DroppedSample, ReadOptions, ReadReport};
+use feedscope_io::trace::{
+    read_trace_file_with, stream_trace_file, DroppedSample, ReadOptions, ReadReport, StreamRead,
+    TraceChunk, TraceError,
+};
 use serde::Serialize;
 
 use crate::output::{bar, AtomicFile};
@@ -140,6 +144,22 @@ pub struct Args {
     /// What to print on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     pub format: Format,
+    /// How the trace is read: `auto` estimates strokes while reading (memory for the longest
+    /// stroke, not the file) whenever the result is the whole-trace one, else reads it whole.
+    #[arg(long, value_enum, default_value_t = ReadArg::Auto)]
+    pub read: ReadArg,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum ReadArg {
+    /// Estimate while reading when the result is provably the whole-trace one, else read the
+    /// whole trace first.
+    Auto,
+    /// Estimate while reading, or fail saying why it cannot be vouched for (NC program,
+    /// Parquet, glitches, rapids without a rapid rate ...).
+    Stream,
+    /// Read the whole trace first.
+    Whole,
 }
 
 /// The JSON summary written beside the friction CSV.
@@ -324,26 +344,40 @@ pub struct Outcome {
     pub csv: AtomicFile,
 }
 
-/// Estimate `trace` and stream the friction CSV into `csv_path` (atomically).
-pub fn estimate_to_csv(
-    trace: &Trace,
-    report: &ReadReport,
-    source: &str,
-    axis: &AxisParams,
-    params: &EstimateParams,
+/// Strokes formatted for the CSV and decimated for the plot, inside the parallel section.
+type Formatted = (CsvRows, PlotPoints);
+/// What an estimation hands each stroke (or piece of one) to.
+type PieceSink<'a> = dyn FnMut(StrokePiece<Formatted>) -> Result<()> + 'a;
+
+/// What the CSV writer made of the strokes handed to it.
+struct Written {
+    csv: AtomicFile,
+    summaries: Vec<StrokeSummary>,
+    plot: PlotData,
+}
+
+/// Run `estimate` with a sink that streams the friction CSV (header for `effort_kind`) into
+/// `csv_path` (atomically, not yet committed) on a writer thread, and gathers the summaries
+/// and plot points; `pb` counts position samples.
+fn write_friction_csv<R>(
     csv_path: &Path,
-) -> Result<Outcome> {
+    effort_kind: EffortKind,
+    pb: &indicatif::ProgressBar,
+    estimate: impl FnOnce(
+        &(dyn Fn(StrokeFriction) -> Formatted + Sync),
+        &mut PieceSink<'_>,
+    ) -> Result<R>,
+) -> Result<(Written, R)> {
     let mut out = AtomicFile::create(csv_path)?;
-    friction_csv::write_header(out.writer(), trace.effort_kind)
+    friction_csv::write_header(out.writer(), effort_kind)
         .with_context(|| format!("writing {}", csv_path.display()))?;
     let n_threads = rayon::current_num_threads();
-    let pb = bar(trace.position_m.len() as u64, "estimate");
     let mut summaries = Vec::new();
     let mut plot = PlotData::default();
     // A writer thread takes formatted strokes, so the copy into the file overlaps with the
     // estimation of the next batch; the bounded channel caps the memory in flight.
     let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Vec<u8>>>(2 * n_threads);
-    let (streamed, out) = std::thread::scope(|scope| {
+    let (estimated, out) = std::thread::scope(|scope| {
         let writer = scope.spawn(move || -> Result<AtomicFile> {
             for parts in rx {
                 for buf in parts {
@@ -354,54 +388,68 @@ pub fn estimate_to_csv(
             }
             Ok(out)
         });
-        // Each stroke is formatted (and decimated for the plot) inside the parallel section.
         // A long stroke comes in pieces (rows, then its summary): its points for the plot
         // gather here until the summary says how to draw it.
         let mut pts = Vec::new();
-        let streamed = estimate_pieces_streaming(
-            trace,
-            axis,
-            params,
-            2 * n_threads,
-            |s: StrokeFriction| (friction_csv::format_stroke(&s), PlotData::points(&s)),
-            |piece: StrokePiece<(CsvRows, PlotPoints)>| -> Result<()> {
-                match piece {
-                    StrokePiece::Rows((rows, p)) => {
-                        // A send fails only when the writer stopped on an error; join()
-                        // reports it.
-                        if tx.send(rows).is_err() {
-                            return Err(anyhow::anyhow!("the CSV writer stopped"));
-                        }
-                        pts.extend(p);
+        let map = |s: StrokeFriction| (friction_csv::format_stroke(&s), PlotData::points(&s));
+        let mut sink = |piece: StrokePiece<Formatted>| -> Result<()> {
+            match piece {
+                StrokePiece::Rows((rows, p)) => {
+                    // A send fails only when the writer stopped on an error; join() reports it.
+                    if tx.send(rows).is_err() {
+                        return Err(anyhow::anyhow!("the CSV writer stopped"));
                     }
-                    StrokePiece::End(summary) => {
-                        pb.inc(summary.position_samples as u64);
-                        plot.add(&summary, std::mem::take(&mut pts));
-                        summaries.push(*summary);
-                    }
+                    pts.extend(p);
                 }
-                Ok(())
-            },
-        );
+                StrokePiece::End(summary) => {
+                    pb.inc(summary.position_samples as u64);
+                    plot.add(&summary, std::mem::take(&mut pts));
+                    summaries.push(*summary);
+                }
+            }
+            Ok(())
+        };
+        let estimated = estimate(&map, &mut sink);
+        drop(sink);
         drop(tx);
         let out = writer
             .join()
             .unwrap_or_else(|p| std::panic::resume_unwind(p));
-        (streamed, out)
+        (estimated, out)
     });
     // A writer error explains a failed send better than the send itself.
-    let out = out?;
-    let outline = streamed?;
-    pb.finish_and_clear();
-    Ok(Outcome {
-        csv: out,
+    let csv = out?;
+    let r = estimated?;
+    Ok((
+        Written {
+            csv,
+            summaries,
+            plot,
+        },
+        r,
+    ))
+}
+
+/// The summary of an estimate run.
+#[allow(clippy::too_many_arguments)]
+fn outcome(
+    written: Written,
+    outline: feedscope::estimate::Outline,
+    report: &ReadReport,
+    source: &str,
+    effort: EffortKind,
+    axis: &AxisParams,
+    params: &EstimateParams,
+) -> Outcome {
+    Outcome {
+        csv: written.csv,
         summary: Summary {
             source: source.to_string(),
-            effort: trace.effort_kind,
+            effort,
             verdict: outline.verdict.clone(),
             axis: axis.clone(),
             params: params.clone(),
-            strokes: summaries,
+            strokes: written.summaries,
             moves: outline.moves,
             notes: outline.notes,
             zones: outline.zones,
@@ -412,8 +460,174 @@ pub fn estimate_to_csv(
             max_axis_speed_mm_min: report.max_axis_speed_m_s.map(feed_m_s_to_mm_min),
             unterminated_last_line: report.unterminated_last_line,
         },
-        plot,
-    })
+        plot: written.plot,
+    }
+}
+
+/// Estimate `trace` and stream the friction CSV into `csv_path` (atomically).
+pub fn estimate_to_csv(
+    trace: &Trace,
+    report: &ReadReport,
+    source: &str,
+    axis: &AxisParams,
+    params: &EstimateParams,
+    csv_path: &Path,
+) -> Result<Outcome> {
+    let pb = bar(trace.position_m.len() as u64, "estimate");
+    let batch = 2 * rayon::current_num_threads();
+    let (written, outline) = write_friction_csv(csv_path, trace.effort_kind, &pb, |map, sink| {
+        estimate_pieces_streaming(trace, axis, params, batch, map, sink)
+    })?;
+    pb.finish_and_clear();
+    Ok(outcome(
+        written,
+        outline,
+        report,
+        source,
+        trace.effort_kind,
+        axis,
+        params,
+    ))
+}
+
+/// The effort channel a streamed read takes, from its first block with effort samples: the
+/// one asked for, the wide layout's column, or the only one of the long layout's rows. `None`
+/// when that cannot be told there (the whole read says what is wrong).
+fn streamed_effort_kind(path: &Path, opts: &ReadOptions) -> Option<EffortKind> {
+    if opts.effort.is_some() {
+        return opts.effort;
+    }
+    let mut kind = None;
+    let mut first = |c: TraceChunk<'_>| -> Result<bool, TraceError> {
+        kind = match (
+            c.wide_effort,
+            c.current_a.is_empty(),
+            c.torque_nm.is_empty(),
+        ) {
+            (Some(k), _, _) => Some(k),
+            (None, false, true) => Some(EffortKind::CurrentA),
+            (None, true, false) => Some(EffortKind::TorqueNm),
+            (None, true, true) => return Ok(true),
+            (None, false, false) => None,
+        };
+        Ok(false)
+    };
+    match stream_trace_file(path, opts, &mut first) {
+        Ok(StreamRead::Stopped) => kind,
+        _ => None,
+    }
+}
+
+/// Estimate while reading (see `feedscope::estimate::stream`): strokes are estimated and
+/// written as the file is read, in memory that holds the stroke being read, not the file.
+/// `None` when the result could not be vouched for and the whole trace must be read
+/// (Parquet, an NC program, glitches, rapids without a rapid rate, anything the whole read
+/// refuses: it then gives the exact result or error); a second pass when the first ends with
+/// other segmentation statistics than its prefix gave.
+fn stream_estimate_to_csv(
+    path: &Path,
+    opts: &ReadOptions,
+    glitch: &GlitchParams,
+    axis: &AxisParams,
+    params: &EstimateParams,
+    csv_path: &Path,
+) -> Result<Result<(Outcome, ReadReport), String>> {
+    if !params.program.is_empty() {
+        return Ok(Err("an NC program labels the strokes".into()));
+    }
+    let Some(kind) = streamed_effort_kind(path, opts) else {
+        return Ok(Err(
+            "the file is Parquet, or its first effort rows do not tell the channel".into(),
+        ));
+    };
+    let source = path.display().to_string();
+    let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    let mut given = None;
+    for _pass in 0..2 {
+        let pb = bar(size, "estimate");
+        let batch = 2 * rayon::current_num_threads();
+        let (written, (end, report)) = write_friction_csv(csv_path, kind, &pb, |map, sink| {
+            let mut sink = Some(sink);
+            let mut est: Option<StreamEstimator<'_, Formatted, anyhow::Error>> = None;
+            let mut on_chunk = |c: TraceChunk<'_>| -> Result<bool> {
+                let (effort, other) = match kind {
+                    EffortKind::CurrentA => (&c.current_a, &c.torque_nm),
+                    EffortKind::TorqueNm => (&c.torque_nm, &c.current_a),
+                };
+                if opts.effort.is_none() && c.wide_effort.is_none() && !other.is_empty() {
+                    // Both current and torque rows: the whole read names the choice to make.
+                    return Ok(false);
+                }
+                if est.is_none() {
+                    if c.position_m.is_empty() && effort.is_empty() {
+                        return Ok(true);
+                    }
+                    let Some(sink) = sink.take() else {
+                        return Ok(false);
+                    };
+                    let mut e = StreamEstimator::new(
+                        axis,
+                        params,
+                        kind,
+                        c.facts.clone(),
+                        *glitch,
+                        batch,
+                        map,
+                        sink,
+                    );
+                    if let Some(g) = given {
+                        e = e.with_segmentation(g);
+                    }
+                    est = Some(e);
+                }
+                let Some(e) = est.as_mut() else {
+                    return Ok(false);
+                };
+                e.push(&c.position_m, effort)?;
+                Ok(e.gave_up().is_none())
+            };
+            let read =
+                stream_trace_file(path, opts, &mut on_chunk).map_err(|e: anyhow::Error| e)?;
+            let mut report = match read {
+                StreamRead::Done(report) => report,
+                StreamRead::Stopped | StreamRead::NotStreamed => ReadReport::default(),
+            };
+            let Some(e) = est else {
+                return Ok((Err("no samples".to_string()), report));
+            };
+            if let Some(why) = e.gave_up() {
+                return Ok((Err(why.to_string()), report));
+            }
+            if report.layout.is_none() {
+                return Ok((Err("both current and torque rows".to_string()), report));
+            }
+            // What the whole read checks on the kept positions, with none dropped.
+            let (lo, hi) = e.position_range_m();
+            let bound = feedscope_io::trace::limits::MAX_ABS_POSITION_M;
+            let outside_travel = glitch.travel_m.is_some_and(|(a, b)| {
+                let m = glitch.travel_margin_m();
+                lo < a - m || hi > b + m
+            });
+            if lo.abs() > bound || hi.abs() > bound || outside_travel {
+                return Ok((Err("a position outside the travel".to_string()), report));
+            }
+            report.max_axis_speed_m_s = Some(glitch.max_axis_speed_m_s);
+            Ok((Ok(e.finish()?), report))
+        })?;
+        pb.finish_and_clear();
+        match end {
+            Ok(Streamed::Done(outline)) => {
+                let out = outcome(written, outline, &report, &source, kind, axis, params);
+                return Ok(Ok((out, report)));
+            }
+            Ok(Streamed::Again(g)) if given.is_none() => given = Some(g),
+            Ok(Streamed::Again(_)) => {
+                return Ok(Err("a second pass found other statistics again".into()))
+            }
+            Ok(Streamed::Redo(why)) | Err(why) => return Ok(Err(why)),
+        }
+    }
+    Ok(Err("two passes".into()))
 }
 
 /// The stroke table for people.
@@ -616,14 +830,51 @@ pub fn run(args: Args) -> Result<()> {
         }),
         threads: 0,
     };
+    let glitch = GlitchParams::for_axis(&axis);
+    // Without a program, estimate while reading; the whole read when that cannot be vouched
+    // for (it then gives the exact result or error).
+    let streamed = match (args.read, &program) {
+        (ReadArg::Whole, _) => Err("--read whole".to_string()),
+        (_, Some(_)) => Err("an NC program labels the strokes".to_string()),
+        _ => stream_estimate_to_csv(&args.trace, &opts, &glitch, &axis, &params, &args.output)?,
+    };
+    let outcome = match streamed {
+        Ok((outcome, report)) => {
+            crate::output::print_read_warnings(&args.trace.display().to_string(), &report);
+            outcome
+        }
+        Err(why) if args.read == ReadArg::Stream => {
+            return Err(crate::cmd::BadInput(format!(
+                "{}: cannot estimate while reading ({why}); use --read auto or whole",
+                args.trace.display()
+            ))
+            .into())
+        }
+        Err(_) => read_whole(&args, &opts, &glitch, &axis, &mut params, program.as_ref())?,
+    };
+    write_outputs(&args, &axis, &summary_path, plot_path, outcome)
+}
+
+/// What `--program` gives: the file, its axis letter and the program.
+type Program<'a> = (&'a PathBuf, char, feedscope::nc::NcProgram);
+
+/// Read the whole trace, then estimate it.
+fn read_whole(
+    args: &Args,
+    opts: &ReadOptions,
+    glitch: &GlitchParams,
+    axis: &AxisParams,
+    params: &mut EstimateParams,
+    program: Option<&Program<'_>>,
+) -> Result<Outcome> {
     let spinner = indicatif::ProgressBar::new_spinner();
     spinner.set_message(format!("reading {}", args.trace.display()));
     spinner.enable_steady_tick(std::time::Duration::from_millis(120));
-    let read = read_trace_file_with(&args.trace, &opts, &GlitchParams::for_axis(&axis));
+    let read = read_trace_file_with(&args.trace, opts, glitch);
     spinner.finish_and_clear();
     let (trace, report) = read.map_err(|e| super::effort::name_the_flag(e, opts.effort))?;
     crate::output::print_read_warnings(&args.trace.display().to_string(), &report);
-    if let Some((path, letter, prog)) = &program {
+    if let Some((path, letter, prog)) = program {
         let start_mm = trace.position_m.value.first().copied().unwrap_or(0.0) * 1e3;
         params.program = feedscope::estimate::ProgrammedMove::from_steps(&prog.resolve(start_mm));
         if params.program.is_empty() {
@@ -635,8 +886,17 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     let source = args.trace.display().to_string();
-    let mut outcome = estimate_to_csv(&trace, &report, &source, &axis, &params, &args.output)?;
-    drop(trace);
+    estimate_to_csv(&trace, &report, &source, axis, params, &args.output)
+}
+
+/// Put the CSV, the JSON summary and the plot in place and print the report.
+fn write_outputs(
+    args: &Args,
+    axis: &AxisParams,
+    summary_path: &Path,
+    plot_path: Option<PathBuf>,
+    mut outcome: Outcome,
+) -> Result<()> {
     let json = serde_json::to_string_pretty(&outcome.summary)?;
     // Everything is rendered before anything is put in place, so an error leaves earlier
     // outputs untouched.

@@ -77,6 +77,92 @@ pub(super) fn read_file(
     screen_and_check(name, (trace, report), glitch, Origin::Line, locate)
 }
 
+/// What a streamed CSV read hands out after each block: the samples parsed from it.
+#[derive(Debug)]
+pub struct TraceChunk<'a> {
+    /// What the file's `# fact` lines said (all of them come before the header).
+    pub facts: &'a feedscope::trace::RecordingFacts,
+    /// The effort column of a wide-layout file; `None` for the long layout, whose rows say.
+    pub wide_effort: Option<EffortKind>,
+    /// Position samples (m).
+    pub position_m: Channel,
+    /// Current samples (A).
+    pub current_a: Channel,
+    /// Torque samples (N·m).
+    pub torque_nm: Channel,
+}
+
+/// Read a CSV trace block by block, handing each block's samples to `on_chunk` as soon as
+/// they are parsed, in file order; `on_chunk` returns `false` to stop reading. Returns the
+/// read report, or `None` when stopped. No glitch screening or whole-trace check is made: the
+/// caller streams what [`read_file`] would check afterwards.
+pub(super) fn stream_file<E: From<TraceError>>(
+    file: File,
+    name: &str,
+    opts: &ReadOptions,
+    block_bytes: usize,
+    on_chunk: &mut dyn FnMut(TraceChunk<'_>) -> Result<bool, E>,
+) -> Result<Option<ReadReport>, E> {
+    let io = |error| TraceError::Io {
+        source_name: name.to_string(),
+        error,
+    };
+    let size_hint = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let mut reader = BlockParser::new(name.to_string(), opts, size_hint);
+    reader.streaming = true;
+    let (full_tx, full_rx) = std::sync::mpsc::sync_channel::<std::io::Result<(Vec<u8>, bool)>>(1);
+    let (empty_tx, empty_rx) = std::sync::mpsc::channel::<Vec<u8>>();
+    let stopped = std::thread::scope(|scope| -> Result<bool, E> {
+        let (full_rx, empty_tx) = (full_rx, empty_tx);
+        scope.spawn(move || read_blocks(file, block_bytes, &full_tx, &empty_rx));
+        for _ in 0..2 {
+            let _ = empty_tx.send(Vec::new());
+        }
+        for msg in full_rx.iter() {
+            let (buf, eof) = msg.map_err(io)?;
+            reader.feed(&buf, eof)?;
+            let _ = empty_tx.send(buf);
+            let [position_m, current_a, torque_nm] = reader.take_new();
+            let wide_effort = match &reader.header {
+                Some(Header::Wide { effort_kind, .. }) => Some(*effort_kind),
+                _ => None,
+            };
+            let go_on = on_chunk(TraceChunk {
+                facts: &reader.facts,
+                wide_effort,
+                position_m,
+                current_a,
+                torque_nm,
+            })?;
+            if !go_on {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    })?;
+    if stopped {
+        return Ok(None);
+    }
+    let Some(header) = &reader.header else {
+        return Err(TraceError::Empty {
+            source_name: name.to_string(),
+        }
+        .into());
+    };
+    let layout = match header {
+        Header::Wide { .. } => Layout::Wide,
+        Header::Long { .. } => Layout::Long,
+    };
+    Ok(Some(ReadReport {
+        ignored_rows: reader.ignored_rows,
+        ignored_channels: reader.ignored_names,
+        lines: reader.lines,
+        layout: Some(layout),
+        unterminated_last_line: reader.cut_last_line.then_some(reader.lines),
+        ..ReadReport::default()
+    }))
+}
+
 /// Parse a CSV trace held in memory, then end with the checks of every reader.
 pub(super) fn parse_bytes(
     bytes: &[u8],
@@ -332,6 +418,12 @@ struct BlockParser {
     reserved: bool,
     /// The file's last data line has no terminator (see [`ReadReport::unterminated_last_line`]).
     cut_last_line: bool,
+    /// Samples are taken out as they are parsed ([`BlockParser::take_new`]): nothing is
+    /// reserved for the whole file.
+    streaming: bool,
+    /// The last time of each channel (position, current, torque) taken out, for the
+    /// increasing-time check across what was taken.
+    last_time: [Option<f64>; 3],
 }
 
 impl BlockParser {
@@ -359,7 +451,24 @@ impl BlockParser {
             bytes_seen: 0,
             reserved: false,
             cut_last_line: false,
+            streaming: false,
+            last_time: [None; 3],
         }
+    }
+
+    /// The samples parsed since the last call (position, current, torque).
+    fn take_new(&mut self) -> [Channel; 3] {
+        let taken = [
+            std::mem::take(&mut self.pos),
+            std::mem::take(&mut self.cur),
+            std::mem::take(&mut self.tor),
+        ];
+        for (k, ch) in taken.iter().enumerate() {
+            if let Some(&t) = ch.time_s.last() {
+                self.last_time[k] = Some(t);
+            }
+        }
+        taken
     }
 
     /// Parse all complete lines of `buf` (all of it when `eof`); returns the bytes consumed.
@@ -447,7 +556,7 @@ impl BlockParser {
             self.append(piece)?;
         }
         self.bytes_seen += end as u64;
-        if !self.reserved && !eof {
+        if !self.reserved && !eof && !self.streaming {
             self.reserve_for_file();
         }
         Ok(end)
@@ -552,13 +661,15 @@ impl BlockParser {
 
     fn append(&mut self, piece: Piece) -> Result<(), TraceError> {
         let base = self.lines;
+        let taken = self.last_time;
         let chans = [
             (&mut self.pos, piece.pos, "position"),
             (&mut self.cur, piece.cur, "current_a"),
             (&mut self.tor, piece.tor, "torque_nm"),
         ];
         for (k, (dst, src, name)) in chans.into_iter().enumerate() {
-            if let (Some(&prev), Some(&first)) = (dst.time_s.last(), src.time_s.first()) {
+            let prev = dst.time_s.last().copied().or(taken[k]);
+            if let (Some(prev), Some(&first)) = (prev, src.time_s.first()) {
                 if first.partial_cmp(&prev) != Some(std::cmp::Ordering::Greater) {
                     return Err(TraceError::TimeNotIncreasing {
                         source_name: self.name.clone(),

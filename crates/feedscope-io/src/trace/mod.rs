@@ -83,7 +83,7 @@ pub mod limits;
 mod parquet;
 mod read;
 
-pub use csv::write_csv;
+pub use csv::{write_csv, TraceChunk};
 pub use format::Layout;
 pub use parquet::{decoding_untrusted_parquet, write_parquet};
 pub use read::{DroppedSample, ReadOptions, ReadReport, TraceError, MAX_NAME_BYTES};
@@ -132,6 +132,48 @@ pub fn read_trace_file_with(
                 .into(),
         }),
         Format::Csv => csv::read_file(file, path, &name, opts, glitch, csv::BLOCK_BYTES),
+    }
+}
+
+/// How [`stream_trace_file`] ended.
+#[derive(Debug)]
+pub enum StreamRead {
+    /// The whole file was handed out; what [`read_trace_file`] reports besides the samples
+    /// (nothing dropped: the caller screens what it streams).
+    Done(ReadReport),
+    /// The callback asked to stop.
+    Stopped,
+    /// The file is Parquet, whose row groups are decoded in parallel by [`read_trace_file`]:
+    /// read it whole.
+    NotStreamed,
+}
+
+/// Read a CSV trace block by block and hand each block's samples to `on_chunk` as soon as
+/// they are parsed (`on_chunk` returns `false` to stop). Format errors are those of
+/// [`read_trace_file`], at the same lines; the checks [`read_trace_file`] makes on the whole
+/// trace afterwards (enough samples, motion, glitches, the travel) are the caller's.
+///
+/// # Errors
+/// A [`TraceError`] of the file's format, or what `on_chunk` returns.
+pub fn stream_trace_file<E: From<TraceError>>(
+    path: &Path,
+    opts: &ReadOptions,
+    on_chunk: &mut dyn FnMut(TraceChunk<'_>) -> Result<bool, E>,
+) -> Result<StreamRead, E> {
+    let name = path.display().to_string();
+    let io = |error| TraceError::Io {
+        source_name: name.clone(),
+        error,
+    };
+    let mut file = File::open(path).map_err(io)?;
+    match Format::of_file(&mut file).map_err(io)? {
+        Format::Csv if !format::named_parquet(path) => Ok(
+            match csv::stream_file(file, &name, opts, csv::BLOCK_BYTES, on_chunk)? {
+                Some(report) => StreamRead::Done(report),
+                None => StreamRead::Stopped,
+            },
+        ),
+        _ => Ok(StreamRead::NotStreamed),
     }
 }
 
