@@ -551,8 +551,8 @@ fn stream_estimate_to_csv(
             let mut est: Option<StreamEstimator<'_, Formatted, anyhow::Error>> = None;
             let mut on_chunk = |c: TraceChunk<'_>| -> Result<bool> {
                 let (effort, other) = match kind {
-                    EffortKind::CurrentA => (&c.current_a, &c.torque_nm),
-                    EffortKind::TorqueNm => (&c.torque_nm, &c.current_a),
+                    EffortKind::CurrentA => (c.current_a, c.torque_nm),
+                    EffortKind::TorqueNm => (c.torque_nm, c.current_a),
                 };
                 if opts.effort.is_none() && c.wide_effort.is_none() && !other.is_empty() {
                     // Both current and torque rows: the whole read names the choice to make.
@@ -578,12 +578,19 @@ fn stream_estimate_to_csv(
                     if let Some(g) = given {
                         e = e.with_segmentation(g);
                     }
+                    // Room for the whole file at this block's density (5 % spare), so that
+                    // holding a long stroke never copies it; room never used is never touched.
+                    if c.bytes_read > 0 {
+                        let scale = c.file_bytes as f64 / c.bytes_read as f64 * 1.05;
+                        let n = |k: usize| (k as f64 * scale) as usize + 64;
+                        e.reserve(n(c.position_m.len()), n(effort.len()));
+                    }
                     est = Some(e);
                 }
                 let Some(e) = est.as_mut() else {
                     return Ok(false);
                 };
-                e.push(&c.position_m, effort)?;
+                e.push(c.position_m, effort)?;
                 Ok(e.gave_up().is_none())
             };
             let read =

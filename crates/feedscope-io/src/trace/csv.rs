@@ -85,11 +85,15 @@ pub struct TraceChunk<'a> {
     /// The effort column of a wide-layout file; `None` for the long layout, whose rows say.
     pub wide_effort: Option<EffortKind>,
     /// Position samples (m).
-    pub position_m: Channel,
+    pub position_m: &'a Channel,
     /// Current samples (A).
-    pub current_a: Channel,
+    pub current_a: &'a Channel,
     /// Torque samples (N·m).
-    pub torque_nm: Channel,
+    pub torque_nm: &'a Channel,
+    /// Bytes of the file parsed so far, and its size (to size buffers for the whole file).
+    pub bytes_read: u64,
+    /// See `bytes_read`.
+    pub file_bytes: u64,
 }
 
 /// Read a CSV trace block by block, handing each block's samples to `on_chunk` as soon as
@@ -122,7 +126,6 @@ pub(super) fn stream_file<E: From<TraceError>>(
             let (buf, eof) = msg.map_err(io)?;
             reader.feed(&buf, eof)?;
             let _ = empty_tx.send(buf);
-            let [position_m, current_a, torque_nm] = reader.take_new();
             let wide_effort = match &reader.header {
                 Some(Header::Wide { effort_kind, .. }) => Some(*effort_kind),
                 _ => None,
@@ -130,10 +133,13 @@ pub(super) fn stream_file<E: From<TraceError>>(
             let go_on = on_chunk(TraceChunk {
                 facts: &reader.facts,
                 wide_effort,
-                position_m,
-                current_a,
-                torque_nm,
+                position_m: &reader.pos,
+                current_a: &reader.cur,
+                torque_nm: &reader.tor,
+                bytes_read: reader.bytes_seen,
+                file_bytes: size_hint,
             })?;
+            reader.clear_handed_out();
             if !go_on {
                 return Ok(true);
             }
@@ -456,19 +462,19 @@ impl BlockParser {
         }
     }
 
-    /// The samples parsed since the last call (position, current, torque).
-    fn take_new(&mut self) -> [Channel; 3] {
-        let taken = [
-            std::mem::take(&mut self.pos),
-            std::mem::take(&mut self.cur),
-            std::mem::take(&mut self.tor),
-        ];
-        for (k, ch) in taken.iter().enumerate() {
+    /// Forget the samples handed out (keeping the room they took, for the next block's),
+    /// remembering each channel's last time.
+    fn clear_handed_out(&mut self) {
+        for (k, ch) in [&mut self.pos, &mut self.cur, &mut self.tor]
+            .into_iter()
+            .enumerate()
+        {
             if let Some(&t) = ch.time_s.last() {
                 self.last_time[k] = Some(t);
             }
+            ch.time_s.clear();
+            ch.value.clear();
         }
-        taken
     }
 
     /// Parse all complete lines of `buf` (all of it when `eof`); returns the bytes consumed.

@@ -205,6 +205,19 @@ impl<'a, T: Send, E> StreamEstimator<'a, T, E> {
         self
     }
 
+    /// Reserve room for `position` and `effort` samples in all (e.g. the whole file's, from
+    /// its size): growing then never copies what is held, and room never used is never
+    /// touched, so it costs no memory.
+    pub fn reserve(&mut self, position: usize, effort: usize) {
+        let (p, e) = (&mut self.buf.position_m, &mut self.buf.effort);
+        let more_p = position.saturating_sub(p.len());
+        let more_e = effort.saturating_sub(e.len());
+        p.time_s.reserve(more_p);
+        p.value.reserve(more_p);
+        e.time_s.reserve(more_e);
+        e.value.reserve(more_e);
+    }
+
     /// Why the stream gave up, if it has: nothing more is estimated, [`Self::finish`] says
     /// [`Streamed::Redo`].
     pub fn gave_up(&self) -> Option<&str> {
