@@ -616,7 +616,14 @@ fn stream_estimate_to_csv(
                 lo < a - m || hi > b + m
             });
             if lo.abs() > bound || hi.abs() > bound || outside_travel {
-                return Ok((Err("a position outside the travel".to_string()), report));
+                return Ok((
+                    Err(
+                        "a position beyond the travel: a glitch, or a trace the whole read \
+                         refuses"
+                            .to_string(),
+                    ),
+                    report,
+                ));
             }
             report.max_axis_speed_m_s = Some(glitch.max_axis_speed_m_s);
             Ok((Ok(e.finish()?), report))

@@ -20,6 +20,7 @@ mod real;
 mod report;
 mod simulate;
 mod store_robust;
+mod stream;
 mod util;
 mod watch;
 mod watch_agent;
