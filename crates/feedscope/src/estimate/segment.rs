@@ -363,9 +363,13 @@ impl TurnFinder {
                 retreat_to,
                 ..
             } => {
-                // A smaller ε would turn at the retreat after the last extreme.
+                // A smaller ε would turn at the retreat after the last extreme; a larger one
+                // than the last move's travel would not have taken the last turn.
                 let c = counter.max((ext.1 - retreat_to).abs());
                 self.counter_max = self.counter_max.max(c);
+                if let Some((_, z)) = self.last_tp {
+                    self.travel_min = self.travel_min.min((ext.1 - z).abs());
+                }
                 if self.last_tp.map(|t| t.0) != Some(ext.0) {
                     tp.push(ext.0);
                 }
@@ -846,5 +850,53 @@ mod tests {
             value: vec![0.0; 100],
         };
         assert!(find_strokes(&c, &SegmentParams::default()).is_empty());
+    }
+
+    /// The claim that lets a stream check its prefix's ε: every ε' with
+    /// counter_max ≤ ε' < travel_min finds the same turning points, and an ε' outside that
+    /// range finds others on these walks (so the range is not merely loose).
+    #[test]
+    fn any_hysteresis_between_counter_moves_and_travels_finds_the_same_turns() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let (mut checked, mut tight) = (0, 0);
+        for walk in 0..400 {
+            // Legs of random length and speed, with dwells, jitter and quantisation.
+            let mut z = Vec::new();
+            let mut x = 0.0f64;
+            let q = [0.0, 1e-7, 1e-6][walk % 3];
+            while z.len() < 3000 {
+                let v = rng.random_range(-2e-4..2e-4) * f64::from(rng.random_range(0u8..2));
+                for _ in 0..rng.random_range(1..200) {
+                    x += v + rng.random_range(-3e-6..3e-6);
+                    z.push(if q > 0.0 { (x / q).round() * q } else { x });
+                }
+            }
+            let eps = rng.random_range(1e-6..5e-5);
+            let mut finder = TurnFinder::new(eps);
+            let mut tp = Vec::new();
+            for (k, &v) in z.iter().enumerate() {
+                if let Some(i) = finder.push(k, v) {
+                    tp.push(i);
+                }
+            }
+            finder.finish(z.len(), &mut tp);
+            assert_eq!(tp, turning_points(&z, eps));
+            let (lo, hi) = (finder.counter_max, finder.travel_min);
+            assert!(lo <= eps && eps < hi, "walk {walk}: {lo} {eps} {hi}");
+            for f in [0.0, 0.25, 0.5, 0.999] {
+                let other = lo + f * (hi.min(1.0) - lo);
+                if other >= lo && other < hi {
+                    assert_eq!(turning_points(&z, other), tp, "walk {walk}, ε' = {other}");
+                    checked += 1;
+                }
+            }
+            // Just outside the range something changes.
+            if lo > 1e-9 && turning_points(&z, lo * (1.0 - 1e-9)) != tp {
+                tight += 1;
+            }
+        }
+        assert!(checked > 1000, "{checked}");
+        assert!(tight > 100, "{tight}");
     }
 }

@@ -856,7 +856,17 @@ mod tests {
         slice_s: f64,
         prefix: usize,
     ) -> (Option<String>, bool) {
-        let params = EstimateParams::default();
+        same_or_redo_with(trace, axis, &EstimateParams::default(), slice_s, prefix)
+    }
+
+    fn same_or_redo_with(
+        trace: &Trace,
+        axis: &AxisParams,
+        params: &EstimateParams,
+        slice_s: f64,
+        prefix: usize,
+    ) -> (Option<String>, bool) {
+        let params = params.clone();
         let whole = estimate(trace, axis, &params);
         let (mut strokes, mut done) = streamed(trace, axis, &params, slice_s, prefix, None);
         let mut again = false;
@@ -930,5 +940,74 @@ mod tests {
             let (redo, again) = same_or_redo(&trace, &axis, 1e9, usize::MAX / 2);
             assert_eq!((redo, again), (None, false), "{name}");
         }
+    }
+
+    #[test]
+    fn rapids_stream_with_a_rapid_rate_and_not_without() {
+        let fast = |c: &mut SimConfig| {
+            c.sampling.position.interval_ms = 2.0;
+            c.sampling.effort.interval_ms = 2.0;
+            c.sampling.position.jitter_ms = 0.1;
+            c.sampling.effort.jitter_ms = 0.1;
+        };
+        let (trace, mut axis) = twin(&[300.0, 300.0, 12000.0, 12000.0], 0.0, 150.0, 3, fast);
+        let n = trace.position_m.len();
+        // Without a rapid rate, whether the 12 m/min moves are rapids depends on all moves.
+        axis.rapid_rate_mm_min = None;
+        let (redo, _) = same_or_redo(&trace, &axis, 0.5, n / 3);
+        assert!(redo.is_some_and(|w| w.contains("no rapid rate")));
+        // With one, each move is classified as it ends: left out, or kept with --include-rapids.
+        for rate in [13000.0, 30000.0] {
+            axis.rapid_rate_mm_min = Some(rate);
+            for include_rapids in [false, true] {
+                let params = EstimateParams {
+                    include_rapids,
+                    ..EstimateParams::default()
+                };
+                let (redo, _) = same_or_redo_with(&trace, &axis, &params, 0.5, n / 3);
+                assert_eq!(redo, None, "rapid rate {rate}, include {include_rapids}");
+            }
+        }
+    }
+
+    #[test]
+    fn long_strokes_stream_in_windows_and_pieces() {
+        let (trace, axis) = twin(&[200.0, 200.0, 50.0], 0.0, 60.0, 9, |c| {
+            c.sampling.position.interval_ms = 4.0;
+            c.sampling.effort.interval_ms = 4.0;
+            c.sampling.position.jitter_ms = 0.1;
+            c.sampling.effort.jitter_ms = 0.1;
+            c.sampling.position.quantum_mm = 1e-4;
+        });
+        // Strokes of thousands of knots solved in windows of 512 and handed out in pieces.
+        let params = EstimateParams {
+            spline_window_knots: 512,
+            piece_points: 700,
+            ..EstimateParams::default()
+        };
+        let n = trace.position_m.len();
+        let (redo, _) = same_or_redo_with(&trace, &axis, &params, 0.9, n / 4);
+        assert_eq!(redo, None);
+    }
+
+    #[test]
+    fn what_the_whole_path_refuses_is_left_to_it() {
+        let (mut trace, axis) = twin(&[400.0, 400.0], 0.0, 40.0, 4, |_| {});
+        // One effort value throughout: the whole path names it; the stream hands it over.
+        trace.effort.value.fill(1.25);
+        assert!(estimate(&trace, &axis, &EstimateParams::default()).is_err());
+        let (redo, _) = same_or_redo(&trace, &axis, 1.0, 100);
+        assert_eq!(redo.as_deref(), Some("the effort never changes"));
+        // Too few samples.
+        let (short, _) = twin(&[400.0], 0.0, 1.0, 4, |_| {});
+        let cut = Trace {
+            position_m: Channel {
+                time_s: short.position_m.time_s[..3].to_vec(),
+                value: short.position_m.value[..3].to_vec(),
+            },
+            ..short
+        };
+        let (redo, _) = same_or_redo(&cut, &axis, 1.0, 100);
+        assert!(redo.is_some());
     }
 }
