@@ -1,6 +1,6 @@
-//! Friction map of a test set: 18 feeds (10-1000 mm/min, log-spaced) × 3 repeats, each run a
-//! 40 mm forward and backward stroke sampled every 5 ms on both channels (≈ 2 M samples in
-//! all, 0.1 µm position steps), simulated once in memory; timed: estimating every run (rayon), the PPOCM and feed
+//! Friction map of a test set of 100 runs: 25 feeds (10-1000 mm/min, log-spaced) × 4 repeats,
+//! each run a 40 mm forward and backward stroke sampled every 5 ms on both channels (≈ 4 M
+//! samples in all, 0.1 µm position steps), simulated once in memory; timed: estimating every run (rayon), the PPOCM and feed
 //! polynomial, and the Stribeck profile at every 1 mm of the travel in both directions.
 //!
 //! Run: `cargo bench -p feedscope --bench map`
@@ -14,13 +14,13 @@ use feedscope::trace::Trace;
 use rayon::prelude::*;
 
 fn test_set() -> (Vec<TestRun>, Vec<Trace>, feedscope::axis::AxisParams) {
-    let feeds: Vec<f64> = (0..18)
-        .map(|k| 10.0 * 100f64.powf(k as f64 / 17.0))
+    let feeds: Vec<f64> = (0..25)
+        .map(|k| 10.0 * 100f64.powf(k as f64 / 24.0))
         .collect();
     let runs: Vec<TestRun> = feeds
         .iter()
         .flat_map(|&f| {
-            (1..=3).map(move |r| TestRun {
+            (1..=4).map(move |r| TestRun {
                 name: format!("f{f:.1}_r{r}.csv"),
                 file: "".into(),
                 feed_mm_min: f,
