@@ -490,6 +490,17 @@ pub fn estimate_to_csv(
     ))
 }
 
+/// One block of a streamed read, as the reading thread hands it to the estimator.
+struct Block {
+    facts: feedscope::trace::RecordingFacts,
+    position_m: feedscope::trace::Channel,
+    effort: feedscope::trace::Channel,
+    /// The block holds both current and torque rows and no choice was made.
+    both_efforts: bool,
+    bytes_read: u64,
+    file_bytes: u64,
+}
+
 /// The effort channel a streamed read takes, from its first block with effort samples: the
 /// one asked for, the wide layout's column, or the only one of the long layout's rows. `None`
 /// when that cannot be told there (the whole read says what is wrong).
@@ -546,55 +557,93 @@ fn stream_estimate_to_csv(
     for _pass in 0..2 {
         let pb = bar(size, "estimate");
         let batch = 2 * rayon::current_num_threads();
-        let (written, (end, report)) = write_friction_csv(csv_path, kind, &pb, |map, sink| {
+        // The estimation's own counting is by samples; this bar counts the file's bytes.
+        let hidden = indicatif::ProgressBar::hidden();
+        let (written, (end, report)) = write_friction_csv(csv_path, kind, &hidden, |map, sink| {
             let mut sink = Some(sink);
             let mut est: Option<StreamEstimator<'_, Formatted, anyhow::Error>> = None;
-            let mut on_chunk = |c: TraceChunk<'_>| -> Result<bool> {
-                let (effort, other) = match kind {
-                    EffortKind::CurrentA => (c.current_a, c.torque_nm),
-                    EffortKind::TorqueNm => (c.torque_nm, c.current_a),
-                };
-                if opts.effort.is_none() && c.wide_effort.is_none() && !other.is_empty() {
-                    // Both current and torque rows: the whole read names the choice to make.
-                    return Ok(false);
-                }
-                if est.is_none() {
-                    if c.position_m.is_empty() && effort.is_empty() {
-                        return Ok(true);
-                    }
-                    let Some(sink) = sink.take() else {
-                        return Ok(false);
+            // The file is read and parsed on a thread of its own, so that parsing the next
+            // blocks overlaps with estimating the strokes of the last ones; two blocks in
+            // flight bound the memory this adds.
+            let (tx, rx) = std::sync::mpsc::sync_channel::<Block>(2);
+            let read = std::thread::scope(|scope| -> Result<StreamRead> {
+                let pb = &pb;
+                let reader = scope.spawn(move || -> Result<StreamRead> {
+                    let mut on_chunk = |c: TraceChunk<'_>| -> Result<bool> {
+                        pb.set_position(c.bytes_read);
+                        let (effort, other) = match kind {
+                            EffortKind::CurrentA => (c.current_a, c.torque_nm),
+                            EffortKind::TorqueNm => (c.torque_nm, c.current_a),
+                        };
+                        let block = Block {
+                            facts: c.facts.clone(),
+                            position_m: c.position_m.clone(),
+                            effort: effort.clone(),
+                            // Both current and torque rows: the whole read names the choice.
+                            both_efforts: opts.effort.is_none()
+                                && c.wide_effort.is_none()
+                                && !other.is_empty(),
+                            bytes_read: c.bytes_read,
+                            file_bytes: c.file_bytes,
+                        };
+                        // The estimator hung up: it gave up, or failed.
+                        Ok(tx.send(block).is_ok())
                     };
-                    let mut e = StreamEstimator::new(
-                        axis,
-                        params,
-                        kind,
-                        c.facts.clone(),
-                        *glitch,
-                        batch,
-                        map,
-                        sink,
-                    );
-                    if let Some(g) = given {
-                        e = e.with_segmentation(g);
+                    stream_trace_file(path, opts, &mut on_chunk)
+                });
+                let estimated = (|| -> Result<()> {
+                    for c in rx.iter() {
+                        if c.both_efforts {
+                            return Ok(());
+                        }
+                        if est.is_none() {
+                            if c.position_m.is_empty() && c.effort.is_empty() {
+                                continue;
+                            }
+                            let Some(sink) = sink.take() else {
+                                return Ok(());
+                            };
+                            let mut e = StreamEstimator::new(
+                                axis,
+                                params,
+                                kind,
+                                c.facts.clone(),
+                                *glitch,
+                                batch,
+                                map,
+                                sink,
+                            );
+                            if let Some(g) = given {
+                                e = e.with_segmentation(g);
+                            }
+                            // Room for the whole file at this block's density (5 % spare), so
+                            // that holding a long stroke never copies it; room never used is
+                            // never touched.
+                            if c.bytes_read > 0 {
+                                let scale = c.file_bytes as f64 / c.bytes_read as f64 * 1.05;
+                                let n = |k: usize| (k as f64 * scale) as usize + 64;
+                                e.reserve(n(c.position_m.len()), n(c.effort.len()));
+                            }
+                            est = Some(e);
+                        }
+                        let Some(e) = est.as_mut() else {
+                            return Ok(());
+                        };
+                        e.push(&c.position_m, &c.effort)?;
+                        if e.gave_up().is_some() {
+                            return Ok(());
+                        }
                     }
-                    // Room for the whole file at this block's density (5 % spare), so that
-                    // holding a long stroke never copies it; room never used is never touched.
-                    if c.bytes_read > 0 {
-                        let scale = c.file_bytes as f64 / c.bytes_read as f64 * 1.05;
-                        let n = |k: usize| (k as f64 * scale) as usize + 64;
-                        e.reserve(n(c.position_m.len()), n(effort.len()));
-                    }
-                    est = Some(e);
-                }
-                let Some(e) = est.as_mut() else {
-                    return Ok(false);
-                };
-                e.push(c.position_m, effort)?;
-                Ok(e.gave_up().is_none())
-            };
-            let read =
-                stream_trace_file(path, opts, &mut on_chunk).map_err(|e: anyhow::Error| e)?;
+                    Ok(())
+                })();
+                // Hanging up stops the reader at its next block.
+                drop(rx);
+                let read = reader
+                    .join()
+                    .unwrap_or_else(|p| std::panic::resume_unwind(p));
+                estimated?;
+                read
+            })?;
             let mut report = match read {
                 StreamRead::Done(report) => report,
                 StreamRead::Stopped | StreamRead::NotStreamed => ReadReport::default(),
