@@ -491,6 +491,7 @@ pub fn estimate_to_csv(
 }
 
 /// One block of a streamed read, as the reading thread hands it to the estimator.
+#[derive(Default)]
 struct Block {
     facts: feedscope::trace::RecordingFacts,
     position_m: feedscope::trace::Channel,
@@ -566,6 +567,7 @@ fn stream_estimate_to_csv(
             // blocks overlaps with estimating the strokes of the last ones; two blocks in
             // flight bound the memory this adds.
             let (tx, rx) = std::sync::mpsc::sync_channel::<Block>(2);
+            let (back_tx, back_rx) = std::sync::mpsc::channel::<Block>();
             let read = std::thread::scope(|scope| -> Result<StreamRead> {
                 let pb = &pb;
                 let reader = scope.spawn(move || -> Result<StreamRead> {
@@ -575,17 +577,24 @@ fn stream_estimate_to_csv(
                             EffortKind::CurrentA => (c.current_a, c.torque_nm),
                             EffortKind::TorqueNm => (c.torque_nm, c.current_a),
                         };
-                        let block = Block {
-                            facts: c.facts.clone(),
-                            position_m: c.position_m.clone(),
-                            effort: effort.clone(),
-                            // Both current and torque rows: the whole read names the choice.
-                            both_efforts: opts.effort.is_none()
-                                && c.wide_effort.is_none()
-                                && !other.is_empty(),
-                            bytes_read: c.bytes_read,
-                            file_bytes: c.file_bytes,
-                        };
+                        // A block the estimator is done with, refilled: fresh memory for
+                        // every block would be first-touched (page faults) every time.
+                        let mut block = back_rx.try_recv().unwrap_or_default();
+                        block.facts.clone_from(c.facts);
+                        for (dst, src) in [
+                            (&mut block.position_m, c.position_m),
+                            (&mut block.effort, effort),
+                        ] {
+                            dst.time_s.clear();
+                            dst.time_s.extend_from_slice(&src.time_s);
+                            dst.value.clear();
+                            dst.value.extend_from_slice(&src.value);
+                        }
+                        // Both current and torque rows: the whole read names the choice.
+                        block.both_efforts =
+                            opts.effort.is_none() && c.wide_effort.is_none() && !other.is_empty();
+                        block.bytes_read = c.bytes_read;
+                        block.file_bytes = c.file_bytes;
                         // The estimator hung up: it gave up, or failed.
                         Ok(tx.send(block).is_ok())
                     };
@@ -633,6 +642,8 @@ fn stream_estimate_to_csv(
                         if e.gave_up().is_some() {
                             return Ok(());
                         }
+                        // The reader may have ended; then the block is simply dropped.
+                        let _ = back_tx.send(c);
                     }
                     Ok(())
                 })();
