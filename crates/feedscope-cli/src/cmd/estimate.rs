@@ -410,7 +410,6 @@ fn write_friction_csv<R>(
             Ok(())
         };
         let estimated = estimate(&map, &mut sink);
-        drop(sink);
         drop(tx);
         let out = writer
             .join()
@@ -580,7 +579,7 @@ fn stream_estimate_to_csv(
                         // A block the estimator is done with, refilled: fresh memory for
                         // every block would be first-touched (page faults) every time.
                         let mut block = back_rx.try_recv().unwrap_or_default();
-                        block.facts.clone_from(c.facts);
+                        block.facts = *c.facts;
                         for (dst, src) in [
                             (&mut block.position_m, c.position_m),
                             (&mut block.effort, effort),
@@ -613,14 +612,7 @@ fn stream_estimate_to_csv(
                                 return Ok(());
                             };
                             let mut e = StreamEstimator::new(
-                                axis,
-                                params,
-                                kind,
-                                c.facts.clone(),
-                                *glitch,
-                                batch,
-                                map,
-                                sink,
+                                axis, params, kind, c.facts, *glitch, batch, map, sink,
                             );
                             if let Some(g) = given {
                                 e = e.with_segmentation(g);
@@ -996,7 +988,7 @@ fn write_outputs(
         None => None,
     };
     outcome.csv.commit()?;
-    crate::output::write_atomic(&summary_path, json.as_bytes())?;
+    crate::output::write_atomic(summary_path, json.as_bytes())?;
     if let (Some(p), Some(svg)) = (&plot_path, svg) {
         crate::output::write_atomic(p, svg.as_bytes())?;
     }

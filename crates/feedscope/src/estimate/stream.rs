@@ -671,7 +671,12 @@ impl<'a, T: Send, E> StreamEstimator<'a, T, E> {
         if n >= 3 {
             let mean_step = (self.last.0 - self.first.0) / (n - 1) as f64;
             let slack = self.glitch.max_axis_speed_m_s * 2.0 * mean_step + JUMP_FLOOR_M;
-            if !(self.worst_excess <= slack * (1.0 - 1e-9)) {
+            // NaN (a non-finite time) fails too.
+            let below = self.worst_excess.partial_cmp(&(slack * (1.0 - 1e-9)));
+            if !matches!(
+                below,
+                Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+            ) {
                 return Some(
                     "a position step comes near the speed limit: the glitch screen needs the \
                      whole trace"
@@ -812,7 +817,7 @@ mod tests {
             axis,
             params,
             trace.effort_kind,
-            trace.facts.clone(),
+            trace.facts,
             GlitchParams::for_axis(axis),
             3,
             &map,
@@ -894,11 +899,14 @@ mod tests {
         (redo, again)
     }
 
+    /// A change to the twin's settings.
+    type Tune = Box<dyn Fn(&mut SimConfig)>;
+
     #[test]
     fn streamed_strokes_are_the_whole_traces_over_a_matrix_of_recordings() {
         // (what, sampling, slice s, prefix as a fraction of the position samples)
         let feeds_slow = [40.0, 40.0, 400.0, 400.0, 2000.0, 2000.0];
-        let cases: Vec<(&str, Box<dyn Fn(&mut SimConfig)>, f64, f64)> = vec![
+        let cases: Vec<(&str, Tune, f64, f64)> = vec![
             (
                 "async 5 ms, 0.1 µm, current",
                 Box::new(|c: &mut SimConfig| {
