@@ -6,7 +6,9 @@
 # that pages cold file pages out (e.g. a VM with DAMON proactive reclaim) it would otherwise
 # come partly from disk, which measures the disk (≈ 250 MB/s here), not feedscope.
 #
-# Usage: scripts/bench-e2e.sh [many|long]
+# Usage: [READ=auto|stream|whole] scripts/bench-e2e.sh [many|long]
+#   READ (default auto) is passed to `feedscope estimate --read`: `whole` reads the trace
+#   before estimating, as before the stream (docs/estimation.md, "Estimating while reading").
 #   many (default): 400 mm strokes back and forth at 600 mm/min (247 strokes), lead 10 mm.
 #   long: one 833 mm stroke at 5 mm/min, simulated by the twin from
 #         scripts/bench-long-stroke.toml into target/bench-data/long/ (about 2 min the first time).
@@ -42,7 +44,7 @@ for run in 0 1 2 3; do
     rm -f "$out/friction.csv"
     cat "$data" >/dev/null
     /usr/bin/time -f "%e %U %S %M" -o "$out/time" target/release/feedscope estimate "$data" --axis "$axis" \
-        -o "$out/friction.csv" --no-plot --format json >/dev/null
+        -o "$out/friction.csv" --no-plot --format json --read "${READ:-auto}" >/dev/null
     read -r wall user sys kb < "$out/time"
     per=$(awk -v kb="$kb" -v n="$samples" 'BEGIN { printf "%.1f", kb * 1024 / n }')
     echo "run $run: ${wall} s wall (${user} s user, ${sys} s system), peak RSS $((kb / 1024)) MiB = $per bytes per input sample ($samples samples)"
