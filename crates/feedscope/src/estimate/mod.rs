@@ -833,14 +833,27 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     let ee_span = &trace.effort.value[e0..e1];
     // The effort's resolution: what its samples show, or what the recording declares (a whole
     // percent of load rounds however the signal moves), whichever is coarser.
-    let (effort_std, effort_q_seen) = floor::channel_noise(&te_all[e0..e1], ee_span);
+    let effort_std = floor::robust_noise_std(&te_all[e0..e1], ee_span);
+    let effort_step = floor::smallest_step(ee_span);
+    let effort_q_seen = floor::quantum_from_step(ee_span, effort_step);
     // A coarse quantum can hold a whole steady stroke on one value, which shows no step: the
     // steps are then seen in the ramps of the enclosing move (turning point to turning point).
     let (m0, m1) = (pos.time_s[span.move_first], pos.time_s[span.move_last]);
-    let effort_q_move = floor::quantum(
-        &trace.effort.value
-            [te_all.partition_point(|&t| t < m0)..te_all.partition_point(|&t| t <= m1)],
+    let ev = &trace.effort.value;
+    let (f0, f1) = (
+        te_all.partition_point(|&t| t < m0),
+        te_all.partition_point(|&t| t <= m1),
     );
+    // The move's smallest step: the stroke's, and those of the move's parts before and after
+    // it (not a second pass over the stroke).
+    let move_step = if f0 <= e0 && e1 <= f1 {
+        effort_step
+            .min(floor::smallest_step(&ev[f0..=e0]))
+            .min(floor::smallest_step(&ev[e1 - 1..f1]))
+    } else {
+        floor::smallest_step(&ev[f0..f1])
+    };
+    let effort_q_move = floor::quantum_from_step(&ev[f0..f1], move_step);
     let effort_q = effort_q_seen
         .max(effort_q_move)
         .max(trace.facts.effort_quantum.unwrap_or(0.0));
