@@ -1539,20 +1539,28 @@ impl GridWalk<'_, '_> {
                 }
             };
             t_prev = t;
-            let e = effort.eval(t);
-            let f = force_gain * e - m_eq * a - b_eq * v;
-            if !f.is_finite() {
-                return Err(zg);
-            }
-            sum += f;
             cols[0][i] = zg;
             cols[1][i] = t;
             cols[2][i] = v;
             cols[3][i] = a;
-            cols[4][i] = e;
-            cols[5][i] = f;
         }
-        (self.k_int, self.piece, self.t_prev, self.sum) = (k_int, piece, t_prev, sum);
+        (self.k_int, self.piece, self.t_prev) = (k_int, piece, t_prev);
+        // The effort and Eq. 5 in a second pass over the block: each loop is short enough
+        // that the processor overlaps several points' dependency chains (t(z)'s divisions
+        // and Newton steps, then the effort's seek and cubic), which one long loop body
+        // did not let it do.
+        let [zgs, ts, vs, accs, es, fs] = cols;
+        for i in 0..len {
+            let e = effort.eval(ts[i]);
+            let f = force_gain * e - m_eq * accs[i] - b_eq * vs[i];
+            if !f.is_finite() {
+                return Err(zgs[i]);
+            }
+            sum += f;
+            es[i] = e;
+            fs[i] = f;
+        }
+        self.sum = sum;
         Ok(())
     }
 }
