@@ -918,7 +918,8 @@ fn validate_knots(x: &[f64], y: &[f64]) -> Result<(), SplineError> {
     // through here); the loop that names the first bad knot runs only when there is one.
     let mut bad = !(x[0].is_finite() && y[0].is_finite());
     for (p, &yk) in x.windows(2).zip(&y[1..]) {
-        bad |= !p[1].is_finite() | !yk.is_finite() | !(p[1] > p[0]);
+        // A NaN fails the finite checks (p[0] as the pair before's p[1], or x[0]).
+        bad |= !p[1].is_finite() | !yk.is_finite() | (p[1] <= p[0]);
     }
     if !bad {
         return Ok(());
