@@ -300,15 +300,21 @@ pub fn smoothing_moments(
     g: &mut Vec<f64>,
 ) -> Result<Vec<f64>, SplineError> {
     validate_knots(x, y)?;
-    let n = x.len();
     if !(alpha.is_finite() && alpha >= 0.0) {
         return Err(SplineError::NonFinite { index: 0 });
     }
+    Ok(smoothing_moments_valid(x, y, alpha, g))
+}
+
+/// [`smoothing_moments`] of knots already validated, with α finite and ≥ 0 (the windowed
+/// solves check the whole once, not every window again).
+fn smoothing_moments_valid(x: &[f64], y: &[f64], alpha: f64, g: &mut Vec<f64>) -> Vec<f64> {
+    let n = x.len();
     let mut m = vec![0.0; n];
     if n < 3 {
         g.clear();
         g.extend_from_slice(y);
-        return Ok(m);
+        return m;
     }
     let nn = n - 2; // unknowns γ_1..γ_{n−2}
                     // Six work arrays, reused per thread: allocating them afresh for every stroke costs more
@@ -326,7 +332,7 @@ pub fn smoothing_moments(
         }
         smooth_solve(x.len(), y, alpha, hs, ih, inv_d, u, v, w, g, &mut m);
     });
-    Ok(m)
+    m
 }
 
 /// Knots that [`smoothing_moments_windowed`] and [`CubicSpline::new_windowed`] solve at once
@@ -387,14 +393,14 @@ pub fn smoothing_moments_windowed(
     let reach = |a: usize, b: usize| smoothing_window(x, a, b, reach_s);
     let window = window.max(4 * INTERP_OVERLAP_KNOTS);
     if n <= window || reach(0, window.min(n)).1 >= n {
-        return smoothing_moments(x, y, alpha, g);
+        return Ok(smoothing_moments_valid(x, y, alpha, g));
     }
     let mut m = vec![0.0; n];
     g.clear();
     g.resize(n, 0.0);
     let mut gw = Vec::new();
     for (lo, a, b, hi) in windows(n, window, reach) {
-        let mw = smoothing_moments(&x[lo..hi], &y[lo..hi], alpha, &mut gw)?;
+        let mw = smoothing_moments_valid(&x[lo..hi], &y[lo..hi], alpha, &mut gw);
         m[a..b].copy_from_slice(&mw[a - lo..b - lo]);
         g[a..b].copy_from_slice(&gw[a - lo..b - lo]);
     }
@@ -497,8 +503,7 @@ impl<'a> WindowedSmoothing<'a> {
         let b = (a + self.window).min(n);
         let (lo, hi) = smoothing_window(self.x, a, b, self.reach_s);
         // The knots were validated whole, so a part of them is valid too.
-        self.m = smoothing_moments(&self.x[lo..hi], &self.y[lo..hi], self.alpha, &mut self.g)
-            .expect("a part of validated knots");
+        self.m = smoothing_moments_valid(&self.x[lo..hi], &self.y[lo..hi], self.alpha, &mut self.g);
         self.lo = lo;
         self.core = (a, b);
     }
@@ -908,6 +913,16 @@ fn validate_knots(x: &[f64], y: &[f64]) -> Result<(), SplineError> {
     }
     if n < 2 {
         return Err(SplineError::TooFewKnots(n));
+    }
+    // One pass without early exits first (it vectorises, and every stroke's knots pass
+    // through here); the loop that names the first bad knot runs only when there is one.
+    let mut bad = !(x[0].is_finite() && y[0].is_finite());
+    for (p, &yk) in x.windows(2).zip(&y[1..]) {
+        // A NaN fails the finite checks (p[0] as the pair before's p[1], or x[0]).
+        bad |= !p[1].is_finite() | !yk.is_finite() | (p[1] <= p[0]);
+    }
+    if !bad {
+        return Ok(());
     }
     for k in 0..n {
         if !(x[k].is_finite() && y[k].is_finite()) {

@@ -104,48 +104,50 @@ pub(crate) fn robust_noise_std(times: &[f64], values: &[f64]) -> f64 {
     }
     let count = n - 4;
     let stride = count.div_ceil(MAX_DIFFS).max(1);
-    let mut d: Vec<f64> = (0..count)
-        .step_by(stride)
-        .filter_map(|k| {
-            let t = &times[k..k + 5];
-            let v = &values[k..k + 5];
-            // Divided-difference weights c_i = 1/Π_{j≠i}(t_i − t_j), in units of the local
-            // spacing so that nothing underflows; the ten gaps are formed once.
-            let scale = (t[4] - t[0]) / 4.0;
-            if scale.is_nan() || scale <= 0.0 {
-                return None;
-            }
-            let r = 1.0 / scale;
-            let g = |i: usize, j: usize| (t[i] - t[j]) * r;
-            let (g01, g02, g03, g04) = (g(0, 1), g(0, 2), g(0, 3), g(0, 4));
-            let (g12, g13, g14) = (g(1, 2), g(1, 3), g(1, 4));
-            let (g23, g24, g34) = (g(2, 3), g(2, 4), g(3, 4));
-            // Π_{j≠i}(t_i − t_j) with t_i − t_j = −(t_j − t_i) for j < i.
-            let p = [
-                g01 * g02 * g03 * g04,
-                -g01 * g12 * g13 * g14,
-                g02 * g12 * g23 * g24,
-                -g03 * g13 * g23 * g34,
-                g04 * g14 * g24 * g34,
-            ];
-            // The normalised difference (Σ c_i·v_i)²/Σ c_i² is unchanged when every c_i is
-            // multiplied by Π_k p_k, which turns c_i = 1/p_i into Π_{k≠i} p_k: no division.
-            // (Divisions dominated this kernel, which runs on every stroke.)
-            let p01 = p[0] * p[1];
-            let p34 = p[3] * p[4];
-            let pre = [1.0, p[0], p01, p01 * p[2], p01 * p[2] * p[3]];
-            let suf = [p[1] * p[2] * p34, p[2] * p34, p34, p[4], 1.0];
-            let (mut dd, mut gain) = (0.0, 0.0);
-            for i in 0..5 {
-                let c = pre[i] * suf[i];
-                dd += c * v[i];
-                gain += c * c;
-            }
-            // The square: the trimmed mean below ranks and averages squares anyway.
-            let r2 = dd * dd / gain;
-            r2.is_finite().then_some(r2)
-        })
-        .collect();
+    // Each square is kept as its bit pattern: for finite non-negative doubles (all of them,
+    // see below) the bits order as the values do, so the selection below compares integers
+    // (f64::total_cmp on the same values gives the same answers, only dearer).
+    let mut d: Vec<u64> = Vec::with_capacity(count.div_ceil(stride));
+    d.extend((0..count).step_by(stride).filter_map(|k| {
+        let t = &times[k..k + 5];
+        let v = &values[k..k + 5];
+        // Divided-difference weights c_i = 1/Π_{j≠i}(t_i − t_j), in units of the local
+        // spacing so that nothing underflows; the ten gaps are formed once.
+        let scale = (t[4] - t[0]) / 4.0;
+        if scale.is_nan() || scale <= 0.0 {
+            return None;
+        }
+        let r = 1.0 / scale;
+        let g = |i: usize, j: usize| (t[i] - t[j]) * r;
+        let (g01, g02, g03, g04) = (g(0, 1), g(0, 2), g(0, 3), g(0, 4));
+        let (g12, g13, g14) = (g(1, 2), g(1, 3), g(1, 4));
+        let (g23, g24, g34) = (g(2, 3), g(2, 4), g(3, 4));
+        // Π_{j≠i}(t_i − t_j) with t_i − t_j = −(t_j − t_i) for j < i.
+        let p = [
+            g01 * g02 * g03 * g04,
+            -g01 * g12 * g13 * g14,
+            g02 * g12 * g23 * g24,
+            -g03 * g13 * g23 * g34,
+            g04 * g14 * g24 * g34,
+        ];
+        // The normalised difference (Σ c_i·v_i)²/Σ c_i² is unchanged when every c_i is
+        // multiplied by Π_k p_k, which turns c_i = 1/p_i into Π_{k≠i} p_k: no division.
+        // (Divisions dominated this kernel, which runs on every stroke.)
+        let p01 = p[0] * p[1];
+        let p34 = p[3] * p[4];
+        let pre = [1.0, p[0], p01, p01 * p[2], p01 * p[2] * p[3]];
+        let suf = [p[1] * p[2] * p34, p[2] * p34, p34, p[4], 1.0];
+        let (mut dd, mut gain) = (0.0, 0.0);
+        for i in 0..5 {
+            let c = pre[i] * suf[i];
+            dd += c * v[i];
+            gain += c * c;
+        }
+        // The square: the trimmed mean below ranks and averages squares anyway. It is
+        // +0 or positive (gain > 0 wherever it is finite).
+        let r2 = dd * dd / gain;
+        r2.is_finite().then_some(r2.to_bits())
+    }));
     if d.is_empty() {
         return 0.0;
     }
@@ -154,9 +156,9 @@ pub(crate) fn robust_noise_std(times: &[f64], values: &[f64]) -> f64 {
     // 1 − 2·z·φ(z)/0.9 = 0.6232 of σ² (z = 1.6449, the 90 % point of |x|).
     let keep = (d.len() * 9).div_ceil(10).max(1);
     if keep < d.len() {
-        d.select_nth_unstable_by(keep - 1, f64::total_cmp);
+        d.select_nth_unstable(keep - 1);
     }
-    let ms = d[..keep].iter().sum::<f64>() / keep as f64;
+    let ms = d[..keep].iter().map(|&b| f64::from_bits(b)).sum::<f64>() / keep as f64;
     (ms / 0.6232).sqrt()
 }
 
@@ -165,8 +167,13 @@ pub(crate) fn robust_noise_std(times: &[f64], values: &[f64]) -> f64 {
 /// 1 to 10 (steps of 4, 5 and 6 µm have the quantum 1 µm); 0 for an unquantised channel,
 /// whose smallest step is only its slowest motion.
 pub(crate) fn quantum(values: &[f64]) -> f64 {
-    // The smallest step over the whole channel: at a slow feed most steps are zero and the
-    // few quantum steps could all fall between the evenly spread sample below.
+    quantum_from_step(values, smallest_step(values))
+}
+
+/// The smallest non-zero step |v_{k+1} − v_k| between consecutive values; +∞ when there is
+/// none. A minimum is exact whatever the grouping, so that of a channel is the smaller of its
+/// parts' (the parts overlapping by one value, so that every step lies in one of them).
+pub(crate) fn smallest_step(values: &[f64]) -> f64 {
     // Four independent lanes so that the loop vectorises; zero steps (most of a slow feed)
     // count as infinitely large.
     let mut lanes = [f64::INFINITY; 4];
@@ -187,7 +194,13 @@ pub(crate) fn quantum(values: &[f64]) -> f64 {
     for k in pairs - pairs % 4..pairs {
         lanes[0] = lanes[0].min(step(k));
     }
-    let q0 = lanes.iter().copied().fold(f64::INFINITY, f64::min);
+    lanes.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+/// [`quantum`] of `values` whose [`smallest_step`] is `q0`.
+pub(crate) fn quantum_from_step(values: &[f64], q0: f64) -> f64 {
+    // The smallest step over the whole channel (q0): at a slow feed most steps are zero and
+    // the few quantum steps could all fall between the evenly spread sample below.
     if !q0.is_finite() {
         return 0.0;
     }
@@ -449,6 +462,95 @@ mod tests {
             .collect();
         let s = robust_noise_std(&times, &v);
         assert!((s / 0.3 - 1.0).abs() < 0.05, "{s}");
+    }
+
+    /// [`robust_noise_std`] as it was before the squares were ranked by their bits: the
+    /// selection on f64 with `total_cmp`.
+    fn robust_noise_std_reference(times: &[f64], values: &[f64]) -> f64 {
+        let n = values.len().min(times.len());
+        if n < 5 {
+            return 0.0;
+        }
+        let count = n - 4;
+        let stride = count.div_ceil(4096).max(1);
+        let mut d: Vec<f64> = (0..count)
+            .step_by(stride)
+            .filter_map(|k| {
+                let (t, v) = (&times[k..k + 5], &values[k..k + 5]);
+                let scale = (t[4] - t[0]) / 4.0;
+                if scale.is_nan() || scale <= 0.0 {
+                    return None;
+                }
+                let r = 1.0 / scale;
+                let g = |i: usize, j: usize| (t[i] - t[j]) * r;
+                let (g01, g02, g03, g04) = (g(0, 1), g(0, 2), g(0, 3), g(0, 4));
+                let (g12, g13, g14) = (g(1, 2), g(1, 3), g(1, 4));
+                let (g23, g24, g34) = (g(2, 3), g(2, 4), g(3, 4));
+                let p = [
+                    g01 * g02 * g03 * g04,
+                    -g01 * g12 * g13 * g14,
+                    g02 * g12 * g23 * g24,
+                    -g03 * g13 * g23 * g34,
+                    g04 * g14 * g24 * g34,
+                ];
+                let p01 = p[0] * p[1];
+                let p34 = p[3] * p[4];
+                let pre = [1.0, p[0], p01, p01 * p[2], p01 * p[2] * p[3]];
+                let suf = [p[1] * p[2] * p34, p[2] * p34, p34, p[4], 1.0];
+                let (mut dd, mut gain) = (0.0, 0.0);
+                for i in 0..5 {
+                    let c = pre[i] * suf[i];
+                    dd += c * v[i];
+                    gain += c * c;
+                }
+                let r2 = dd * dd / gain;
+                r2.is_finite().then_some(r2)
+            })
+            .collect();
+        if d.is_empty() {
+            return 0.0;
+        }
+        let keep = (d.len() * 9).div_ceil(10).max(1);
+        if keep < d.len() {
+            d.select_nth_unstable_by(keep - 1, f64::total_cmp);
+        }
+        let ms = d[..keep].iter().sum::<f64>() / keep as f64;
+        (ms / 0.6232).sqrt()
+    }
+
+    #[test]
+    fn robust_noise_gives_the_bits_of_the_reference() {
+        // Quantised values (many equal squares, so ties in the ranking), jittered and repeated
+        // times, spikes, and lengths around the stride's steps: the sum over the kept squares
+        // must add the same values in the same order.
+        let mut rng = rand::rngs::StdRng::seed_from_u64(21);
+        for case in 0..200 {
+            let n = [5, 6, 17, 100, 1000, 4100, 9000, 20_000][case % 8] + case;
+            let q = [0.0, 1e-6, 1e-3, 1.0][case % 4];
+            let mut t = 0.0;
+            let (mut times, mut values) = (Vec::new(), Vec::new());
+            for k in 0..n {
+                t += if rng.random::<f64>() < 0.01 {
+                    0.0
+                } else {
+                    1e-3 * (0.5 + rng.random::<f64>())
+                };
+                let x =
+                    1e-2 * t + 1e-4 * (k as f64 * 0.01).sin() + 3e-6 * (rng.random::<f64>() - 0.5);
+                let x = if rng.random::<f64>() < 0.002 {
+                    x + 1.0
+                } else {
+                    x
+                };
+                times.push(t);
+                values.push(if q > 0.0 { (x / q).round() * q } else { x });
+            }
+            let (a, b) = (
+                robust_noise_std(&times, &values),
+                robust_noise_std_reference(&times, &values),
+            );
+            assert_eq!(a.to_bits(), b.to_bits(), "case {case}: {a} vs {b}");
+        }
     }
 
     #[test]

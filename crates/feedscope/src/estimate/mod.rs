@@ -835,14 +835,27 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     let ee_span = &trace.effort.value[e0..e1];
     // The effort's resolution: what its samples show, or what the recording declares (a whole
     // percent of load rounds however the signal moves), whichever is coarser.
-    let (effort_std, effort_q_seen) = floor::channel_noise(&te_all[e0..e1], ee_span);
+    let effort_std = floor::robust_noise_std(&te_all[e0..e1], ee_span);
+    let effort_step = floor::smallest_step(ee_span);
+    let effort_q_seen = floor::quantum_from_step(ee_span, effort_step);
     // A coarse quantum can hold a whole steady stroke on one value, which shows no step: the
     // steps are then seen in the ramps of the enclosing move (turning point to turning point).
     let (m0, m1) = (pos.time_s[span.move_first], pos.time_s[span.move_last]);
-    let effort_q_move = floor::quantum(
-        &trace.effort.value
-            [te_all.partition_point(|&t| t < m0)..te_all.partition_point(|&t| t <= m1)],
+    let ev = &trace.effort.value;
+    let (f0, f1) = (
+        te_all.partition_point(|&t| t < m0),
+        te_all.partition_point(|&t| t <= m1),
     );
+    // The move's smallest step: the stroke's, and those of the move's parts before and after
+    // it (not a second pass over the stroke).
+    let move_step = if f0 <= e0 && e1 <= f1 {
+        effort_step
+            .min(floor::smallest_step(&ev[f0..=e0]))
+            .min(floor::smallest_step(&ev[e1 - 1..f1]))
+    } else {
+        floor::smallest_step(&ev[f0..f1])
+    };
+    let effort_q_move = floor::quantum_from_step(&ev[f0..f1], move_step);
     let effort_q = effort_q_seen
         .max(effort_q_move)
         .max(trace.facts.effort_quantum.unwrap_or(0.0));
@@ -1108,74 +1121,48 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
             })?,
         ),
     };
-    let mut knot_cursor = knot_spline.as_ref().map(|k| k.cursor());
-    let mut k_int = zs.interval(w_lo);
-    let mut piece = zs.piece(k_int);
-    let mut non_monotone = false;
-    let mut t_prev = w_lo;
-    let mut sum = 0.0;
+    let knot_cursor = knot_spline.as_ref().map(|k| k.cursor());
+    let k_int = zs.interval(w_lo);
+    let mut walk = GridWalk {
+        k_first: k_first as f64,
+        s,
+        step,
+        w_lo,
+        w_hi,
+        force_gain,
+        m_eq,
+        b_eq,
+        knot_cursor,
+        k_int,
+        piece: zs.piece(k_int),
+        non_monotone: false,
+        t_prev: w_lo,
+        sum: 0.0,
+    };
     // The six columns are filled a block at a time in arrays on the stack, each block then
     // appended with one copy per column: six pushes per point re-read and re-stored six
     // lengths and checked six capacities, a sizeable share of the loop's instructions.
-    const BLOCK: usize = 256;
     let mut cols = [[0.0f64; BLOCK]; 6];
     let mut j0 = 0;
     while j0 < count {
         let len = BLOCK.min(count - j0);
-        // One index into six columns (and j beside it): no single iterator to enumerate.
-        #[allow(clippy::needless_range_loop)]
-        for i in 0..len {
-            let j = j0 + i;
-            let zg = (k_first as f64 + s * j as f64) * step;
-            let (t, v, a) = match &mut knot_cursor {
-                Some(ks) => {
-                    let t = ks.eval(s * zg).clamp(w_lo, w_hi);
-                    let (_, v, a) = zs.eval_all(t);
-                    (t, v, a)
-                }
-                None => {
-                    // Advance to the knot interval whose end lies beyond the target.
-                    let k_old = k_int;
-                    while k_int + 2 < tz.len() && s * (zs.value(k_int + 1) - zg) < 0.0 {
-                        k_int += 1;
-                    }
-                    if k_int != k_old {
-                        piece = zs.piece(k_int);
-                    }
-                    match newton_in_piece(&piece, zs.value(k_int + 1), zg) {
-                        Some((u, v, a)) => (piece.x0 + u, v, a),
-                        None => {
-                            // Not monotone here: the safeguarded search over neighbours.
-                            let (t, k, ok) =
-                                invert_in(&mut zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
-                            non_monotone |= !ok;
-                            let (_, v, a) = zs.eval_in(k, t);
-                            (t, v, a)
-                        }
-                    }
-                }
-            };
-            t_prev = t;
-            let e = match &mut effort_at {
-                EffortEval::Whole(c) => c.eval(t),
-                EffortEval::Windowed(w) => w.eval(t),
-            };
-            let f = force_gain * e - m_eq * a - b_eq * v;
-            if !f.is_finite() {
-                return Err(EstimateError::NonFinite {
-                    stroke: index,
-                    quantity: "friction_n",
-                    position_mm: zg * 1e3,
-                }
-                .into());
+        let block = &mut cols;
+        // One loop per kind of spline, chosen once a block (see `KnotRead`).
+        let filled = match (&mut zs, &mut effort_at) {
+            (PositionSpline::Whole(z), EffortEval::Whole(e)) => walk.fill(z, e, j0, len, block),
+            (PositionSpline::Whole(z), EffortEval::Windowed(e)) => walk.fill(z, e, j0, len, block),
+            (PositionSpline::Windowed(z), EffortEval::Whole(e)) => walk.fill(z, e, j0, len, block),
+            (PositionSpline::Windowed(z), EffortEval::Windowed(e)) => {
+                walk.fill(z, e, j0, len, block)
             }
-            sum += f;
-            cols[0][i] = zg;
-            cols[1][i] = t;
-            cols[2][i] = v;
-            cols[3][i] = a;
-            cols[4][i] = e;
-            cols[5][i] = f;
+        };
+        if let Err(zg) = filled {
+            return Err(EstimateError::NonFinite {
+                stroke: index,
+                quantity: "friction_n",
+                position_mm: zg * 1e3,
+            }
+            .into());
         }
         for (col, dst) in cols.iter().zip(out.columns_mut()) {
             dst.extend_from_slice(&col[..len]);
@@ -1207,14 +1194,14 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
             emit(piece)?;
         }
     }
-    if non_monotone {
+    if walk.non_monotone {
         warnings.push(Diagnostic::new(
             "position-not-monotone",
             "the position spline is not monotone somewhere in this stroke (noisy or coarsely \
              quantised position at a low feed); t(z) took the nearest solution",
         ));
     }
-    let mean = sum / count as f64;
+    let mean = walk.sum / count as f64;
     let var = if emitted == 0 {
         out.friction_n
             .iter()
@@ -1326,13 +1313,6 @@ enum PositionSpline<'a> {
 }
 
 impl<'a> PositionSpline<'a> {
-    fn x(&self) -> &'a [f64] {
-        match self {
-            Self::Whole(s) => s.x(),
-            Self::Windowed(w) => w.x(),
-        }
-    }
-
     #[inline(always)]
     fn value(&mut self, k: usize) -> f64 {
         match self {
@@ -1385,6 +1365,206 @@ impl<'a> PositionSpline<'a> {
 enum EffortEval<'s, 'a> {
     Whole(crate::spline::Cursor<'s, 'a>),
     Windowed(crate::spline::WindowedSpline<'a>),
+}
+
+/// A position spline read by knot index, as the t(z) inversion walks it. The grid loop is
+/// generic over it (and over [`EffortRead`]) so that each kind of spline gets a loop of its
+/// own: dispatching on [`PositionSpline`] at every read kept the current piece in memory,
+/// stored in halves and reloaded whole, which stalled store forwarding once a point.
+trait KnotRead<'a> {
+    /// The knots' abscissae (s).
+    fn x(&self) -> &'a [f64];
+    /// The spline's value at knot k (m).
+    fn value(&mut self, k: usize) -> f64;
+    /// The cubic of interval k.
+    fn piece(&mut self, k: usize) -> crate::spline::Piece;
+    /// Value, first and second derivative at t (s) on interval k.
+    fn eval_in(&mut self, k: usize, t: f64) -> (f64, f64, f64);
+    /// The interval holding t (s), clamped to the end intervals.
+    fn interval(&self, t: f64) -> usize;
+}
+
+impl<'a> KnotRead<'a> for CubicSpline<'a> {
+    #[inline(always)]
+    fn x(&self) -> &'a [f64] {
+        CubicSpline::x(self)
+    }
+    #[inline(always)]
+    fn value(&mut self, k: usize) -> f64 {
+        self.y()[k]
+    }
+    #[inline(always)]
+    fn piece(&mut self, k: usize) -> crate::spline::Piece {
+        CubicSpline::piece(self, k)
+    }
+    #[inline(always)]
+    fn eval_in(&mut self, k: usize, t: f64) -> (f64, f64, f64) {
+        CubicSpline::eval_in(self, k, t)
+    }
+    #[inline(always)]
+    fn interval(&self, t: f64) -> usize {
+        CubicSpline::interval(self, t)
+    }
+}
+
+impl<'a> KnotRead<'a> for crate::spline::WindowedSmoothing<'a> {
+    #[inline(always)]
+    fn x(&self) -> &'a [f64] {
+        crate::spline::WindowedSmoothing::x(self)
+    }
+    #[inline(always)]
+    fn value(&mut self, k: usize) -> f64 {
+        crate::spline::WindowedSmoothing::value(self, k)
+    }
+    #[inline(always)]
+    fn piece(&mut self, k: usize) -> crate::spline::Piece {
+        crate::spline::WindowedSmoothing::piece(self, k)
+    }
+    #[inline(always)]
+    fn eval_in(&mut self, k: usize, t: f64) -> (f64, f64, f64) {
+        crate::spline::WindowedSmoothing::eval_in(self, k, t)
+    }
+    #[inline(always)]
+    fn interval(&self, t: f64) -> usize {
+        crate::spline::WindowedSmoothing::interval(self, t)
+    }
+}
+
+/// The effort spline read at non-decreasing times, as the grid loop reads it.
+trait EffortRead {
+    /// The effort at t (s), in its unit.
+    fn eval(&mut self, t: f64) -> f64;
+}
+
+impl EffortRead for crate::spline::Cursor<'_, '_> {
+    #[inline(always)]
+    fn eval(&mut self, t: f64) -> f64 {
+        crate::spline::Cursor::eval(self, t)
+    }
+}
+
+impl EffortRead for crate::spline::WindowedSpline<'_> {
+    #[inline(always)]
+    fn eval(&mut self, t: f64) -> f64 {
+        crate::spline::WindowedSpline::eval(self, t)
+    }
+}
+
+/// Grid points filled at a time by [`GridWalk::fill`].
+const BLOCK: usize = 256;
+
+/// The resampling of one stroke on the position grid (steps 3-6) between blocks of points:
+/// the grid, the output window, Eq. 5's constants, where the t(z) inversion stands and the
+/// running sum of the friction.
+struct GridWalk<'s, 'a> {
+    /// Index of the first grid point: point j lies at (k_first + s·j)·step.
+    k_first: f64,
+    /// The direction's sign.
+    s: f64,
+    /// Grid step lead/m (m).
+    step: f64,
+    /// Output window (s).
+    w_lo: f64,
+    w_hi: f64,
+    /// Force per unit of effort, signed as the friction is (N per A or N per N·m).
+    force_gain: f64,
+    /// Equivalent mass (kg) and damping (N·s/m) of Eq. 5.
+    m_eq: f64,
+    b_eq: f64,
+    /// t(z) from the paper's knot spline, when asked for; else the inversion below.
+    knot_cursor: Option<crate::spline::Cursor<'s, 'a>>,
+    /// Knot interval of the last point and its cubic.
+    k_int: usize,
+    piece: crate::spline::Piece,
+    /// Whether the inversion found no bracketing interval somewhere.
+    non_monotone: bool,
+    /// Time of the last point (s).
+    t_prev: f64,
+    /// Sum of the friction so far (N).
+    sum: f64,
+}
+
+impl GridWalk<'_, '_> {
+    /// Resample grid points `j0..j0 + len` into `cols` (position m, time s, velocity m/s,
+    /// acceleration m/s², effort, friction N by Eq. 5).
+    ///
+    /// # Errors
+    /// The grid position (m) of the first point whose friction is not finite.
+    #[inline(never)]
+    fn fill<'a, Z: KnotRead<'a>, E: EffortRead>(
+        &mut self,
+        zs: &mut Z,
+        effort: &mut E,
+        j0: usize,
+        len: usize,
+        cols: &mut [[f64; BLOCK]; 6],
+    ) -> Result<(), f64> {
+        let tz = zs.x();
+        let (k_first, s, step, w_lo, w_hi) =
+            (self.k_first, self.s, self.step, self.w_lo, self.w_hi);
+        let (force_gain, m_eq, b_eq) = (self.force_gain, self.m_eq, self.b_eq);
+        // The walk's state rides in locals through the block.
+        let (mut k_int, mut piece, mut t_prev, mut sum) =
+            (self.k_int, self.piece, self.t_prev, self.sum);
+        let mut knot_cursor = self.knot_cursor.as_mut();
+        // One index into six columns (and j beside it): no single iterator to enumerate.
+        #[allow(clippy::needless_range_loop)]
+        for i in 0..len {
+            let j = j0 + i;
+            let zg = (k_first + s * j as f64) * step;
+            let (t, v, a) = match &mut knot_cursor {
+                Some(ks) => {
+                    let t = ks.eval(s * zg).clamp(w_lo, w_hi);
+                    let (_, v, a) = zs.eval_in(zs.interval(t), t);
+                    (t, v, a)
+                }
+                None => {
+                    // Advance to the knot interval whose end lies beyond the target.
+                    let k_old = k_int;
+                    while k_int + 2 < tz.len() && s * (zs.value(k_int + 1) - zg) < 0.0 {
+                        k_int += 1;
+                    }
+                    if k_int != k_old {
+                        piece = zs.piece(k_int);
+                    }
+                    match newton_in_piece(&piece, zs.value(k_int + 1), zg) {
+                        Some((u, v, a)) => (piece.x0 + u, v, a),
+                        None => {
+                            // Not monotone here: the safeguarded search over neighbours.
+                            let (t, k, ok) =
+                                invert_in(zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
+                            self.non_monotone |= !ok;
+                            let (_, v, a) = zs.eval_in(k, t);
+                            (t, v, a)
+                        }
+                    }
+                }
+            };
+            t_prev = t;
+            cols[0][i] = zg;
+            cols[1][i] = t;
+            cols[2][i] = v;
+            cols[3][i] = a;
+        }
+        (self.k_int, self.piece, self.t_prev) = (k_int, piece, t_prev);
+        // The effort and Eq. 5 in a second pass over the block: each loop is short enough
+        // that the processor overlaps several points' dependency chains (t(z)'s divisions
+        // and Newton steps, then the effort's seek and cubic), which one long loop body
+        // did not let it do.
+        let [zgs, ts, vs, accs, es, fs] = cols;
+        for i in 0..len {
+            let e = effort.eval(ts[i]);
+            let f = force_gain * e - m_eq * accs[i] - b_eq * vs[i];
+            if !f.is_finite() {
+                return Err(zgs[i]);
+            }
+            sum += f;
+            es[i] = e;
+            fs[i] = f;
+        }
+        self.sum = sum;
+        Ok(())
+    }
 }
 
 /// Newton's method for z(x0 + u) = target inside one monotone piece, started from linear
@@ -1443,8 +1623,8 @@ fn newton_in_piece(p: &crate::spline::Piece, z1: f64, target: f64) -> Option<(f6
 /// Solve z(t) = target on knot interval k (then its neighbours) by Newton steps safeguarded
 /// with bisection. Returns the time, the interval holding it, and whether a bracketing
 /// interval was found.
-fn invert_in(
-    zs: &mut PositionSpline<'_>,
+fn invert_in<'a>(
+    zs: &mut impl KnotRead<'a>,
     k: usize,
     target: f64,
     guess: f64,
