@@ -1776,72 +1776,24 @@ pub fn estimate_pieces_streaming<T: Send, E: From<EstimateError>>(
     check_effort_informative(trace, &planned)?;
     let mut seen = Seen::default();
     let batch = batch.max(1);
-    let label = |s: &mut StrokeSummary, span: &StrokeSpan| {
-        let m = &planned.moves[span.move_index];
-        s.kind = m.kind;
-        s.program_line = m.program_line;
-        s.programmed_feed_mm_min = m.programmed_feed_mm_min;
-    };
-    let long = |span: &StrokeSpan| span.last - span.first + 1 > params.spline_window_knots;
     let mut k = 0;
     while k < planned.spans.len() {
-        if long(&planned.spans[k]) {
-            let span = &planned.spans[k];
-            let outcome = estimate_stroke_pieces(
-                trace,
-                axis,
-                params,
-                k,
-                span,
-                params.piece_points,
-                &mut |mut piece: StrokeFriction| -> Result<(), E> {
-                    label(&mut piece.summary, span);
-                    sink(StrokePiece::Rows(map(piece)))
-                },
-            )?;
-            match outcome {
-                StrokeOutcome::Estimated(mut s) => {
-                    label(&mut s.summary, span);
-                    let summary = Box::new(s.summary.clone());
-                    seen.stroke(&summary);
-                    sink(StrokePiece::Rows(map(*s)))?;
-                    sink(StrokePiece::End(summary))?;
-                }
-                StrokeOutcome::Skipped(why) => seen.skip(trace, k, span, why),
-            }
-            k += 1;
-            continue;
-        }
-        // A batch of short strokes, up to the next long one.
-        let end = (k..planned.spans.len())
-            .take(batch)
-            .find(|&j| long(&planned.spans[j]))
-            .unwrap_or(k.saturating_add(batch).min(planned.spans.len()));
-        let chunk = &planned.spans[k..end];
-        let results: Vec<_> = chunk
-            .par_iter()
-            .enumerate()
-            .map(|(i, span)| {
-                estimate_stroke(trace, axis, params, k + i, span).map(|o| match o {
-                    StrokeOutcome::Estimated(mut s) => {
-                        label(&mut s.summary, span);
-                        let summary = Box::new(s.summary.clone());
-                        Ok((summary, map(*s)))
-                    }
-                    StrokeOutcome::Skipped(why) => Err(why),
-                })
-            })
-            .collect();
-        for (i, r) in results.into_iter().enumerate() {
-            match r? {
-                Ok((summary, t)) => {
-                    seen.stroke(&summary);
-                    sink(StrokePiece::Rows(t))?;
-                    sink(StrokePiece::End(summary))?;
-                }
-                Err(why) => seen.skip(trace, k + i, &chunk[i], why),
-            }
-        }
+        let end = next_chunk(&planned.spans, k, batch, params.spline_window_knots);
+        estimate_chunk(
+            trace,
+            axis,
+            params,
+            &planned.spans[k..end],
+            k,
+            &planned.moves,
+            &map,
+            &mut sink,
+            &mut seen,
+        )
+        .map_err(|e| match e {
+            Failed::Estimate(e) => E::from(e),
+            Failed::Sink(e) => e,
+        })?;
         k = end;
     }
     if !seen.any {
@@ -1909,6 +1861,110 @@ impl Seen {
             trace.position_m.value[span.last] * 1e3
         ));
     }
+}
+
+/// The end of the chunk of strokes from `k` that [`estimate_chunk`] takes next: a long stroke
+/// (more than `window` position samples) alone, else up to `batch` short ones, stopping before
+/// a long one.
+fn next_chunk(spans: &[StrokeSpan], k: usize, batch: usize, window: usize) -> usize {
+    let long = |s: &StrokeSpan| s.last - s.first + 1 > window;
+    if long(&spans[k]) {
+        return k + 1;
+    }
+    (k..spans.len())
+        .take(batch)
+        .find(|&j| long(&spans[j]))
+        .unwrap_or(k.saturating_add(batch).min(spans.len()))
+}
+
+/// What failed while strokes were estimated: the estimation, or the sink.
+enum Failed<E> {
+    Estimate(EstimateError),
+    Sink(E),
+}
+
+impl<E> From<EstimateError> for Failed<E> {
+    fn from(e: EstimateError) -> Self {
+        Self::Estimate(e)
+    }
+}
+
+/// Label a stroke's summary with the kind and program block of its move.
+fn label(s: &mut StrokeSummary, m: &Move) {
+    s.kind = m.kind;
+    s.program_line = m.program_line;
+    s.programmed_feed_mm_min = m.programmed_feed_mm_min;
+}
+
+/// Estimate a chunk of [`next_chunk`] (strokes numbered from `first`, spans indexing
+/// `trace`) and hand the results to `sink` in order, as [`estimate_pieces_streaming`]
+/// describes: one long stroke in pieces on this thread, or short ones in parallel, each whole.
+/// Skipped strokes and what the strokes tell go to `seen`.
+#[allow(clippy::too_many_arguments)]
+fn estimate_chunk<T: Send, E>(
+    trace: &Trace,
+    axis: &AxisParams,
+    params: &EstimateParams,
+    spans: &[StrokeSpan],
+    first: usize,
+    moves: &[Move],
+    map: &(impl Fn(StrokeFriction) -> T + Sync + ?Sized),
+    sink: &mut (impl FnMut(StrokePiece<T>) -> Result<(), E> + ?Sized),
+    seen: &mut Seen,
+) -> Result<(), Failed<E>> {
+    if let [span] = spans {
+        if span.last - span.first + 1 > params.spline_window_knots {
+            let m = &moves[span.move_index];
+            let outcome = estimate_stroke_pieces(
+                trace,
+                axis,
+                params,
+                first,
+                span,
+                params.piece_points,
+                &mut |mut piece: StrokeFriction| -> Result<(), Failed<E>> {
+                    label(&mut piece.summary, m);
+                    sink(StrokePiece::Rows(map(piece))).map_err(Failed::Sink)
+                },
+            )?;
+            match outcome {
+                StrokeOutcome::Estimated(mut s) => {
+                    label(&mut s.summary, m);
+                    let summary = Box::new(s.summary.clone());
+                    seen.stroke(&summary);
+                    sink(StrokePiece::Rows(map(*s))).map_err(Failed::Sink)?;
+                    sink(StrokePiece::End(summary)).map_err(Failed::Sink)?;
+                }
+                StrokeOutcome::Skipped(why) => seen.skip(trace, first, span, why),
+            }
+            return Ok(());
+        }
+    }
+    let results: Vec<_> = spans
+        .par_iter()
+        .enumerate()
+        .map(|(i, span)| {
+            estimate_stroke(trace, axis, params, first + i, span).map(|o| match o {
+                StrokeOutcome::Estimated(mut s) => {
+                    label(&mut s.summary, &moves[span.move_index]);
+                    let summary = Box::new(s.summary.clone());
+                    Ok((summary, map(*s)))
+                }
+                StrokeOutcome::Skipped(why) => Err(why),
+            })
+        })
+        .collect();
+    for (i, r) in results.into_iter().enumerate() {
+        match r? {
+            Ok((summary, t)) => {
+                seen.stroke(&summary);
+                sink(StrokePiece::Rows(t)).map_err(Failed::Sink)?;
+                sink(StrokePiece::End(summary)).map_err(Failed::Sink)?;
+            }
+            Err(why) => seen.skip(trace, first + i, &spans[i], why),
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

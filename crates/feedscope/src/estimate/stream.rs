@@ -23,14 +23,11 @@
 //! stroke, move, zone and verdict is bit for bit what the whole-trace path gives (tested on the
 //! twin's traces).
 
-use rayon::prelude::*;
-
 use super::moves::{self, INFERRED_RAPID_MIN_MM_MIN};
 use super::segment::{self, MoveScratch, StrokeSpan, TurnFinder};
 use super::{
-    estimate_stroke, estimate_stroke_pieces, friction_sign, recording_reasons, EstimateError,
-    EstimateParams, Move, MoveKind, Outline, Seen, StrokeFriction, StrokeOutcome, StrokePiece,
-    StrokeSummary,
+    estimate_chunk, friction_sign, next_chunk, recording_reasons, EstimateParams, Failed, Move,
+    MoveKind, Outline, Seen, StrokeFriction, StrokePiece,
 };
 use crate::axis::AxisParams;
 use crate::trace::glitch::{GlitchParams, JUMP_FLOOR_M};
@@ -71,9 +68,9 @@ struct Segmenter {
     /// The last turning point (global index): where the move being read began.
     turn: Option<usize>,
     scratch: MoveScratch,
-    /// Each move's travel (m), knot count and chord width, to recheck the width with the
+    /// Each move's travel (m) and sample intervals, to recheck its chord width with the
     /// whole trace's quantum.
-    widths: Vec<(f64, usize, usize)>,
+    widths: Vec<(f64, usize)>,
     /// The largest travel between turning points too small for a move, and the smallest
     /// kept (m).
     dropped_max: f64,
@@ -455,11 +452,7 @@ impl<'a, T: Send, E> StreamEstimator<'a, T, E> {
             self.moves.len(),
             &mut seg.scratch,
         );
-        seg.widths.push((
-            (z[r1] - z[r0]).abs(),
-            r1 - r0,
-            segment::chord_samples(z, r0, r1, seg.quantum),
-        ));
+        seg.widths.push((travel, r1 - r0));
         let rapid_above = self.axis.rapid_rate_mm_min.map(moves::rapid_above_rate);
         let top = moves::top_mm_min(&m);
         if rapid_above.is_none() && top >= INFERRED_RAPID_MIN_MM_MIN {
@@ -494,130 +487,45 @@ impl<'a, T: Send, E> StreamEstimator<'a, T, E> {
 
     /// Estimate the queued strokes, `batch` at a time in parallel (a long stroke alone, in
     /// pieces), and hand them to the sink in order; unless `all`, short strokes at the end
-    /// too few for a batch wait for more.
+    /// too few for a batch wait for more. An estimation error ends the stream (the whole
+    /// read gives it, or the error that comes before it there).
     fn estimate_pending(&mut self, all: bool) -> Result<(), E> {
-        let window = self.params.spline_window_knots;
-        let long = |s: &StrokeSpan| s.last - s.first + 1 > window;
-        loop {
+        while self.next_stroke < self.spans.len() && self.redo.is_none() {
             let k = self.next_stroke;
-            let left = self.spans.len() - k;
-            if left == 0 || self.redo.is_some() {
+            let end = next_chunk(&self.spans, k, self.batch, self.params.spline_window_knots);
+            // A partial batch of short strokes waits for more, unless everything is due.
+            let long =
+                self.spans[k].last - self.spans[k].first + 1 > self.params.spline_window_knots;
+            if !long && end - k < self.batch && end == self.spans.len() && !all {
                 return Ok(());
             }
-            if long(&self.spans[k]) {
-                self.estimate_long(k)?;
-                self.next_stroke += 1;
-                continue;
-            }
-            let end = (k..self.spans.len())
-                .take(self.batch)
-                .find(|&j| long(&self.spans[j]))
-                .unwrap_or(k.saturating_add(self.batch).min(self.spans.len()));
-            // A partial batch waits for more strokes, unless everything is due.
-            if end - k < self.batch && end == self.spans.len() && !all {
-                return Ok(());
-            }
-            self.estimate_batch(k, end)?;
-            self.next_stroke = end;
-        }
-    }
-
-    /// A span with indices into the held samples.
-    fn local(&self, s: &StrokeSpan) -> StrokeSpan {
-        StrokeSpan {
-            first: s.first - self.base,
-            last: s.last - self.base,
-            move_first: s.move_first - self.base,
-            move_last: s.move_last - self.base,
-            ..s.clone()
-        }
-    }
-
-    fn label(&self, s: &mut StrokeSummary, span: &StrokeSpan) {
-        let m = &self.moves[span.move_index];
-        s.kind = m.kind;
-        s.program_line = m.program_line;
-        s.programmed_feed_mm_min = m.programmed_feed_mm_min;
-    }
-
-    fn estimate_batch(&mut self, k: usize, end: usize) -> Result<(), E> {
-        let chunk: Vec<StrokeSpan> = self.spans[k..end].iter().map(|s| self.local(s)).collect();
-        let (buf, axis, params, map) = (&self.buf, self.axis, self.params, self.map);
-        let results: Vec<Result<StrokeOutcome, EstimateError>> = chunk
-            .par_iter()
-            .enumerate()
-            .map(|(i, span)| estimate_stroke(buf, axis, params, k + i, span))
-            .collect();
-        let mut done = Vec::with_capacity(results.len());
-        for (i, r) in results.into_iter().enumerate() {
-            match r {
-                Ok(StrokeOutcome::Estimated(mut s)) => {
-                    self.label(&mut s.summary, &chunk[i]);
-                    done.push(Ok(s));
-                }
-                Ok(StrokeOutcome::Skipped(why)) => done.push(Err(why)),
-                Err(e) => {
-                    self.give_up(&format!("stroke {}: {e}", k + i));
-                    return Ok(());
-                }
-            }
-        }
-        let mapped: Vec<_> = done
-            .into_par_iter()
-            .map(|r| {
-                r.map(|s| {
-                    let summary = Box::new(s.summary.clone());
-                    (summary, map(*s))
+            let base = self.base;
+            let local: Vec<StrokeSpan> = self.spans[k..end]
+                .iter()
+                .map(|s| StrokeSpan {
+                    first: s.first - base,
+                    last: s.last - base,
+                    move_first: s.move_first - base,
+                    move_last: s.move_last - base,
+                    ..s.clone()
                 })
-            })
-            .collect();
-        for (i, r) in mapped.into_iter().enumerate() {
-            match r {
-                Ok((summary, t)) => {
-                    self.seen.stroke(&summary);
-                    (self.sink)(StrokePiece::Rows(t))?;
-                    (self.sink)(StrokePiece::End(summary))?;
-                }
-                Err(why) => self.seen.skip(&self.buf, k + i, &chunk[i], why),
+                .collect();
+            let done = estimate_chunk(
+                &self.buf,
+                self.axis,
+                self.params,
+                &local,
+                k,
+                &self.moves,
+                self.map,
+                self.sink,
+                &mut self.seen,
+            );
+            match done {
+                Ok(()) => self.next_stroke = end,
+                Err(Failed::Sink(e)) => return Err(e),
+                Err(Failed::Estimate(e)) => self.give_up(&format!("stroke {k}: {e}")),
             }
-        }
-        Ok(())
-    }
-
-    fn estimate_long(&mut self, k: usize) -> Result<(), E> {
-        let span = self.local(&self.spans[k]);
-        let (buf, axis, params, map) = (&self.buf, self.axis, self.params, self.map);
-        let moves = &self.moves;
-        let sink = &mut self.sink;
-        let label = |s: &mut StrokeSummary| {
-            let m = &moves[span.move_index];
-            s.kind = m.kind;
-            s.program_line = m.program_line;
-            s.programmed_feed_mm_min = m.programmed_feed_mm_min;
-        };
-        let outcome = estimate_stroke_pieces(
-            buf,
-            axis,
-            params,
-            k,
-            &span,
-            params.piece_points,
-            &mut |mut piece: StrokeFriction| -> Result<(), Failed<E>> {
-                label(&mut piece.summary);
-                sink(StrokePiece::Rows(map(piece))).map_err(Failed::Sink)
-            },
-        );
-        match outcome {
-            Ok(StrokeOutcome::Estimated(mut s)) => {
-                label(&mut s.summary);
-                let summary = Box::new(s.summary.clone());
-                self.seen.stroke(&summary);
-                (self.sink)(StrokePiece::Rows(map(*s)))?;
-                (self.sink)(StrokePiece::End(summary))?;
-            }
-            Ok(StrokeOutcome::Skipped(why)) => self.seen.skip(&self.buf, k, &span, why),
-            Err(Failed::Sink(e)) => return Err(e),
-            Err(Failed::Estimate(e)) => self.give_up(&format!("stroke {k}: {e}")),
         }
         Ok(())
     }
@@ -697,10 +605,10 @@ impl<'a, T: Send, E> StreamEstimator<'a, T, E> {
         #[allow(clippy::float_cmp)]
         let same_quantum = q == quantum_in_use;
         let same_widths = same_quantum
-            || seg
-                .widths
-                .iter()
-                .all(|&(dz, len, w)| segment::chord_samples_of(dz, len, q) == w);
+            || seg.widths.iter().all(|&(dz, len)| {
+                segment::chord_samples_of(dz, len, q)
+                    == segment::chord_samples_of(dz, len, quantum_in_use)
+            });
         if !(same_turns && same_moves) {
             self.again = true;
             return Some(format!(
@@ -736,18 +644,6 @@ impl<'a, T: Send, E> StreamEstimator<'a, T, E> {
             return Some("the effort never changes".into());
         }
         None
-    }
-}
-
-/// What failed inside a long stroke's estimation.
-enum Failed<E> {
-    Estimate(EstimateError),
-    Sink(E),
-}
-
-impl<E> From<EstimateError> for Failed<E> {
-    fn from(e: EstimateError) -> Self {
-        Self::Estimate(e)
     }
 }
 
