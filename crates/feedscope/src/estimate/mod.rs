@@ -1499,59 +1499,23 @@ impl GridWalk<'_, '_> {
         len: usize,
         cols: &mut [[f64; BLOCK]; 6],
     ) -> Result<(), f64> {
-        let tz = zs.x();
-        let (k_first, s, step, w_lo, w_hi) =
-            (self.k_first, self.s, self.step, self.w_lo, self.w_hi);
         let (force_gain, m_eq, b_eq) = (self.force_gain, self.m_eq, self.b_eq);
-        // The walk's state rides in locals through the block.
-        let (mut k_int, mut piece, mut t_prev, mut sum) =
-            (self.k_int, self.piece, self.t_prev, self.sum);
-        let mut knot_cursor = self.knot_cursor.as_mut();
-        // One index into six columns (and j beside it): no single iterator to enumerate.
-        #[allow(clippy::needless_range_loop)]
-        for i in 0..len {
-            let j = j0 + i;
-            let zg = (k_first + s * j as f64) * step;
-            let (t, v, a) = match &mut knot_cursor {
-                Some(ks) => {
-                    let t = ks.eval(s * zg).clamp(w_lo, w_hi);
-                    let (_, v, a) = zs.eval_in(zs.interval(t), t);
-                    (t, v, a)
-                }
-                None => {
-                    // Advance to the knot interval whose end lies beyond the target.
-                    let k_old = k_int;
-                    while k_int + 2 < tz.len() && s * (zs.value(k_int + 1) - zg) < 0.0 {
-                        k_int += 1;
-                    }
-                    if k_int != k_old {
-                        piece = zs.piece(k_int);
-                    }
-                    match newton_in_piece(&piece, zs.value(k_int + 1), zg) {
-                        Some((u, v, a)) => (piece.x0 + u, v, a),
-                        None => {
-                            // Not monotone here: the safeguarded search over neighbours.
-                            let (t, k, ok) =
-                                invert_in(zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
-                            self.non_monotone |= !ok;
-                            let (_, v, a) = zs.eval_in(k, t);
-                            (t, v, a)
-                        }
-                    }
-                }
-            };
-            t_prev = t;
-            cols[0][i] = zg;
-            cols[1][i] = t;
-            cols[2][i] = v;
-            cols[3][i] = a;
+        match self.knot_cursor.take() {
+            Some(mut ks) => {
+                self.fill_knot_spline(zs, &mut ks, j0, len, cols);
+                self.knot_cursor = Some(ks);
+            }
+            // The direction as a constant: the interval search compares instead of forming
+            // s·(z − z_g), and each loop keeps only its own comparison.
+            None if self.s > 0.0 => self.invert::<true, Z>(zs, j0, len, cols),
+            None => self.invert::<false, Z>(zs, j0, len, cols),
         }
-        (self.k_int, self.piece, self.t_prev) = (k_int, piece, t_prev);
         // The effort and Eq. 5 in a second pass over the block: each loop is short enough
         // that the processor overlaps several points' dependency chains (t(z)'s divisions
         // and Newton steps, then the effort's seek and cubic), which one long loop body
         // did not let it do.
         let [zgs, ts, vs, accs, es, fs] = cols;
+        let mut sum = self.sum;
         for i in 0..len {
             let e = effort.eval(ts[i]);
             let f = force_gain * e - m_eq * accs[i] - b_eq * vs[i];
@@ -1564,6 +1528,90 @@ impl GridWalk<'_, '_> {
         }
         self.sum = sum;
         Ok(())
+    }
+
+    /// The first pass of [`fill`](Self::fill) by t(z) inversion: position, time, velocity and
+    /// acceleration of points `j0..j0 + len` (`FORWARD`: the direction of travel).
+    #[inline(always)]
+    fn invert<'a, const FORWARD: bool, Z: KnotRead<'a>>(
+        &mut self,
+        zs: &mut Z,
+        j0: usize,
+        len: usize,
+        cols: &mut [[f64; BLOCK]; 6],
+    ) {
+        let tz = zs.x();
+        let last = tz.len().saturating_sub(2);
+        let (w_lo, w_hi) = (self.w_lo, self.w_hi);
+        // The walk's state rides in locals through the block.
+        let (mut k_int, mut piece, mut t_prev) = (self.k_int, self.piece, self.t_prev);
+        let [zgs, ts, vs, accs, _, _] = cols;
+        let (k_first, s, step) = (self.k_first, self.s, self.step);
+        let mut non_monotone = false;
+        // j as a float: exact below 2⁵³, and cheaper to step than to convert.
+        let mut jf = j0 as f64;
+        for i in 0..len {
+            let zg = (k_first + s * jf) * step;
+            jf += 1.0;
+            // Advance to the knot interval whose end lies beyond the target (for s = ±1,
+            // s·(z − z_g) < 0 is exactly z < z_g forward and z > z_g backward).
+            let k_old = k_int;
+            while k_int < last && {
+                let z = zs.value(k_int + 1);
+                if FORWARD {
+                    z < zg
+                } else {
+                    z > zg
+                }
+            } {
+                k_int += 1;
+            }
+            if k_int != k_old {
+                piece = zs.piece(k_int);
+            }
+            let (t, v, a) = match newton_in_piece(&piece, zs.value(k_int + 1), zg) {
+                Some((u, v, a)) => (piece.x0 + u, v, a),
+                None => {
+                    // Not monotone here: the safeguarded search over neighbours.
+                    let (t, k, ok) = invert_in(zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
+                    non_monotone |= !ok;
+                    let (_, v, a) = zs.eval_in(k, t);
+                    (t, v, a)
+                }
+            };
+            t_prev = t;
+            zgs[i] = zg;
+            ts[i] = t;
+            vs[i] = v;
+            accs[i] = a;
+        }
+        (self.k_int, self.piece, self.t_prev) = (k_int, piece, t_prev);
+        self.non_monotone |= non_monotone;
+    }
+
+    /// The first pass of [`fill`](Self::fill) with t(z) from the paper's knot spline.
+    fn fill_knot_spline<'a, Z: KnotRead<'a>>(
+        &mut self,
+        zs: &mut Z,
+        ks: &mut crate::spline::Cursor<'_, '_>,
+        j0: usize,
+        len: usize,
+        cols: &mut [[f64; BLOCK]; 6],
+    ) {
+        let [zgs, ts, vs, accs, _, _] = cols;
+        let (k_first, s, step) = (self.k_first, self.s, self.step);
+        let mut jf = j0 as f64;
+        for i in 0..len {
+            let zg = (k_first + s * jf) * step;
+            jf += 1.0;
+            let t = ks.eval(s * zg).clamp(self.w_lo, self.w_hi);
+            let (_, v, a) = zs.eval_in(zs.interval(t), t);
+            self.t_prev = t;
+            zgs[i] = zg;
+            ts[i] = t;
+            vs[i] = v;
+            accs[i] = a;
+        }
     }
 }
 
