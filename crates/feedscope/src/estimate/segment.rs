@@ -134,14 +134,48 @@ pub(crate) fn step_min(q: f64, a: f64, b: f64) -> f64 {
     }
 }
 
-/// Hysteresis for turning points (m), see the module docs.
-fn hysteresis_m(z: &[f64], quantum: f64) -> f64 {
-    let (lo, hi) = z
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    hysteresis_of(quantum, lo, hi)
+/// The position quantum ([`position_quantum_m`]) and the hysteresis for turning points (m,
+/// see the module docs) of a channel of at least 2 samples, in one pass over it.
+///
+/// Same values as the separate folds: the quantum is a minimum of non-zero steps, so the
+/// order it is taken in does not matter (no NaN or zero enters it); the lowest and highest
+/// position skip NaN as `f64::min`/`max` do, and where they might differ from those, in the
+/// sign of a zero, `hi − lo` (all that the hysteresis uses of them) does not.
+fn quantum_and_hysteresis_m(z: &[f64]) -> (f64, f64) {
+    // Four lanes each, so the folds are independent chains the compiler can vectorise.
+    let mut q = [f64::INFINITY; 4];
+    let mut lo = [f64::INFINITY; 4];
+    let mut hi = [f64::NEG_INFINITY; 4];
+    let mut prev = z[0];
+    let chunks = z[1..].chunks_exact(4);
+    let rest = chunks.remainder();
+    for c in chunks {
+        let a = [prev, c[0], c[1], c[2]];
+        // Selects without branches (minimum and maximum instructions, which pass over a NaN
+        // in `c` just as `f64::min`/`max` do).
+        for l in 0..4 {
+            let d = (c[l] - a[l]).abs();
+            // `step_min`: only a step above 1e-12 counts, and then it is no NaN.
+            let d = if d > 1e-12 { d } else { f64::INFINITY };
+            q[l] = if d < q[l] { d } else { q[l] };
+            lo[l] = if c[l] < lo[l] { c[l] } else { lo[l] };
+            hi[l] = if c[l] > hi[l] { c[l] } else { hi[l] };
+        }
+        prev = c[3];
+    }
+    let (mut q, mut lo, mut hi) = (
+        q[0].min(q[1]).min(q[2].min(q[3])),
+        lo[0].min(lo[1]).min(lo[2].min(lo[3])).min(z[0]),
+        hi[0].max(hi[1]).max(hi[2].max(hi[3])).max(z[0]),
+    );
+    for &v in rest {
+        q = step_min(q, prev, v);
+        lo = lo.min(v);
+        hi = hi.max(v);
+        prev = v;
+    }
+    let quantum = if q.is_finite() { q } else { 0.0 };
+    (quantum, hysteresis_of(quantum, lo, hi))
 }
 
 /// Hysteresis for turning points (m) from the position quantum and the lowest and highest
@@ -154,10 +188,13 @@ pub(crate) fn hysteresis_of(quantum: f64, lo: f64, hi: f64) -> f64 {
 fn turning_points(z: &[f64], eps: f64) -> Vec<usize> {
     let mut finder = TurnFinder::new(eps);
     let mut tp = Vec::new();
-    for (k, &v) in z.iter().enumerate() {
-        if let Some(i) = finder.push(k, v) {
+    let mut k = 0;
+    while k < z.len() {
+        if let Some(i) = finder.push(k, z[k]) {
             tp.push(i);
         }
+        // Most samples only renew the running extreme: skip them in a tight loop.
+        k = finder.renew_run(z, k + 1);
     }
     finder.finish(z.len(), &mut tp);
     tp
@@ -347,6 +384,56 @@ impl TurnFinder {
         }
     }
 
+    /// Takes in samples `k`, `k + 1`, … of `z` (`k` the next sample [`push`](Self::push)
+    /// expects) while each only renews the running extreme of a move that has not retreated
+    /// since its extreme was last renewed; returns the first sample not taken.
+    ///
+    /// Exactly what `push` does with those samples: a renewal with no retreat since the
+    /// last one moves the extreme, leaves the counter-move as it is (it is raised by the
+    /// retreat's size, a zero; the counter-move is never NaN or −0) and no turn comes of it.
+    #[inline]
+    fn renew_run(&mut self, z: &[f64], mut k: usize) -> usize {
+        let Heading::Moving {
+            up,
+            ext,
+            counter,
+            retreat_to,
+            ..
+        } = self.heading
+        else {
+            return k;
+        };
+        // Only after a renewal (or a turn) is the retreat at the extreme: a deeper sample
+        // moves it strictly past.
+        #[allow(clippy::float_cmp)]
+        let fresh = retreat_to == ext.1;
+        if !fresh || k >= z.len() {
+            return k;
+        }
+        let (k0, mut top) = (k, ext.1);
+        if up {
+            while k < z.len() && z[k] >= top {
+                top = z[k];
+                k += 1;
+            }
+        } else {
+            while k < z.len() && z[k] <= top {
+                top = z[k];
+                k += 1;
+            }
+        }
+        if k > k0 {
+            self.heading = Heading::Moving {
+                up,
+                ext: (k - 1, top),
+                counter,
+                retreat_to: top,
+                back: 0.0,
+            };
+        }
+        k
+    }
+
     /// The turning points that end a channel of `n` samples (pushed onto `tp`): the last
     /// extreme, or the first and last sample when no direction was ever found.
     pub(crate) fn finish(&mut self, n: usize, tp: &mut Vec<usize>) {
@@ -401,14 +488,14 @@ fn select_key(keys: &mut [i64], rank: usize) -> f64 {
 /// Keys beyond which [`find_moves`] ranks in place ([`radix_select`]) rather than on a copy.
 const RADIX_SELECT_MIN: usize = 1 << 18;
 
-/// The element of rank `rank` in the `total_cmp` order among the `keys` that `keep` accepts,
+/// The key of rank `rank` in the `total_cmp` order among the `keys` that `keep` accepts,
 /// found without copying or reordering them: four passes over the keys, each counting the
 /// next 16 bits of those that share the bits found so far (keys in unsigned order: the sign
 /// bit flipped). Exactly the element [`select_key`] finds on a copy of the kept keys.
 ///
 /// # Panics
 /// When `rank` is not below the number of kept keys (a caller's mistake).
-fn radix_select(keys: &[i64], keep: impl Fn(&i64) -> bool, mut rank: usize) -> f64 {
+fn radix_select(keys: &[i64], keep: impl Fn(&i64) -> bool, mut rank: usize) -> i64 {
     let unsigned = |k: i64| (k as u64) ^ (1 << 63);
     let mut counts = vec![0usize; 1 << 16];
     let mut prefix = 0u64;
@@ -433,7 +520,166 @@ fn radix_select(keys: &[i64], keep: impl Fn(&i64) -> bool, mut rank: usize) -> f
         }
         prefix = (prefix << 16) | digit as u64;
     }
-    from_order_key((prefix ^ (1 << 63)) as i64)
+    (prefix ^ (1 << 63)) as i64
+}
+
+/// Keys up to which [`select_in`] selects on a plain copy of the kept keys.
+const DIRECT_SELECT_MAX: usize = 2048;
+
+/// Keys [`select_in`] samples to bracket the rank it looks for.
+const SELECT_SAMPLE: usize = 512;
+
+/// The [`order_key`]s of the values `v` with `v >= min` (in `f64` comparison): a range,
+/// inclusive; None when no value passes (`min` is NaN).
+fn keys_at_least(min: f64) -> Option<(i64, i64)> {
+    if min.is_nan() {
+        return None;
+    }
+    // −0 and +0 compare equal, so a bound of either zero lets both pass; every other bound
+    // passes exactly the values at or above it in the `total_cmp` order, up to +∞ (a NaN
+    // passes no bound).
+    let lo = if min == 0.0 {
+        order_key(-0.0)
+    } else {
+        order_key(min)
+    };
+    Some((lo, order_key(f64::INFINITY)))
+}
+
+/// The key of rank `rank_of(count)` in increasing order among the `count` keys kept (those
+/// in `range`, inclusive, when `FILTERED`; every key otherwise), or None when none is kept.
+/// `rank_of(count)` must be below `count`, for any count.
+///
+/// The same key as `select_nth_unstable` on a copy of the kept keys: the element of a rank
+/// in a total order is one value. A sample of the kept keys brackets where the rank
+/// probably lies; one pass counts the keys below the bracket and copies those inside it into
+/// `bracket` (which only grows, so it is never filled twice), and the rank is selected
+/// there: a small fraction of the keys instead of a copy of all of them. When the bracket
+/// misses the rank (an unlucky sample), the selection is made on a copy in `copy`, or in
+/// place by radix passes for many keys, as before.
+fn select_in<const FILTERED: bool>(
+    keys: &[i64],
+    range: (i64, i64),
+    rank_of: impl Fn(usize) -> usize,
+    bracket: &mut Vec<i64>,
+    copy: &mut Vec<i64>,
+) -> Option<i64> {
+    // Unfiltered, the range (the bracket's open ends) reaches every key.
+    let (lo, hi) = if FILTERED {
+        range
+    } else {
+        (i64::MIN, i64::MAX)
+    };
+    let kept = |k: i64| !FILTERED || (lo <= k && k <= hi);
+    let n = keys.len();
+    if n > DIRECT_SELECT_MAX {
+        let stride = n / SELECT_SAMPLE;
+        copy.clear();
+        copy.extend(
+            keys.iter()
+                .skip(stride / 2)
+                .step_by(stride)
+                .copied()
+                .filter(|&k| kept(k)),
+        );
+        if let Some(k) = select_bracketed::<FILTERED>(keys, (lo, hi), &rank_of, bracket, copy) {
+            return Some(k);
+        }
+    }
+    let count = if FILTERED {
+        keys.iter().filter(|&&k| kept(k)).count()
+    } else {
+        n
+    };
+    if count == 0 {
+        return None;
+    }
+    let rank = rank_of(count);
+    if n > RADIX_SELECT_MIN {
+        // A copy of a 10 M-sample stroke's keys would cost 80 MB.
+        return Some(radix_select(keys, |&k| kept(k), rank));
+    }
+    copy.clear();
+    copy.extend(keys.iter().copied().filter(|&k| kept(k)));
+    Some(*copy.select_nth_unstable(rank).1)
+}
+
+/// [`select_in`] within a bracket taken from the kept keys in `sample` (reordered): None when
+/// the sample is too small, the rank falls outside the bracket, or the bracket holds more
+/// keys than `bracket` may (then the caller selects another way; no kept key means None too).
+fn select_bracketed<const FILTERED: bool>(
+    keys: &[i64],
+    (lo, hi): (i64, i64),
+    rank_of: impl Fn(usize) -> usize,
+    bracket: &mut Vec<i64>,
+    sample: &mut [i64],
+) -> Option<i64> {
+    let ms = sample.len();
+    if ms < 64 {
+        return None;
+    }
+    // The rank's place in the sample, and a margin of 4 standard deviations of a sample
+    // quantile around it (plus a few for ties and rounding).
+    let at = rank_of(ms).min(ms - 1);
+    let p = (at as f64 + 0.5) / ms as f64;
+    let margin = (4.0 * (ms as f64 * p * (1.0 - p)).sqrt()) as usize + 4;
+    let (l, h) = match (at.checked_sub(margin), at + margin < ms) {
+        (Some(i), true) => {
+            let (_, &mut l, above) = sample.select_nth_unstable(i);
+            (l, *above.select_nth_unstable(at + margin - i - 1).1)
+        }
+        (Some(i), false) => (*sample.select_nth_unstable(i).1, hi),
+        (None, true) => (lo, *sample.select_nth_unstable(at + margin).1),
+        (None, false) => (lo, hi),
+    };
+    let n = keys.len();
+    let cap = n.min(RADIX_SELECT_MIN);
+    if bracket.len() <= cap {
+        bracket.resize(cap + 1, 0);
+    }
+    let buf = &mut bracket[..=cap];
+    // Chord speeds repeat exactly (quantised steps over near-equal intervals), often by the
+    // thousand: the keys equal to either end of the bracket are counted, not copied, and
+    // only those strictly inside are. Branch-free: every key is written at the next free
+    // place, which only advances past the keys strictly inside; once `cap` of them are in,
+    // the rest overwrite the spare place at `cap` (and with more than `cap` the bracket is
+    // given up below).
+    let inner_lo = l.wrapping_add(1);
+    let inner_width = (h.wrapping_sub(l) as u64).saturating_sub(1);
+    let (mut below_lo, mut above_hi) = (0usize, 0usize);
+    let (mut below_l, mut to_l, mut to_h, mut m) = (0usize, 0usize, 0usize, 0usize);
+    for &k in keys {
+        if FILTERED {
+            below_lo += usize::from(k < lo);
+            above_hi += usize::from(k > hi);
+        }
+        below_l += usize::from(k < l);
+        to_l += usize::from(k <= l);
+        to_h += usize::from(k <= h);
+        buf[m.min(cap)] = k;
+        m += usize::from((k.wrapping_sub(inner_lo) as u64) < inner_width);
+    }
+    let count = n - below_lo - above_hi;
+    if count == 0 || m > cap {
+        return None;
+    }
+    let rank = rank_of(count);
+    // The bracket lies within the kept range: every key below it (or at or below one of its
+    // ends) that is not below the range is kept. In increasing order the kept keys are
+    // those below `l`, those equal to it, those strictly inside, those equal to `h` (none
+    // more when `h` is `l`), and those above.
+    let r = rank + below_lo;
+    if r < below_l {
+        None
+    } else if r < to_l {
+        Some(l)
+    } else if r < to_l + m {
+        Some(*buf[..m].select_nth_unstable(r - to_l).1)
+    } else if r < to_h {
+        Some(h)
+    } else {
+        None
+    }
 }
 
 /// The upper median of the keyed values (NaN when there are none); reorders `keys`.
@@ -454,21 +700,39 @@ fn median_key(keys: &mut [i64]) -> f64 {
 /// and at most 2 blocks are within 2 % of it. A feed held for a tenth of the run already
 /// makes 2 blocks flat; a modulated feed rises and falls more than once.
 ///
-/// `keys` are the speeds' [`order_key`]s; `scratch` is reused for the blocks.
-fn holds_a_plateau(keys: &[i64], scratch: &mut Vec<i64>) -> bool {
+/// `keys` are the speeds' [`order_key`]s, none NaN, and `top` is the largest of them;
+/// `scratch` is reused for the blocks.
+fn holds_a_plateau(keys: &[i64], top: i64, scratch: &mut Vec<i64>) -> bool {
     // Fewer chords than blocks (a short move at a slow sampling rate): one chord a block.
     let blocks_n = keys.len().min(20);
     if blocks_n < 5 {
         return true;
     }
-    let blocks: Vec<f64> = (0..blocks_n)
-        .map(|b| {
-            let (i, j) = (b * keys.len() / blocks_n, (b + 1) * keys.len() / blocks_n);
-            scratch.clear();
-            scratch.extend_from_slice(&keys[i..j]);
-            median_key(scratch)
-        })
-        .collect();
+    let bounds = |b: usize| (b * keys.len() / blocks_n, (b + 1) * keys.len() / blocks_n);
+    // A run whose first (or last) block's median is at least 80 % of the top speed cannot end
+    // low, whatever the other blocks' medians (the peak among them is at most the top, and
+    // 0.8 × x rounds monotonically): a held feed is told by one count over that block. The
+    // median (the element at the middle place) reaches a bound when no more keys than
+    // that place lie below it.
+    let floor = 0.8 * from_order_key(top);
+    for b in [0, blocks_n - 1] {
+        let (i, j) = bounds(b);
+        let low = keys[i..j]
+            .iter()
+            .filter(|&&k| from_order_key(k) < floor)
+            .count();
+        if low <= (j - i) / 2 {
+            return true;
+        }
+    }
+    let mut blocks = [0.0; 20];
+    for (b, v) in blocks[..blocks_n].iter_mut().enumerate() {
+        let (i, j) = bounds(b);
+        scratch.clear();
+        scratch.extend_from_slice(&keys[i..j]);
+        *v = median_key(scratch);
+    }
+    let blocks = &blocks[..blocks_n];
     let (peak_at, peak) =
         blocks
             .iter()
@@ -500,8 +764,7 @@ pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
     if n < 2 {
         return Vec::new();
     }
-    let quantum = position_quantum_m(z);
-    let eps = hysteresis_m(z, quantum);
+    let (quantum, eps) = quantum_and_hysteresis_m(z);
     let tp = turning_points(z, eps);
     let mut moves: Vec<MoveSpan> = Vec::new();
     let mut scratch = MoveScratch::default();
@@ -521,8 +784,10 @@ pub fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
 pub(crate) struct MoveScratch {
     /// The chord speeds' order keys (see `order_key`; a speed is `from_order_key` of its key).
     keys: Vec<i64>,
-    /// A copy of them for selections on a short move.
-    sel: Vec<i64>,
+    /// The keys inside a selection's bracket (see `select_in`; it only grows).
+    bracket: Vec<i64>,
+    /// A selection's sample, or a copy of the keys it selects from, or a block of them.
+    copy: Vec<i64>,
 }
 
 /// Samples a chord spans in the move from knot `i0` to `i1`, so that each covers at least 8
@@ -577,54 +842,57 @@ pub(crate) fn move_between(
     if i1 < i0 + w {
         return this;
     }
-    let MoveScratch { keys, sel } = scratch;
-    let chord = |k: usize| s * (z[k + w] - z[k]) / (t[k + w] - t[k]);
+    let MoveScratch {
+        keys,
+        bracket,
+        copy,
+    } = scratch;
+    // Chord k joins knots k and k + w: as zipped slices, free of bounds checks.
+    let (z0, z1) = (&z[i0..=i1 - w], &z[i0 + w..=i1]);
+    let (t0, t1) = (&t[i0..=i1 - w], &t[i0 + w..=i1]);
     keys.clear();
-    keys.extend((i0..=i1 - w).map(|k| order_key(chord(k))));
-    let speed = |c: usize| from_order_key(keys[c]);
-    let rank = ((keys.len() - 1) as f64 * 0.95).round() as usize;
-    // A long move is ranked in place by radix passes (the same element as the copy's
-    // selection): a copy of a 10 M-sample stroke's keys would cost 80 MB.
-    let long = keys.len() > RADIX_SELECT_MIN;
-    let p95 = if long {
-        radix_select(keys, |_| true, rank)
-    } else {
-        sel.clear();
-        sel.extend_from_slice(keys);
-        select_key(sel, rank)
+    keys.extend(
+        z0.iter()
+            .zip(z1)
+            .zip(t0.iter().zip(t1))
+            .map(|((&za, &zb), (&ta, &tb))| order_key(s * (zb - za) / (tb - ta))),
+    );
+    let n = keys.len();
+    let rank95 = |len: usize| ((len - 1) as f64 * 0.95).round() as usize;
+    let Some(p95) =
+        select_in::<false>(keys, (i64::MIN, i64::MAX), rank95, bracket, copy).map(from_order_key)
+    else {
+        return this;
     };
     if p95.is_nan() || p95 <= 0.0 {
         return this;
     }
-    let fast = |k: &i64| from_order_key(*k) >= 0.25 * p95;
-    let plateau = if long {
-        let count = keys.iter().filter(|k| fast(k)).count();
-        if count == 0 {
-            f64::NAN
-        } else {
-            radix_select(keys, fast, count / 2)
-        }
-    } else {
-        sel.clear();
-        sel.extend(keys.iter().filter(|k| fast(k)));
-        median_key(sel)
-    };
+    // The median of the chords at least a quarter of the top speed (never none: p95 is one).
+    let plateau = keys_at_least(0.25 * p95)
+        .and_then(|fast| select_in::<true>(keys, fast, |len| len / 2, bracket, copy))
+        .map_or(f64::NAN, from_order_key);
     this.plateau_speed_m_s = plateau;
     this.top_speed_m_s = p95;
-    let threshold = params.steady_fraction * plateau;
+    // Steady chords, by their keys (no steady chord under a NaN threshold).
+    let Some((steady_lo, steady_hi)) = keys_at_least(params.steady_fraction * plateau) else {
+        return this;
+    };
+    let steady = |k: i64| steady_lo <= k && k <= steady_hi;
     // Maximal runs of steady chords.
     let mut c = 0;
-    while c < keys.len() {
-        if speed(c) < threshold {
+    while c < n {
+        if !steady(keys[c]) {
             c += 1;
             continue;
         }
         let c0 = c;
-        while c < keys.len() && speed(c) >= threshold {
+        let mut top = keys[c];
+        while c < n && steady(keys[c]) {
+            top = top.max(keys[c]);
             c += 1;
         }
         let c1 = c - 1; // last steady chord
-        if !holds_a_plateau(&keys[c0..=c1], sel) {
+        if !holds_a_plateau(&keys[c0..=c1], top, copy) {
             continue;
         }
         // Chord c joins knots i0+c and i0+c+w. A steady chord may straddle the start (or
@@ -801,7 +1069,7 @@ mod tests {
             let mut kept: Vec<i64> = keys.iter().copied().filter(|k| keep(k)).collect();
             for rank in (0..kept.len()).step_by(37).chain([kept.len() - 1]) {
                 let want = select_key(&mut kept, rank);
-                let got = radix_select(&keys, &keep, rank);
+                let got = from_order_key(radix_select(&keys, &keep, rank));
                 assert_eq!(got.to_bits(), want.to_bits(), "{name}, rank {rank}");
             }
         }
@@ -898,5 +1166,487 @@ mod tests {
         }
         assert!(checked > 1000, "{checked}");
         assert!(tight > 100, "{tight}");
+    }
+
+    /// Values for the selection oracles: quantised (heavy ties) and plain, both signs, and
+    /// the special values of `order_keys_select_as_total_cmp` sprinkled in.
+    fn oracle_values(n: usize, seed: u64, specials: bool) -> Vec<f64> {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let special = [
+            0.0,
+            -0.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            -f64::NAN,
+            f64::MIN_POSITIVE / 4.0,
+            -f64::MIN_POSITIVE / 4.0,
+            f64::MAX,
+            f64::MIN,
+        ];
+        let step = [1e-4, 1e-3, 0.05][(seed % 3) as usize];
+        (0..n)
+            .map(|_| {
+                let x: f64 = rng.random_range(-0.3..1.0);
+                match rng.random_range(0..20) {
+                    0 if specials => special[rng.random_range(0..special.len())],
+                    1..=12 => (x / step).round() * step,
+                    _ => x * 1e-2,
+                }
+            })
+            .collect()
+    }
+
+    /// `select_in` against `select_key` on a copy of the kept keys, bit for bit.
+    fn check_select_in(keys: &[i64], range: Option<(i64, i64)>, ranks_every: usize, what: &str) {
+        let kept: Vec<i64> = keys
+            .iter()
+            .copied()
+            .filter(|&k| range.is_none_or(|(lo, hi)| lo <= k && k <= hi))
+            .collect();
+        let count = kept.len();
+        let (mut bracket, mut copy) = (Vec::new(), Vec::new());
+        let mut select = |rank_of: &dyn Fn(usize) -> usize| match range {
+            None => select_in::<false>(keys, (0, 0), rank_of, &mut bracket, &mut copy),
+            Some(r) => select_in::<true>(keys, r, rank_of, &mut bracket, &mut copy),
+        };
+        if count == 0 {
+            assert_eq!(select(&|_| 0), None, "{what}: nothing kept");
+            return;
+        }
+        let mut ranks: Vec<usize> = (0..count).step_by(ranks_every).collect();
+        ranks.extend([
+            count / 2,
+            count - 1,
+            ((count - 1) as f64 * 0.95).round() as usize,
+        ]);
+        for rank in ranks {
+            // The same quantile of any other count (the sample's), this rank of `count`.
+            let rank_of = |len: usize| (rank * len / count).min(len - 1);
+            let want = select_key(&mut kept.clone(), rank);
+            let got = select(&rank_of).map(from_order_key);
+            assert_eq!(
+                got.map(f64::to_bits),
+                Some(want.to_bits()),
+                "{what}: rank {rank} of {count}"
+            );
+        }
+        // The two rank rules of `move_between`.
+        let mut sorted = kept.clone();
+        sorted.sort_unstable();
+        let p95 = select(&|len| ((len - 1) as f64 * 0.95).round() as usize);
+        assert_eq!(
+            p95,
+            Some(sorted[((count - 1) as f64 * 0.95).round() as usize])
+        );
+        assert_eq!(select(&|len| len / 2), Some(sorted[count / 2]), "{what}");
+    }
+
+    #[test]
+    fn bracketed_selection_is_the_copys_selection() {
+        let sizes = [
+            1, 2, 3, 5, 10, 64, 100, 2047, 2048, 2049, 3000, 20_000, 300_000,
+        ];
+        for (i, &n) in sizes.iter().enumerate() {
+            for specials in [false, true] {
+                let v = oracle_values(n, i as u64 * 7 + u64::from(specials), specials);
+                let keys: Vec<i64> = v.iter().map(|&x| order_key(x)).collect();
+                let every = if n <= 3000 { 1 } else { n / 97 };
+                let what = format!("n {n}, specials {specials}");
+                check_select_in(&keys, None, every, &format!("{what}, all"));
+                for min in [0.0, -0.0, 1e-3, 0.25, 0.9, 2.0, f64::INFINITY, f64::MIN] {
+                    let r = keys_at_least(min);
+                    check_select_in(&keys, r, every, &format!("{what}, v ≥ {min}"));
+                }
+                // Arbitrary key ranges, reaching into the negatives and NaNs.
+                let (a, b) = (order_key(-0.1), order_key(0.3));
+                check_select_in(&keys, Some((a, b)), every, &format!("{what}, range"));
+                check_select_in(&keys, Some((i64::MIN, a)), every, &format!("{what}, low"));
+                check_select_in(&keys, Some((b, i64::MAX)), every, &format!("{what}, high"));
+                check_select_in(&keys, Some((b, a)), every, &format!("{what}, empty"));
+            }
+        }
+        // A sample that misses: the values at the sampled places are far from the rest.
+        for n in [5000, 300_000] {
+            let stride = n / SELECT_SAMPLE;
+            let keys: Vec<i64> = (0..n)
+                .map(|k| {
+                    let x = if k % stride == stride / 2 { 10.0 } else { 1e-3 };
+                    order_key(x * (1.0 + (k % 13) as f64 * 1e-3))
+                })
+                .collect();
+            check_select_in(&keys, None, n / 53, "biased sample");
+            check_select_in(&keys, keys_at_least(5.0), 1, "biased sample, filtered");
+            // All equal.
+            check_select_in(&vec![order_key(0.5); n], None, n / 53, "equal");
+        }
+    }
+
+    #[test]
+    fn one_pass_quantum_and_hysteresis_are_the_folds() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        for n in (2..40).chain([1000, 4097]) {
+            for _ in 0..20 {
+                let z: Vec<f64> = (0..n)
+                    .map(|_| match rng.random_range(0..30) {
+                        0 => f64::NAN,
+                        1 => 0.0,
+                        2 => -0.0,
+                        3 => 1e-13,
+                        _ => (rng.random_range(-0.2..0.4f64) / 1e-6).round() * 1e-6,
+                    })
+                    .collect();
+                let q = position_quantum_m(&z);
+                let (lo, hi) = z
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                        (a.min(v), b.max(v))
+                    });
+                let (q1, eps1) = quantum_and_hysteresis_m(&z);
+                assert_eq!(q1.to_bits(), q.to_bits(), "{z:?}");
+                assert_eq!(eps1.to_bits(), hysteresis_of(q, lo, hi).to_bits(), "{z:?}");
+            }
+        }
+    }
+
+    /// The segmentation as it was before the bracketed selections, the one-pass quantum, the
+    /// skipped renewals of the extreme and the counted first block: the reference the new
+    /// one must equal.
+    mod reference {
+        use super::super::*;
+
+        fn select_key(keys: &mut [i64], rank: usize) -> f64 {
+            from_order_key(*keys.select_nth_unstable(rank).1)
+        }
+
+        fn median_key(keys: &mut [i64]) -> f64 {
+            if keys.is_empty() {
+                return f64::NAN;
+            }
+            let mid = keys.len() / 2;
+            select_key(keys, mid)
+        }
+
+        fn holds_a_plateau(keys: &[i64], scratch: &mut Vec<i64>) -> bool {
+            let blocks_n = keys.len().min(20);
+            if blocks_n < 5 {
+                return true;
+            }
+            let blocks: Vec<f64> = (0..blocks_n)
+                .map(|b| {
+                    let (i, j) = (b * keys.len() / blocks_n, (b + 1) * keys.len() / blocks_n);
+                    scratch.clear();
+                    scratch.extend_from_slice(&keys[i..j]);
+                    median_key(scratch)
+                })
+                .collect();
+            let (peak_at, peak) =
+                blocks
+                    .iter()
+                    .copied()
+                    .enumerate()
+                    .fold(
+                        (0, f64::NEG_INFINITY),
+                        |a, (k, v)| if v > a.1 { (k, v) } else { a },
+                    );
+            let rising = blocks[..=peak_at].windows(2).all(|w| w[1] >= 0.99 * w[0]);
+            let falling = blocks[peak_at..].windows(2).all(|w| w[1] <= 1.01 * w[0]);
+            let ends_low = blocks[0] < 0.8 * peak && blocks[blocks_n - 1] < 0.8 * peak;
+            let near_peak = blocks.iter().filter(|&&v| v >= 0.98 * peak).count();
+            !(rising && falling && ends_low && near_peak <= 2)
+        }
+
+        #[allow(clippy::too_many_arguments)]
+        fn move_between(
+            t: &[f64],
+            z: &[f64],
+            i0: usize,
+            i1: usize,
+            quantum: f64,
+            params: &SegmentParams,
+            move_index: usize,
+            keys: &mut Vec<i64>,
+            sel: &mut Vec<i64>,
+        ) -> MoveSpan {
+            let dir = if z[i1] > z[i0] {
+                Direction::Forward
+            } else {
+                Direction::Backward
+            };
+            let mut this = MoveSpan {
+                direction: dir,
+                first: i0,
+                last: i1,
+                plateau_speed_m_s: 0.0,
+                top_speed_m_s: 0.0,
+                strokes: Vec::new(),
+            };
+            if i1 <= i0 + 1 {
+                return this;
+            }
+            let s = dir.sign();
+            let w = chord_samples(z, i0, i1, quantum);
+            if i1 < i0 + w {
+                return this;
+            }
+            let chord = |k: usize| s * (z[k + w] - z[k]) / (t[k + w] - t[k]);
+            keys.clear();
+            keys.extend((i0..=i1 - w).map(|k| order_key(chord(k))));
+            let speed = |c: usize| from_order_key(keys[c]);
+            let rank = ((keys.len() - 1) as f64 * 0.95).round() as usize;
+            let long = keys.len() > RADIX_SELECT_MIN;
+            let p95 = if long {
+                from_order_key(radix_select(keys, |_| true, rank))
+            } else {
+                sel.clear();
+                sel.extend_from_slice(keys);
+                select_key(sel, rank)
+            };
+            if p95.is_nan() || p95 <= 0.0 {
+                return this;
+            }
+            let fast = |k: &i64| from_order_key(*k) >= 0.25 * p95;
+            let plateau = if long {
+                let count = keys.iter().filter(|k| fast(k)).count();
+                if count == 0 {
+                    f64::NAN
+                } else {
+                    from_order_key(radix_select(keys, fast, count / 2))
+                }
+            } else {
+                sel.clear();
+                sel.extend(keys.iter().filter(|k| fast(k)));
+                median_key(sel)
+            };
+            this.plateau_speed_m_s = plateau;
+            this.top_speed_m_s = p95;
+            let threshold = params.steady_fraction * plateau;
+            let mut c = 0;
+            while c < keys.len() {
+                if speed(c) < threshold {
+                    c += 1;
+                    continue;
+                }
+                let c0 = c;
+                while c < keys.len() && speed(c) >= threshold {
+                    c += 1;
+                }
+                let c1 = c - 1;
+                if !holds_a_plateau(&keys[c0..=c1], sel) {
+                    continue;
+                }
+                let first = i0 + c0 + (w - 1) + params.trim_knots;
+                let last = (i0 + c1 + 1).saturating_sub(params.trim_knots);
+                if last < first || last + 1 - first < params.min_knots.max(4) {
+                    continue;
+                }
+                if (z[last] - z[first]).abs() < params.min_stroke_mm * 1e-3 {
+                    continue;
+                }
+                let speed = (z[last] - z[first]).abs() / (t[last] - t[first]);
+                this.strokes.push(StrokeSpan {
+                    direction: dir,
+                    first,
+                    last,
+                    plateau_speed_m_s: speed,
+                    move_index,
+                    move_first: i0,
+                    move_last: i1,
+                });
+            }
+            this
+        }
+
+        pub(super) fn find_moves(position: &Channel, params: &SegmentParams) -> Vec<MoveSpan> {
+            let (t, z) = (&position.time_s, &position.value);
+            let n = z.len();
+            if n < 2 {
+                return Vec::new();
+            }
+            let quantum = position_quantum_m(z);
+            let (lo, hi) = z
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                    (a.min(v), b.max(v))
+                });
+            let eps = hysteresis_of(quantum, lo, hi);
+            let mut finder = TurnFinder::new(eps);
+            let mut tp = Vec::new();
+            for (k, &v) in z.iter().enumerate() {
+                if let Some(i) = finder.push(k, v) {
+                    tp.push(i);
+                }
+            }
+            finder.finish(z.len(), &mut tp);
+            let mut moves: Vec<MoveSpan> = Vec::new();
+            let (mut keys, mut sel) = (Vec::new(), Vec::new());
+            for w in tp.windows(2) {
+                let (i0, i1) = (w[0], w[1]);
+                if i1 <= i0 || (z[i1] - z[i0]).abs() <= eps {
+                    continue;
+                }
+                let m = move_between(
+                    t,
+                    z,
+                    i0,
+                    i1,
+                    quantum,
+                    params,
+                    moves.len(),
+                    &mut keys,
+                    &mut sel,
+                );
+                moves.push(m);
+            }
+            moves
+        }
+    }
+
+    /// A channel of legs (target position mm, feed mm/s, dwell s after it) with trapezoid or
+    /// triangle speed profiles (acceleration `acc` mm/s²), sampled every `dt` s with a
+    /// jitter of ±`jitter` × dt on the times, positions quantised to `q` m.
+    fn legs_channel(
+        legs: &[(f64, f64, f64)],
+        acc: f64,
+        dt: f64,
+        jitter: f64,
+        q: f64,
+        seed: u64,
+    ) -> Channel {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        // Piecewise motion: (start time, start mm, signed feed, accel time, cruise time).
+        let mut segs = Vec::new();
+        let (mut t0, mut z0) = (0.5, 0.0);
+        for &(to, feed, dwell) in legs {
+            let d: f64 = to - z0;
+            let (ta, tc, v) = if d.abs() / feed > feed / acc {
+                (feed / acc, d.abs() / feed - feed / acc, feed)
+            } else {
+                // A triangle: the feed is never reached.
+                let v = (d.abs() * acc).sqrt();
+                (v / acc, 0.0, v)
+            };
+            segs.push((t0, z0, v * d.signum(), ta, tc));
+            t0 += 2.0 * ta + tc + dwell;
+            z0 = to;
+        }
+        let end = t0 + 0.5;
+        let at = |t: f64| {
+            let mut z = 0.0;
+            for &(s0, zs, v, ta, tc) in &segs {
+                if t < s0 {
+                    break;
+                }
+                let u = t - s0;
+                let a = v / ta;
+                z = zs
+                    + if u < ta {
+                        0.5 * a * u * u
+                    } else if u < ta + tc {
+                        0.5 * v * ta + v * (u - ta)
+                    } else if u < 2.0 * ta + tc {
+                        let r = u - ta - tc;
+                        0.5 * v * ta + v * tc + v * r - 0.5 * a * r * r
+                    } else {
+                        v * (ta + tc)
+                    };
+            }
+            z
+        };
+        let mut c = Channel::default();
+        let mut k = 0.0;
+        loop {
+            let t = k * dt + rng.random_range(-jitter..=jitter) * dt;
+            if t > end {
+                break;
+            }
+            c.time_s.push(t);
+            c.value.push((at(t) * 1e-3 / q).round() * q);
+            k += 1.0;
+        }
+        c
+    }
+
+    #[test]
+    fn find_moves_is_the_reference() {
+        // Strokes with dwells, a feed change, short triangular rapids, a jog back and forth.
+        let legs = [
+            (100.0, 10.0, 0.5),
+            (0.0, 5.0, 0.2),
+            (3.0, 200.0, 0.3),
+            (6.0, 200.0, 0.0),
+            (50.0, 2.0, 1.0),
+            (50.5, 0.5, 0.4),
+            (20.0, 400.0, 0.1),
+            (80.0, 25.0, 0.6),
+            (80.0, 25.0, 0.6),
+            (0.0, 100.0, 0.0),
+        ];
+        let params = SegmentParams::default();
+        let mut checked = 0;
+        for (i, (dt, q)) in [
+            (0.070, 1e-6),
+            (0.070, 1e-7),
+            (0.001, 1e-7),
+            (0.001, 1e-6),
+            (0.004, 1e-6),
+            (1.25e-4, 1e-7),
+            (1.25e-4, 1e-6),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            for (acc, jitter) in [(500.0, 0.0), (3000.0, 0.2), (50.0, 0.05)] {
+                let c = legs_channel(&legs, acc, dt, jitter, q, i as u64);
+                let want = reference::find_moves(&c, &params);
+                let got = find_moves(&c, &params);
+                assert_eq!(got, want, "dt {dt}, q {q}, acc {acc}");
+                for (g, w) in got.iter().zip(&want) {
+                    assert_eq!(g.plateau_speed_m_s.to_bits(), w.plateau_speed_m_s.to_bits());
+                    assert_eq!(g.top_speed_m_s.to_bits(), w.top_speed_m_s.to_bits());
+                    for (gs, ws) in g.strokes.iter().zip(&w.strokes) {
+                        assert_eq!(
+                            gs.plateau_speed_m_s.to_bits(),
+                            ws.plateau_speed_m_s.to_bits()
+                        );
+                    }
+                }
+                assert!(want.iter().any(|m| !m.strokes.is_empty()));
+                checked += want.len();
+            }
+        }
+        assert!(checked > 100, "{checked}");
+        // Random legs, and one long move beyond the in-place radix threshold.
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        for seed in 0..12 {
+            let legs: Vec<(f64, f64, f64)> = (0..8)
+                .map(|_| {
+                    (
+                        rng.random_range(0.0..300.0),
+                        [1.0, 10.0, 50.0, 400.0][rng.random_range(0..4)],
+                        rng.random_range(0.0..1.0),
+                    )
+                })
+                .collect();
+            let dt = [0.070, 0.01, 0.001, 1.25e-4][seed % 4];
+            let q = [1e-7, 1e-6][seed % 2];
+            let c = legs_channel(&legs, 1000.0, dt, 0.1, q, seed as u64);
+            assert_eq!(find_moves(&c, &params), reference::find_moves(&c, &params));
+        }
+        let c = legs_channel(
+            &[(100.0, 2.0, 0.5), (0.0, 5.0, 0.5)],
+            200.0,
+            1e-4,
+            0.0,
+            1e-7,
+            9,
+        );
+        let want = reference::find_moves(&c, &params);
+        assert!(want.iter().any(|m| m.last - m.first > RADIX_SELECT_MIN));
+        assert_eq!(find_moves(&c, &params), want);
     }
 }
