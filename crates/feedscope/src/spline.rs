@@ -949,32 +949,6 @@ impl Cursor<'_, '_> {
         let p = self.piece_at(t);
         p.value(t - p.x0)
     }
-
-    /// [`eval`](Self::eval) at each of the non-decreasing times `ts`, into `out` (the shorter
-    /// of the two sets the count): the same values, with the walk's interval and cubic kept
-    /// in registers through the loop instead of stored back into the cursor at every query.
-    pub fn eval_into(&mut self, ts: &[f64], out: &mut [f64]) {
-        let s = self.s;
-        let (x, y, m) = (s.x, s.y, &s.m[..]);
-        let last = x.len() - 2;
-        let (mut k, mut kp, mut piece) = (self.k, self.kp, self.piece);
-        for (&t, o) in ts.iter().zip(out.iter_mut()) {
-            // As `seek`: the same or the next interval inline, anything else out of line.
-            let next = k < last && t >= x[k + 1];
-            if t < x[k] || (next && k + 1 < last && t >= x[k + 2]) {
-                self.k = k;
-                k = self.seek_far(t);
-            } else if next {
-                k += 1;
-            }
-            if k != kp {
-                piece = piece_knots(x, y, m, k);
-                kp = k;
-            }
-            *o = piece.value(t - piece.x0);
-        }
-        (self.k, self.kp, self.piece) = (k, kp, piece);
-    }
 }
 
 /// Equal lengths, at least two knots, all finite, x strictly increasing.

@@ -1434,25 +1434,12 @@ impl<'a> KnotRead<'a> for crate::spline::WindowedSmoothing<'a> {
 trait EffortRead {
     /// The effort at t (s), in its unit.
     fn eval(&mut self, t: f64) -> f64;
-
-    /// The effort at each of the non-decreasing times `ts` (s), into `out`.
-    #[inline(always)]
-    fn eval_into(&mut self, ts: &[f64], out: &mut [f64]) {
-        for (&t, o) in ts.iter().zip(out.iter_mut()) {
-            *o = self.eval(t);
-        }
-    }
 }
 
 impl EffortRead for crate::spline::Cursor<'_, '_> {
     #[inline(always)]
     fn eval(&mut self, t: f64) -> f64 {
         crate::spline::Cursor::eval(self, t)
-    }
-
-    #[inline(always)]
-    fn eval_into(&mut self, ts: &[f64], out: &mut [f64]) {
-        crate::spline::Cursor::eval_into(self, ts, out)
     }
 }
 
@@ -1528,14 +1515,15 @@ impl GridWalk<'_, '_> {
         // and Newton steps, then the effort's seek and cubic), which one long loop body
         // did not let it do.
         let [zgs, ts, vs, accs, es, fs] = cols;
-        effort.eval_into(&ts[..len], &mut es[..len]);
         let mut sum = self.sum;
         for i in 0..len {
-            let f = force_gain * es[i] - m_eq * accs[i] - b_eq * vs[i];
+            let e = effort.eval(ts[i]);
+            let f = force_gain * e - m_eq * accs[i] - b_eq * vs[i];
             if !f.is_finite() {
                 return Err(zgs[i]);
             }
             sum += f;
+            es[i] = e;
             fs[i] = f;
         }
         self.sum = sum;
