@@ -283,23 +283,27 @@ pub(crate) fn channel_noise(times: &[f64], values: &[f64]) -> (f64, f64) {
 /// ∫₀^u x⁴/(1 + x⁴)² dx: c₅ for u → ∞ (Simpson's rule below u = 8, the tail in closed form
 /// beyond: the integrand is x⁻⁴ − 2x⁻⁸ + … there).
 fn noise_bandwidth(u: f64) -> f64 {
-    let g = |x: f64| {
-        let x4 = x * x * x * x;
-        x4 / ((1.0 + x4) * (1.0 + x4))
+    let simpson = |top: f64| {
+        let g = |x: f64| {
+            let x4 = x * x * x * x;
+            x4 / ((1.0 + x4) * (1.0 + x4))
+        };
+        let n = 256;
+        let h = top / n as f64;
+        let mut sum = g(0.0) + g(top);
+        for k in 1..n {
+            sum += if k % 2 == 1 { 4.0 } else { 2.0 } * g(k as f64 * h);
+        }
+        sum * h / 3.0
     };
     let tail = |a: f64| 1.0 / (3.0 * a * a * a) - 2.0 / (7.0 * a.powi(7));
-    let top = u.min(8.0);
-    let n = 256;
-    let h = top / n as f64;
-    let mut sum = g(0.0) + g(top);
-    for k in 1..n {
-        sum += if k % 2 == 1 { 4.0 } else { 2.0 } * g(k as f64 * h);
-    }
-    let head = sum * h / 3.0;
     if u > 8.0 {
-        head + tail(8.0) - tail(u)
+        // The head up to 8 once per process: the cut-off's bisection asks for it 48 times a
+        // stroke, at 256 points each.
+        static HEAD_TO_8: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+        *HEAD_TO_8.get_or_init(|| simpson(8.0)) + tail(8.0) - tail(u)
     } else {
-        head
+        simpson(u)
     }
 }
 
