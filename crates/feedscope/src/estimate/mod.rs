@@ -58,7 +58,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::axis::AxisParams;
 use crate::diag::Diagnostic;
-use crate::spline::{CubicSpline, EndCondition, SplineError};
+use crate::spline::{CubicSpline, EndCondition, Piece, PieceTable, SplineError};
 use crate::trace::{EffortKind, Trace};
 use crate::verdict::{judge_stroke, DataVerdict, FrictionSign, StrokeEvidence, StrokeVerdict};
 pub use floor::NoiseFloor;
@@ -1134,7 +1134,6 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
         b_eq,
         knot_cursor,
         k_int,
-        piece: zs.piece(k_int),
         non_monotone: false,
         t_prev: w_lo,
         sum: 0.0,
@@ -1143,17 +1142,23 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     // appended with one copy per column: six pushes per point re-read and re-stored six
     // lengths and checked six capacities, a sizeable share of the loop's instructions.
     let mut cols = [[0.0f64; BLOCK]; 6];
+    // The cubics of the knot intervals a block spans (see `GridWalk::invert`).
+    let mut table = PieceTable::new();
     let mut j0 = 0;
     while j0 < count {
         let len = BLOCK.min(count - j0);
-        let block = &mut cols;
+        let (block, sc) = (&mut cols, &mut *table);
         // One loop per kind of spline, chosen once a block (see `KnotRead`).
         let filled = match (&mut zs, &mut effort_at) {
-            (PositionSpline::Whole(z), EffortEval::Whole(e)) => walk.fill(z, e, j0, len, block),
-            (PositionSpline::Whole(z), EffortEval::Windowed(e)) => walk.fill(z, e, j0, len, block),
-            (PositionSpline::Windowed(z), EffortEval::Whole(e)) => walk.fill(z, e, j0, len, block),
+            (PositionSpline::Whole(z), EffortEval::Whole(e)) => walk.fill(z, e, j0, len, block, sc),
+            (PositionSpline::Whole(z), EffortEval::Windowed(e)) => {
+                walk.fill(z, e, j0, len, block, sc)
+            }
+            (PositionSpline::Windowed(z), EffortEval::Whole(e)) => {
+                walk.fill(z, e, j0, len, block, sc)
+            }
             (PositionSpline::Windowed(z), EffortEval::Windowed(e)) => {
-                walk.fill(z, e, j0, len, block)
+                walk.fill(z, e, j0, len, block, sc)
             }
         };
         if let Err(zg) = filled {
@@ -1328,14 +1333,6 @@ impl<'a> PositionSpline<'a> {
         }
     }
 
-    #[inline(always)]
-    fn piece(&mut self, k: usize) -> crate::spline::Piece {
-        match self {
-            Self::Whole(s) => s.piece(k),
-            Self::Windowed(w) => w.piece(k),
-        }
-    }
-
     #[inline]
     fn eval_in(&mut self, k: usize, t: f64) -> (f64, f64, f64) {
         match self {
@@ -1382,6 +1379,36 @@ trait KnotRead<'a> {
     fn eval_in(&mut self, k: usize, t: f64) -> (f64, f64, f64);
     /// The interval holding t (s), clamped to the end intervals.
     fn interval(&self, t: f64) -> usize;
+    /// Whether [`fill_table`](Self::fill_table) holds intervals in a [`PieceTable`]: else
+    /// the inversion reads pieces one at a time, in the order it needs them (a windowed
+    /// spline solves a window whenever a read leaves the one held).
+    const TABLE: bool = false;
+    /// Hold intervals `first..first + intervals` (at most [`PieceTable::INTERVALS`]) in
+    /// `table` ([`TABLE`](Self::TABLE) splines only).
+    fn fill_table(&mut self, _first: usize, _intervals: usize, _table: &mut PieceTable) {
+        unreachable!("a spline without a piece table")
+    }
+    /// The first interval from k on, up to `limit`, whose right knot's value does not lie
+    /// short of `zg` in the direction of travel (`FORWARD`), else `limit` (k ≤ `limit` ≤ the
+    /// last interval).
+    #[inline(always)]
+    fn advance<const FORWARD: bool>(&mut self, mut k: usize, limit: usize, zg: f64) -> usize {
+        while k < limit && short_of::<FORWARD>(self.value(k + 1), zg) {
+            k += 1;
+        }
+        k
+    }
+}
+
+/// Whether a spline value z lies short of the grid position zg in the direction of travel
+/// (`FORWARD`): for s = ±1, s·(z − z_g) < 0 is exactly z < z_g forward and z > z_g backward.
+#[inline(always)]
+fn short_of<const FORWARD: bool>(z: f64, zg: f64) -> bool {
+    if FORWARD {
+        z < zg
+    } else {
+        z > zg
+    }
 }
 
 impl<'a> KnotRead<'a> for CubicSpline<'a> {
@@ -1404,6 +1431,20 @@ impl<'a> KnotRead<'a> for CubicSpline<'a> {
     #[inline(always)]
     fn interval(&self, t: f64) -> usize {
         CubicSpline::interval(self, t)
+    }
+    const TABLE: bool = true;
+    #[inline(always)]
+    fn fill_table(&mut self, first: usize, intervals: usize, table: &mut PieceTable) {
+        CubicSpline::fill_table(self, first, intervals, table);
+    }
+    #[inline(always)]
+    fn advance<const FORWARD: bool>(&mut self, k: usize, limit: usize, zg: f64) -> usize {
+        // The values at knots k + 1..=limit, one bounds check for the lot.
+        let ahead = &self.y()[k + 1..=limit];
+        k + ahead
+            .iter()
+            .position(|&z| !short_of::<FORWARD>(z, zg))
+            .unwrap_or(ahead.len())
     }
 }
 
@@ -1432,21 +1473,23 @@ impl<'a> KnotRead<'a> for crate::spline::WindowedSmoothing<'a> {
 
 /// The effort spline read at non-decreasing times, as the grid loop reads it.
 trait EffortRead {
-    /// The effort at t (s), in its unit.
-    fn eval(&mut self, t: f64) -> f64;
+    /// The effort at times `ts` (s), in its unit, into `es`.
+    fn eval_block(&mut self, ts: &[f64], es: &mut [f64], table: &mut PieceTable);
 }
 
 impl EffortRead for crate::spline::Cursor<'_, '_> {
     #[inline(always)]
-    fn eval(&mut self, t: f64) -> f64 {
-        crate::spline::Cursor::eval(self, t)
+    fn eval_block(&mut self, ts: &[f64], es: &mut [f64], table: &mut PieceTable) {
+        crate::spline::Cursor::eval_block(self, ts, es, table);
     }
 }
 
 impl EffortRead for crate::spline::WindowedSpline<'_> {
     #[inline(always)]
-    fn eval(&mut self, t: f64) -> f64 {
-        crate::spline::WindowedSpline::eval(self, t)
+    fn eval_block(&mut self, ts: &[f64], es: &mut [f64], _: &mut PieceTable) {
+        for (&t, e) in ts.iter().zip(es) {
+            *e = crate::spline::WindowedSpline::eval(self, t);
+        }
     }
 }
 
@@ -1473,9 +1516,8 @@ struct GridWalk<'s, 'a> {
     b_eq: f64,
     /// t(z) from the paper's knot spline, when asked for; else the inversion below.
     knot_cursor: Option<crate::spline::Cursor<'s, 'a>>,
-    /// Knot interval of the last point and its cubic.
+    /// Knot interval of the last point.
     k_int: usize,
-    piece: crate::spline::Piece,
     /// Whether the inversion found no bracketing interval somewhere.
     non_monotone: bool,
     /// Time of the last point (s).
@@ -1498,6 +1540,7 @@ impl GridWalk<'_, '_> {
         j0: usize,
         len: usize,
         cols: &mut [[f64; BLOCK]; 6],
+        table: &mut PieceTable,
     ) -> Result<(), f64> {
         let (force_gain, m_eq, b_eq) = (self.force_gain, self.m_eq, self.b_eq);
         match self.knot_cursor.take() {
@@ -1507,23 +1550,24 @@ impl GridWalk<'_, '_> {
             }
             // The direction as a constant: the interval search compares instead of forming
             // s·(z − z_g), and each loop keeps only its own comparison.
-            None if self.s > 0.0 => self.invert::<true, Z>(zs, j0, len, cols),
-            None => self.invert::<false, Z>(zs, j0, len, cols),
+            None if self.s > 0.0 => self.invert::<true, Z>(zs, j0, len, cols, table),
+            None => self.invert::<false, Z>(zs, j0, len, cols, table),
         }
-        // The effort and Eq. 5 in a second pass over the block: each loop is short enough
-        // that the processor overlaps several points' dependency chains (t(z)'s divisions
-        // and Newton steps, then the effort's seek and cubic), which one long loop body
-        // did not let it do.
+        // The effort, then Eq. 5, in passes of their own over the block: each loop is short
+        // enough that the processor overlaps several points' dependency chains (t(z)'s
+        // divisions and Newton steps, then the effort's seek and cubic), which one long loop
+        // body did not let it do. Eq. 5 keeps the running sum: in a loop of its own (Eq. 5
+        // then vectorises) the chain of additions was all the loop did, and it took longer.
         let [zgs, ts, vs, accs, es, fs] = cols;
+        let (es, fs) = (&mut es[..len], &mut fs[..len]);
+        effort.eval_block(&ts[..len], es, table);
         let mut sum = self.sum;
         for i in 0..len {
-            let e = effort.eval(ts[i]);
-            let f = force_gain * e - m_eq * accs[i] - b_eq * vs[i];
+            let f = force_gain * es[i] - m_eq * accs[i] - b_eq * vs[i];
             if !f.is_finite() {
                 return Err(zgs[i]);
             }
             sum += f;
-            es[i] = e;
             fs[i] = f;
         }
         self.sum = sum;
@@ -1532,6 +1576,12 @@ impl GridWalk<'_, '_> {
 
     /// The first pass of [`fill`](Self::fill) by t(z) inversion: position, time, velocity and
     /// acceleration of points `j0..j0 + len` (`FORWARD`: the direction of travel).
+    ///
+    /// The intervals the block spans are known before its points: the walk passes them on its
+    /// way to the last point's. When they fit a [`PieceTable`], their cubics are formed there
+    /// together (grid points come about once an interval, so forming each point's cubic as it
+    /// arrived cost a division and a dozen loads and checks a point), and the walk steps
+    /// through the table by offsets.
     #[inline(always)]
     fn invert<'a, const FORWARD: bool, Z: KnotRead<'a>>(
         &mut self,
@@ -1539,54 +1589,79 @@ impl GridWalk<'_, '_> {
         j0: usize,
         len: usize,
         cols: &mut [[f64; BLOCK]; 6],
+        table: &mut PieceTable,
     ) {
         let tz = zs.x();
         let last = tz.len().saturating_sub(2);
         let (w_lo, w_hi) = (self.w_lo, self.w_hi);
-        // The walk's state rides in locals through the block.
-        let (mut k_int, mut piece, mut t_prev) = (self.k_int, self.piece, self.t_prev);
-        let [zgs, ts, vs, accs, _, _] = cols;
         let (k_first, s, step) = (self.k_first, self.s, self.step);
-        let mut non_monotone = false;
+        let [zgs, ts, vs, accs, _, _] = cols;
+        // The walk's state rides in locals through the block.
+        let mut k_int = self.k_int;
+        let mut solve = Solve {
+            tz,
+            w_lo,
+            w_hi,
+            t_prev: self.t_prev,
+            non_monotone: false,
+        };
         // j as a float: exact below 2⁵³, and cheaper to step than to convert.
         let mut jf = j0 as f64;
-        for i in 0..len {
-            let zg = (k_first + s * jf) * step;
+        for zg in &mut zgs[..len] {
+            *zg = (k_first + s * jf) * step;
             jf += 1.0;
-            // Advance to the knot interval whose end lies beyond the target (for s = ±1,
-            // s·(z − z_g) < 0 is exactly z < z_g forward and z > z_g backward).
-            let k_old = k_int;
-            while k_int < last && {
-                let z = zs.value(k_int + 1);
-                if FORWARD {
-                    z < zg
-                } else {
-                    z > zg
-                }
-            } {
-                k_int += 1;
-            }
-            if k_int != k_old {
-                piece = zs.piece(k_int);
-            }
-            let (t, v, a) = match newton_in_piece(&piece, zs.value(k_int + 1), zg) {
-                Some((u, v, a)) => (piece.x0 + u, v, a),
-                None => {
-                    // Not monotone here: the safeguarded search over neighbours.
-                    let (t, k, ok) = invert_in(zs, k_int, zg, t_prev.max(tz[k_int]), w_lo, w_hi);
-                    non_monotone |= !ok;
-                    let (_, v, a) = zs.eval_in(k, t);
-                    (t, v, a)
-                }
-            };
-            t_prev = t;
-            zgs[i] = zg;
-            ts[i] = t;
-            vs[i] = v;
-            accs[i] = a;
         }
-        (self.k_int, self.piece, self.t_prev) = (k_int, piece, t_prev);
-        self.non_monotone |= non_monotone;
+        let zgs = &zgs[..len];
+        // The walk advances while the next knot lies short of the target, and the targets
+        // advance too (step > 0), so the block spans the intervals up to the last point's.
+        // Where that interval's end is not short of the last target, no point's walk passes
+        // it, and the walk through the table needs no bound.
+        let spanned = match zgs.last() {
+            Some(&zg_last) if Z::TABLE && step > 0.0 => {
+                let limit = (k_int + PieceTable::INTERVALS - 1).min(last);
+                let k_end = zs.advance::<FORWARD>(k_int, limit, zg_last);
+                (!short_of::<FORWARD>(zs.value(k_end + 1), zg_last)).then_some(k_end)
+            }
+            _ => None,
+        };
+        if let Some(k_end) = spanned {
+            // The walk by offsets into the table.
+            let first = k_int;
+            zs.fill_table(first, k_end - first + 1, table);
+            let mut o = 0;
+            for (i, &zg) in zgs.iter().enumerate() {
+                while short_of::<FORWARD>(table.value(o + 1), zg) {
+                    o += 1;
+                }
+                let (t, v, a) = solve.at(zs, first + o, &table.piece(o), table.value(o + 1), zg);
+                ts[i] = t;
+                vs[i] = v;
+                accs[i] = a;
+            }
+            k_int = first + o;
+        } else {
+            // Points sparser than knots (or a spline without a table): a piece when the
+            // interval changes.
+            let mut held: Option<(usize, Piece)> = None;
+            for (i, &zg) in zgs.iter().enumerate() {
+                k_int = zs.advance::<FORWARD>(k_int, last, zg);
+                let p = match held {
+                    Some((k, p)) if k == k_int => p,
+                    _ => {
+                        let p = zs.piece(k_int);
+                        held = Some((k_int, p));
+                        p
+                    }
+                };
+                let z1 = zs.value(k_int + 1);
+                let (t, v, a) = solve.at(zs, k_int, &p, z1, zg);
+                ts[i] = t;
+                vs[i] = v;
+                accs[i] = a;
+            }
+        }
+        (self.k_int, self.t_prev) = (k_int, solve.t_prev);
+        self.non_monotone |= solve.non_monotone;
     }
 
     /// The first pass of [`fill`](Self::fill) with t(z) from the paper's knot spline.
@@ -1615,10 +1690,52 @@ impl GridWalk<'_, '_> {
     }
 }
 
+/// t(z) at one grid point after another, as [`GridWalk::invert`] solves it.
+struct Solve<'a> {
+    /// The position spline's knots (s).
+    tz: &'a [f64],
+    /// Output window (s).
+    w_lo: f64,
+    w_hi: f64,
+    /// Time of the last point (s).
+    t_prev: f64,
+    /// Whether the inversion found no bracketing interval somewhere.
+    non_monotone: bool,
+}
+
+impl<'a> Solve<'a> {
+    /// Time, velocity and acceleration where the position spline reaches zg (m), on interval
+    /// k, whose cubic is p and right knot's value z1.
+    #[inline(always)]
+    fn at<Z: KnotRead<'a>>(
+        &mut self,
+        zs: &mut Z,
+        k: usize,
+        p: &Piece,
+        z1: f64,
+        zg: f64,
+    ) -> (f64, f64, f64) {
+        let (t, v, a) = match newton_in_piece(p, z1, zg) {
+            Some((u, v, a)) => (p.x0 + u, v, a),
+            None => {
+                // Not monotone here: the safeguarded search over neighbours.
+                let guess = self.t_prev.max(self.tz[k]);
+                let (t, k, ok) = invert_in(zs, k, zg, guess, self.w_lo, self.w_hi);
+                self.non_monotone |= !ok;
+                let (_, v, a) = zs.eval_in(k, t);
+                (t, v, a)
+            }
+        };
+        self.t_prev = t;
+        (t, v, a)
+    }
+}
+
 /// Newton's method for z(x0 + u) = target inside one monotone piece, started from linear
-/// interpolation between the piece's ends (`z1` is the value at its right knot). Returns (u, z', z'') or `None` when the piece does
-/// not bracket the target monotonically (then [`invert_in`] takes over).
-#[inline]
+/// interpolation between the piece's ends (`z1` is the value at its right knot). Returns
+/// (u, z', z'') or `None` when the piece does not bracket the target monotonically (then
+/// [`invert_in`] takes over).
+#[inline(always)]
 fn newton_in_piece(p: &crate::spline::Piece, z1: f64, target: f64) -> Option<(f64, f64, f64)> {
     let dz = z1 - p.c0;
     if dz == 0.0 {
@@ -1628,6 +1745,22 @@ fn newton_in_piece(p: &crate::spline::Piece, z1: f64, target: f64) -> Option<(f6
     if !(0.0..=1.0).contains(&frac) {
         return None;
     }
+    // The sign of the rise as a constant: each slope test is then one comparison.
+    if dz > 0.0 {
+        chord_newton::<true>(p, frac, target)
+    } else {
+        chord_newton::<false>(p, frac, target)
+    }
+}
+
+/// The iteration of [`newton_in_piece`] from `frac` of the way along piece p, on a piece
+/// that rises (`RISING`) or falls from its left knot to its right.
+#[inline(always)]
+fn chord_newton<const RISING: bool>(
+    p: &crate::spline::Piece,
+    frac: f64,
+    target: f64,
+) -> Option<(f64, f64, f64)> {
     let mut u = frac * p.h;
     // Chord-Newton: the slope from the start point is kept, which trades one division per
     // step for a slightly slower (still fast: the start is within O(h²) of the root)
@@ -1636,7 +1769,7 @@ fn newton_in_piece(p: &crate::spline::Piece, z1: f64, target: f64) -> Option<(f6
     // One evaluation per step: the start's slope fixes the chord, each new point's values are
     // both the next residual and, once the step is below tolerance, the answer.
     let (mut z, d1_0, _) = p.eval(u);
-    if d1_0 == 0.0 || (d1_0 > 0.0) != (dz > 0.0) {
+    if d1_0 == 0.0 || (d1_0 > 0.0) != RISING {
         return None;
     }
     let inv_d1 = 1.0 / d1_0;
@@ -1647,7 +1780,7 @@ fn newton_in_piece(p: &crate::spline::Piece, z1: f64, target: f64) -> Option<(f6
         u -= du;
         let (z_new, d1, d2) = p.eval(u);
         z = z_new;
-        if (d1 > 0.0) != (dz > 0.0) {
+        if (d1 > 0.0) != RISING {
             return None;
         }
         // The chord iteration contracts by ρ per step, so the error left after this step is

@@ -278,6 +278,41 @@ fn newton_in_piece_converges_to_tolerance() {
     }
 }
 
+/// The position spline's search ahead over a slice stops where stepping a knot at a time
+/// stops, on values that go back and forth (a noisy spline), in either direction and at
+/// either limit.
+#[test]
+fn advance_stops_where_the_walk_a_knot_at_a_time_stops() {
+    let mut rng = rand::rngs::StdRng::seed_from_u64(0xadu64);
+    let x: Vec<f64> = (0..400).map(|k| k as f64 * 1e-3).collect();
+    let y: Vec<f64> = x
+        .iter()
+        .map(|&t| t + 3e-3 * (rng.random::<f64>() - 0.5))
+        .collect();
+    let m = vec![0.0; x.len()];
+    let mut s = CubicSpline::from_moments(&x, &y, m).unwrap();
+    let last = x.len() - 2;
+    fn stepwise<const FORWARD: bool>(y: &[f64], mut k: usize, limit: usize, zg: f64) -> usize {
+        while k < limit && short_of::<FORWARD>(y[k + 1], zg) {
+            k += 1;
+        }
+        k
+    }
+    for _ in 0..2000 {
+        let k = rng.random_range(0..=last);
+        let limit = rng.random_range(k..=last);
+        let zg = rng.random_range(-0.01..0.41);
+        assert_eq!(
+            s.advance::<true>(k, limit, zg),
+            stepwise::<true>(&y, k, limit, zg)
+        );
+        assert_eq!(
+            s.advance::<false>(k, limit, zg),
+            stepwise::<false>(&y, k, limit, zg)
+        );
+    }
+}
+
 /// A stroke solved in windows of 2,000 knots and handed out in pieces of 3,000 rows equals
 /// the whole solve held at once: every column to 1e-9 of its scale, the summary likewise,
 /// with the interpolating spline (exact positions) and with the smoother (1 µm quanta).
