@@ -705,7 +705,7 @@ fn smooth_off1(h0: f64, b0: f64, a: f64, b: f64, alpha: f64) -> f64 {
     h0 * (1.0 / 6.0) + alpha * (b0 * a + a * b)
 }
 
-/// The smoothing system's bands for [`smooth_solve_twisted`], from x (knots) and `ih`
+/// The smoothing system's bands for [`smooth_eliminate_twisted`], from x (knots) and `ih`
 /// (1/h): row i's diagonal into `diag[i]`, right-hand side into `rhs[i]`, A_{i,i−1} into
 /// `off1[i]` (i ≥ 1) and A_{i,i−2} into `off2[i]` (i ≥ 2). One pass without a serial
 /// dependence, so it vectorises; the eliminations then only eliminate.
@@ -828,12 +828,11 @@ fn smooth_eliminate_twisted(
             .zip(u_t[2..].iter_mut().zip(&mut v_t[2..]));
         // Bottom row k = p + 2 + q: wd_b[q + 2], u_b[q + 3], v_b[q + 4].
         let rows_b = nn - 2 - (p + 2);
-        let bottoms = wd_b[2..2 + rows_b]
+        let mut bottoms = wd_b[2..2 + rows_b]
             .iter_mut()
             .zip(&rhs[p + 2..nn - 2])
             .zip(u_b[3..3 + rows_b].iter_mut().zip(&mut v_b[4..4 + rows_b]))
             .rev();
-        let mut bottoms = bottoms;
         for ((wd_i, &r_i), (u_i, v_i)) in tops {
             (*u_i, *v_i, *wd_i) = row(&mut top, (*wd_i, r_i, *u_i, *v_i), zero);
             if let Some(((wd_k, &r_k), (u_k, v_k))) = bottoms.next() {
@@ -896,8 +895,8 @@ fn smooth_eliminate_twisted(
 /// reciprocals `ih` (n − 1 of them, kept for the last pass), builds row i of
 /// A = R + α QᵀQ, factors it (LDLᵀ with sub-diagonals u, v) and forward-substitutes into
 /// `wd` = w·(1/d); one backward pass solves for γ; a last pass forms g. `wd`, `u`, `v` have
-/// length n − 2. From [`TWIST_MIN_ROWS`] rows on, both ends at once
-/// ([`smooth_solve_twisted`]).
+/// length n − 2. From [`TWIST_MIN_ROWS`] rows on, the bands are formed first ([`smooth_bands`])
+/// and eliminated from both ends at once ([`smooth_eliminate_twisted`]).
 #[allow(clippy::too_many_arguments)]
 fn smooth_solve(
     x: &[f64],
