@@ -18,13 +18,14 @@ use crate::plot;
 /// Identify friction and inertia from one test (paper 002): J, Tc, Ts, vs, σ.
 ///
 /// Reads one trace of the variable-amplitude, variable-velocity triangular wave planned by
-/// `feedscope plan triangle` (position and motor torque or current, synchronous at 80 Hz or
-/// more) and fits T = J·θ'' + sgn(v)·[Tc + (Ts − Tc)·exp(−(|v|/vs)^δ)] + σ·v + T0 jointly
+/// `feedscope plan triangle` (position and motor torque or current; each acceleration phase
+/// must span a few samples: 83 Hz or more for 0.1 s ramps, 70 ms polling for 0.5 s) and fits T = J·θ'' + sgn(v)·[Tc + (Ts − Tc)·exp(−(|v|/vs)^δ)] + σ·v + T0 jointly
 /// by separable least squares on hat-kernel averages: the position's second divided
 /// difference is exactly the kernel average of the acceleration, and the torque and the
 /// friction terms are averaged with the same kernel, so every sample of the acceleration
-/// phases identifies J. Rows near a standstill or a reversal (within --guard-s), or across
-/// the corner of a move, are excluded. Writes the parameters (motor side, force side via
+/// phases identifies J, whatever the ramp shape (trapezoid, jerk-limited, bell). Rows near a
+/// standstill or a reversal (within --guard-s), or across a step of the acceleration (the
+/// corner of a trapezoidal ramp), are excluded. Writes the parameters (motor side, force side via
 /// F = 2π·T/p, standard errors, residual RMS) as JSON and a plot of measured and computed
 /// torque over time. The axis file needs the lead and the torque constant; `inertia_kgm2`
 /// and `damping_nms_per_rad` may be left out (the test identifies them; --compare needs

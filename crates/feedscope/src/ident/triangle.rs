@@ -144,40 +144,66 @@ pub fn identify(
     for i in 0..n {
         events_before[i + 1] = events_before[i] + usize::from(event[i]);
     }
-    // The rows are exact only where the acceleration is constant over the row's support
-    // [k − 2m, k + 2m] (then the torque is linear between the samples the quadrature uses
-    // and v̂ is the velocity at each sample); across the corner of a move they carry a
-    // quadrature error of order J·Δθ''. Such rows are recognised by the hat accelerations
-    // ā_j, j ∈ [k − m, k + m], differing by more than the quantisation noise of ā
-    // (q·√(1/2)/(m·Δt)² for a quantum q, 8σ) or 1 % of the largest |ā|.
+    // The rows are exact for any motion except where the acceleration steps faster than the
+    // sampling resolves (the corner of a trapezoidal ramp): there the torque quadrature errs
+    // by up to J·Δθ''/(2m). Smooth ramps (jerk-limited S-curves, bell/cosine) keep their
+    // rows; only rows whose quadrature spans a detected step are excluded (`kernel.rs`,
+    // `acceleration_steps`).
     let a_max = ks
         .accel_m_s2
         .iter()
         .filter(|a| a.is_finite())
         .fold(0.0f64, |x, a| x.max(a.abs()));
-    let a_tol = (8.0 * quantum * 0.5f64.sqrt() / (m as f64 * h).powi(2)).max(0.01 * a_max);
-    let accel_steady = |k: usize| {
-        let w = &ks.accel_m_s2[k - m..=k + m];
-        let (lo, hi) = w
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, u), &a| {
-                (l.min(a), u.max(a))
-            });
-        hi - lo <= a_tol
-    };
-    let mut used = vec![false; n];
-    let mut keep = Vec::new();
+    let steps = acceleration_steps(&ks.accel_m_s2, m, a_max);
+    let mut near_step = vec![false; n];
+    // the curvature correction below reads ā at k ± m, whose hats reach k ± 2m
+    let mut near_step_wide = vec![false; n];
+    for &j in &steps.at {
+        near_step[j.saturating_sub(m + 1)..(j + m + 2).min(n)].fill(true);
+        near_step_wide[j.saturating_sub(3 * m + 1)..(j + 3 * m + 2).min(n)].fill(true);
+    }
+    let mut clear_rows = Vec::new();
     for k in 3 * m..n.saturating_sub(3 * m) {
         let support_clear = events_before[k + 2 * m + 1] == events_before[k - 2 * m];
         let j = event_times.partition_point(|&t| t < tp[k] - guard);
         let guard_clear = event_times.get(j).is_none_or(|&t| t > tp[k] + guard);
         let finite =
             ks.accel_m_s2[k].is_finite() && torque[k - m..=k + m].iter().all(|x| x.is_finite());
-        if support_clear && guard_clear && finite && accel_steady(k) {
-            used[k] = true;
-            keep.push(k);
+        if support_clear && guard_clear && finite {
+            clear_rows.push(k);
         }
     }
+    let busy = |rows: &[usize]| {
+        rows.iter()
+            .filter(|&&k| ks.accel_m_s2[k].abs() > BUSY_FRACTION * a_max)
+            .count()
+    };
+    let smooth_rows: Vec<usize> = clear_rows
+        .iter()
+        .copied()
+        .filter(|&k| !near_step[k])
+        .collect();
+    // Rows across a step are not used even when that leaves too few: with ramps of a few
+    // samples (70 ms polling of 0.2 s ramps) the rows clear of the reversal guard are all
+    // at the ramp's outer corner, and their errors do not average out (J −17 % on the twin).
+    let keep = smooth_rows;
+    let mut used = vec![false; n];
+    for &k in &keep {
+        used[k] = true;
+    }
+    let selection = Selection {
+        busy_in_trace: (2 * m..n.saturating_sub(2 * m))
+            .filter(|&k| ks.accel_m_s2[k].abs() > BUSY_FRACTION * a_max)
+            .count(),
+        busy_clear: busy(&clear_rows),
+        busy_kept: busy(&keep),
+        steps: steps.at.len(),
+        longest_phase_s: longest_accel_phase_s(tp, &ks.accel_m_s2, vel, BUSY_FRACTION * a_max),
+        accel_max_m_s2: a_max,
+        guard_s: guard,
+        m,
+        interval_s: h,
+    };
 
     // Rows for the plot (all samples) and for the fit (used rows).
     let row_ok = |k: usize| k >= 2 * m && k + 2 * m < n;
@@ -200,10 +226,61 @@ pub fn identify(
             }
         })
         .collect();
+    // The torque side is a quadrature of samples (and, for an effort channel on its own
+    // clock, of samples interpolated linearly to the position times); both read a curved
+    // torque too high by c_k·T'' to leading order, which biases J low by c·Σȧ²/Σā² (8 % for
+    // bell ramps of 0.4 s polled every 70 ms). The same c_k applied to the acceleration's
+    // curvature puts that error on the regressor's side, where it belongs: the row compares
+    // like with like. Rows at a step keep the bare ā (a step has no curvature to speak of).
+    let interp_err: Vec<f64> = if synchronous {
+        vec![0.0; n]
+    } else {
+        tp.iter()
+            .map(|&t| {
+                let j = te.partition_point(|&x| x <= t);
+                if j == 0 || j == te.len() {
+                    0.0
+                } else {
+                    let he = te[j] - te[j - 1];
+                    let d = (t - te[j - 1]) / he;
+                    0.5 * d * (1.0 - d) * he * he
+                }
+            })
+            .collect()
+    };
+    let interp_c = ks.averaging.apply(&interp_err);
+    let accel_row = |k: usize| -> f64 {
+        let a = &ks.accel_m_s2;
+        if near_step_wide[k] || k < 3 * m || k + 3 * m >= n {
+            return a[k];
+        }
+        let (t0, t1, t2) = (tp[k - m], tp[k], tp[k + m]);
+        let curvature =
+            2.0 * ((a[k + m] - a[k]) / (t2 - t1) - (a[k] - a[k - m]) / (t1 - t0)) / (t2 - t0);
+        // quadrature part: Σ over the support's intervals of M_k(mid)·d³/12
+        let height = 2.0 / (t2 - t0);
+        let mut quad = 0.0;
+        for i in k - m..k + m {
+            let d = tp[i + 1] - tp[i];
+            let mid = 0.5 * (tp[i] + tp[i + 1]);
+            let hat = if mid <= t1 {
+                height * (mid - t0) / (t1 - t0)
+            } else {
+                height * (t2 - mid) / (t2 - t1)
+            };
+            quad += hat * d * d * d / 12.0;
+        }
+        let c = quad + interp_c[k];
+        if curvature.is_finite() {
+            a[k] + c * curvature
+        } else {
+            a[k]
+        }
+    };
     let mut reg = Regressors::default();
     for k in 0..n {
         let (v, a) = if row_ok(k) {
-            (vel[k], k_rad * ks.accel_m_s2[k])
+            (vel[k], k_rad * accel_row(k))
         } else {
             (f64::NAN, f64::NAN)
         };
@@ -217,7 +294,7 @@ pub fn identify(
             reg.torque_nm[k],
         );
     }
-    check_excitation(&sub, params, guard, k_rad * a_max, h)?;
+    check_excitation(&sub, params, &selection)?;
 
     // Steps 4-5: the joint separable fit on the kernel rows.
     let avg = ks.averaging.select(&keep);
@@ -252,8 +329,11 @@ pub fn identify(
     let mut warnings = fit_warnings(&fit);
     if h > COARSE_SAMPLING_S {
         warnings.push(format!(
-            "sampling at {:.1} Hz: an acceleration phase spans few samples and the {guard:.2} s              guard around every reversal removes most of them, so J is unreliable; sample at              80 Hz or more for J",
-            1.0 / h
+            "sampling every {:.0} ms: J rests on {} accelerating rows from acceleration phases \
+             of up to {:.0} ms; its standard error says how well",
+            1e3 * h,
+            selection.busy_kept,
+            1e3 * selection.longest_phase_s
         ));
     }
     if !synchronous {
@@ -286,8 +366,126 @@ pub fn identify(
 /// several samples, which divides the quantisation noise of θ̄'' by m².
 const DEFAULT_KERNEL_S: f64 = 0.010;
 
-/// Sampling intervals above this (s) get the "J is unreliable" warning.
+/// Sampling intervals above this (s) get a warning naming the rows J rests on.
 const COARSE_SAMPLING_S: f64 = 0.025;
+
+/// A row sees the acceleration when its |ā| exceeds this fraction of the largest.
+const BUSY_FRACTION: f64 = 0.1;
+
+/// Fewest rows that see the acceleration for J to be identified.
+const MIN_BUSY_ROWS: usize = 10;
+
+/// A step of the acceleration smaller than this fraction of the largest |ā| is not excluded:
+/// its rows err by at most a twentieth of the largest inertia torque over m. A quarter let
+/// the servo's transients after a trapezoid's corner through (paper 002's twin at 83 Hz:
+/// J's SE doubled by the residual they left); smooth ramps stay below a tenth down to bell
+/// ramps of 0.2 s at 83 Hz.
+const STEP_FRACTION: f64 = 0.1;
+
+/// What the row selection found, for the refusal and the warnings.
+#[derive(Debug, Clone, Copy)]
+struct Selection {
+    /// Rows in the whole trace with |ā| above a tenth of the largest.
+    busy_in_trace: usize,
+    /// Of those, rows clear of standstills, reversals and their guard.
+    busy_clear: usize,
+    /// Of those, rows used in the fit.
+    busy_kept: usize,
+    /// Acceleration steps found.
+    steps: usize,
+    /// Longest run of accelerating samples in one direction (s).
+    longest_phase_s: f64,
+    /// Largest |ā| (m/s²).
+    accel_max_m_s2: f64,
+    /// Reversal guard (s).
+    guard_s: f64,
+    /// Kernel half-width (samples).
+    m: usize,
+    /// Mean sampling interval (s).
+    interval_s: f64,
+}
+
+/// Steps of the acceleration that the sampling does not resolve.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Steps {
+    /// Sample index nearest each step.
+    at: Vec<usize>,
+}
+
+/// Find the steps of the acceleration in the hat averages ā (half-width m samples).
+///
+/// A step of size Δa at t_j makes ā rise over the 2m samples around j, while a ramp of
+/// any smoothness that lasts several kernel widths makes ā vary smoothly. The combination
+///
+/// S_j = [3·(ā_{j+m} − ā_{j−m}) − (ā_{j+3m} − ā_{j−3m})] / 2
+///
+/// is 0 for an acceleration linear in time (a jerk phase), about −4·(m·Δt)³·z'''' for a
+/// smooth one (a bell ramp lasting 0.2 s sampled at 83 Hz: about a tenth of its peak), and
+/// Δa at a step (with side lobes of −Δa/2 at ±2m). A step is a local extreme of |S| over ±2m
+/// samples (which suppresses the side lobes) above max(8 σ_S, [`STEP_FRACTION`]·max|ā|), σ_S
+/// the scatter of S over the whole trace (1.4826·MAD: quantisation and encoder noise).
+fn acceleration_steps(accel: &[f64], m: usize, accel_max: f64) -> Steps {
+    let n = accel.len();
+    let mut s = vec![f64::NAN; n];
+    for j in 3 * m..n.saturating_sub(3 * m) {
+        let (a, b, c, d) = (
+            accel[j + m],
+            accel[j - m],
+            accel[j + 3 * m],
+            accel[j - 3 * m],
+        );
+        s[j] = 0.5 * (3.0 * (a - b) - (c - d));
+    }
+    let mut abs: Vec<f64> = s
+        .iter()
+        .filter(|x| x.is_finite())
+        .map(|x| x.abs())
+        .collect();
+    if abs.is_empty() {
+        return Steps::default();
+    }
+    let mid = abs.len() / 2;
+    let mad = *abs.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    let threshold = (8.0 * 1.4826 * mad).max(STEP_FRACTION * accel_max);
+    let mut at = Vec::new();
+    for j in 0..n {
+        let x = s[j].abs();
+        // NaN (ends of the trace) is never a step
+        if x.is_nan() || x <= threshold {
+            continue;
+        }
+        let lo = j.saturating_sub(2 * m);
+        let hi = (j + 2 * m).min(n - 1);
+        // the first of equal extremes wins, so a flat top gives one step
+        let is_peak = (lo..=hi).all(|i| {
+            let y = s[i].abs();
+            y.is_nan() || y < x || (y <= x && i >= j)
+        });
+        if is_peak {
+            at.push(j);
+        }
+    }
+    Steps { at }
+}
+
+/// Longest run of consecutive samples with |ā| above `level` and v̂ of one sign (s).
+fn longest_accel_phase_s(t: &[f64], accel: &[f64], vel: &[f64], level: f64) -> f64 {
+    let mut best = 0.0f64;
+    let mut start: Option<usize> = None;
+    for i in 0..t.len() {
+        let busy = accel[i].abs() > level && vel[i].is_finite();
+        let same = start.is_some_and(|s| sign(vel[s]) * sign(vel[i]) > 0.0);
+        start = match (busy, start) {
+            (true, Some(s)) if same => Some(s),
+            (true, _) => Some(i),
+            (false, _) => None,
+        };
+        if let Some(s) = start {
+            best = best.max(t[i] - t[s]);
+        }
+    }
+    best
+}
 
 /// The position quantum: the smallest non-zero step between consecutive samples (0 when the
 /// positions are not quantised, i.e. no step repeats on a grid).
@@ -326,16 +524,15 @@ fn fit_warnings(fit: &TorqueFit) -> Vec<String> {
     w
 }
 
-/// Reject data that cannot identify the model, with a reason a user can act on.
+/// Reject data that cannot identify the model, with the figures that decide it.
 fn check_excitation(
     r: &Regressors,
     params: &IdentParams,
-    guard_s: f64,
-    accel_ref_rad_s2: f64,
-    interval_s: f64,
+    sel: &Selection,
 ) -> Result<(), IdentError> {
     let not = |reason: String| Err(IdentError::NotIdentifiable { reason });
     let n = r.len();
+    let guard_s = sel.guard_s;
     if n < 20 {
         return not(format!(
             "only {n} samples remain after excluding speeds below {} mm/min and {guard_s:.3} s \
@@ -368,21 +565,59 @@ fn check_excitation(
             params.min_speed_octaves
         ));
     }
-    // Rows that see the acceleration: |θ̄''| above a tenth of the largest in the whole trace
+    // Rows that see the acceleration: |ā| above a tenth of the largest in the whole trace
     // (not of the used rows, which may hold only quantisation noise).
-    let busy = r
-        .angular_accel_rad_s2
-        .iter()
-        .filter(|a| a.abs() > 0.1 * accel_ref_rad_s2)
-        .count();
-    if accel_ref_rad_s2.is_nan() || accel_ref_rad_s2 <= 0.0 || busy < 10 {
-        return not(format!(
-            "no usable acceleration: {busy} rows at constant acceleration away from reversals \
-             (at least 10 needed), so the inertia J cannot be identified; at {:.1} Hz \
-             sampling the acceleration phases must span several samples: sample at 80 Hz or \
-             more, or lower the acceleration",
-            1.0 / interval_s
-        ));
+    if sel.accel_max_m_s2.is_finite() && sel.busy_kept >= MIN_BUSY_ROWS {
+        return Ok(());
     }
-    Ok(())
+    let h = sel.interval_s;
+    let m = sel.m;
+    let phase_ms = 1e3 * sel.longest_phase_s;
+    let head = format!(
+        "no usable acceleration: {} rows see the acceleration (|ā| above a tenth of the \
+         largest, {:.3} m/s²; at least {MIN_BUSY_ROWS} needed), so the inertia J cannot be \
+         identified. The trace has {} such rows; {} of them lie within {guard_s:.3} s of a \
+         reversal or standstill or hold one within their support of ±{} samples, {} more \
+         span one of the {} steps of the acceleration found. The longest acceleration phase in one direction \
+         lasts {phase_ms:.0} ms ({:.1} samples at {:.1} Hz)",
+        sel.busy_kept,
+        sel.accel_max_m_s2,
+        sel.busy_in_trace,
+        sel.busy_in_trace - sel.busy_clear,
+        2 * m,
+        sel.busy_clear - sel.busy_kept,
+        sel.steps,
+        sel.longest_phase_s / h,
+        1.0 / h
+    );
+    // A row needs its support (±2m samples) and the guard clear of the reversal: the phase
+    // must outlast both by a few samples to give rows.
+    let needed_s = guard_s.max(2.0 * m as f64 * h) + 2.0 * h;
+    let advice = if sel.busy_in_trace < MIN_BUSY_ROWS {
+        "; the test hardly accelerates: reversals at the axis's acceleration limit are needed"
+            .to_string()
+    } else if sel.longest_phase_s <= needed_s {
+        // with m = 1 and the default guard of 3 samples a phase needs 5 samples to give a
+        // row, 8 to give a few
+        let rate_hz = 8.0 / sel.longest_phase_s.max(1e-9);
+        let mut a = format!(
+            "; a row needs {:.0} ms of acceleration clear of a reversal: plan gentler ramps \
+             (a lower acceleration, so that each lasts over {:.0} ms)",
+            1e3 * needed_s,
+            1e3 * needed_s
+        );
+        if rate_hz > 1.0 / h {
+            a.push_str(&format!(" or sample at {rate_hz:.0} Hz or more"));
+        } else if params.reversal_guard_s.is_some() {
+            a.push_str(" or shorten --guard-s");
+        }
+        a
+    } else {
+        format!(
+            "; the acceleration phases outlast the {:.0} ms a row needs, but too few of them \
+             do: add reversals (more levels or cycles)",
+            1e3 * needed_s
+        )
+    };
+    not(format!("{head}{advice}"))
 }
