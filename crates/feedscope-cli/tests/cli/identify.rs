@@ -236,6 +236,58 @@ fn trace_without_reversal_is_not_identifiable() {
     assert!(stderr(&o).contains("reversal"), "{}", stderr(&o));
 }
 
+/// Paper 000's logger (asynchronous, every 72 ms) on a wave with 0.1 s ramps: exit 2 with the
+/// figures that decide it (rows, the longest acceleration phase in ms and samples, what a row
+/// needs) and only advice the data do not already meet; no output file.
+#[test]
+fn polled_short_ramps_are_refused_with_the_figures() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::write(d.path().join("axis.toml"), AXIS).unwrap();
+    let p = triangle_program(
+        &TriangleParams {
+            window_min_mm: 0.0,
+            window_max_mm: 400.0,
+            feed_max_mm_min: 6000.0,
+            levels: 8,
+            min_cruise_s: 10.0,
+            vs_guess_mm_min: 90.0,
+            ..TriangleParams::default()
+        },
+        &Limits::default(),
+    )
+    .unwrap();
+    let mut c = cfg(false);
+    for s in [
+        &mut c.sampling.position.interval_ms,
+        &mut c.sampling.effort.interval_ms,
+    ] {
+        *s = 72.0;
+    }
+    c.sampling.position.jitter_ms = 3.0;
+    c.sampling.effort.jitter_ms = 3.0;
+    c.sampling.effort.start_offset_ms = 30.0;
+    write_trace(&d.path().join("polled.csv"), &c, &p, Layout::Long);
+    let mut cmd = feedscope(d.path());
+    cmd.args(["identify", "polled.csv", "--axis", "axis.toml"]);
+    let o = run(cmd);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for needle in [
+        "no usable acceleration",
+        "rows see the acceleration",
+        "at least 10 needed",
+        "The longest acceleration phase in one direction lasts",
+        "samples at 13.9 Hz",
+        "a row needs",
+        "plan gentler ramps",
+    ] {
+        assert!(err.contains(needle), "missing {needle:?} in {err}");
+    }
+    // never the old advice that a faster trace would already meet
+    assert!(!err.contains("80 Hz"), "{err}");
+    assert!(!d.path().join("ident.json").exists());
+}
+
 #[test]
 fn bad_parameter_is_exit_2() {
     let d = tempfile::tempdir().unwrap();

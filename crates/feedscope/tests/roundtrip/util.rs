@@ -66,6 +66,15 @@ pub struct Errors {
     pub fluctuation_rms_n: f64,
     /// Mean of the estimate minus mean of the truth, relative to the truth's mean.
     pub mean_rel: f64,
+    /// Mean of the truth over the same points (N, signed).
+    pub mean_truth_n: f64,
+}
+
+impl Errors {
+    /// |mean of the truth| (N).
+    pub fn mean_abs_n(&self) -> f64 {
+        self.mean_truth_n.abs()
+    }
 }
 
 pub fn errors(out: &SimOutput, s: &StrokeFriction) -> Errors {
@@ -86,6 +95,7 @@ pub fn errors(out: &SimOutput, s: &StrokeFriction) -> Errors {
         rms_n: (se / n).sqrt(),
         fluctuation_rms_n: (sf / n).sqrt(),
         mean_rel: (me - mt) / mt.abs(),
+        mean_truth_n: mt / n,
     }
 }
 
