@@ -270,8 +270,11 @@ fn truth_series_matches_model_and_strokes() {
     let s0 = &t.strokes[0];
     assert_eq!(s0.direction, Direction::Forward);
     assert_eq!(t.strokes[1].direction, Direction::Backward);
-    // 20 mm at 10 mm/s with 1000 mm/s² ramps: 2.01 s
-    assert!((s0.end_time_s - s0.start_time_s - 2.01).abs() < 1e-9);
+    // 20 mm at 10 mm/s with the default jerk-limited ramps (1000 mm/s², 20 m/s³): v·j =
+    // 2e5 < a² = 1e6, so a is not reached, t_j = √(v/j), t_a = 2·t_j = 44.7 ms, and the move
+    // lasts L/v + t_a
+    let ta = 2.0 * (10.0f64 / 20_000.0).sqrt();
+    assert!((s0.end_time_s - s0.start_time_s - (2.0 + ta)).abs() < 1e-9);
     // during the cruise the friction is positive forward, negative backward (Eq. 5 sign)
     for st in &t.states {
         if st.time_s > s0.cruise_start_time_s + 0.1 && st.time_s < s0.cruise_end_time_s {
@@ -839,11 +842,12 @@ fn simulate_program_uses_the_config_limits() {
     let mut c = SimConfig::default();
     c.dynamics.mode = DynamicsMode::Ideal;
     c.motion.rapid_acceleration_mm_s2 = Some(500.0);
+    c.motion.ramp = RampShape::Trapezoid;
     let out = simulate_program(&c, &prog, &mut |_| {}).unwrap();
     let m = &out.truth.strokes;
     assert_eq!(m.len(), 2);
     assert!((m[0].start_time_s - (c.motion.lead_in_s + 0.7)).abs() < 1e-12);
-    // no jerk limit: trapezoids; the rapid (15 m/min default) at 500 mm/s²: 15 mm is too
+    // trapezoid ramps; the rapid (15 m/min default) at 500 mm/s²: 15 mm is too
     // short to reach 250 mm/s (needs 125 mm), a triangle of 2·√(L/a)
     assert_eq!(m[1].kind, MoveKind::Rapid);
     assert!((m[1].feed_mm_min - DEFAULT_RAPID_RATE_MM_MIN).abs() < 1e-12);
