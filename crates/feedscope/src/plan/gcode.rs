@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 use super::{PlanError, TestKind, TestProgram};
 
 pub use crate::nc::Dialect;
+use crate::sim::RampShape;
 use crate::units::s_to_min;
 
 /// FANUC machine type, which decides the feed-per-minute code (see the module docs).
@@ -108,6 +109,13 @@ pub fn header_lines(prog: &TestProgram, opts: &GcodeOptions) -> Vec<String> {
         fixed(s_to_min(t), 2),
         fixed(prog.accel_mm_s2, 0)
     ));
+    h.push(match (prog.ramp, prog.jerk_mm_s3) {
+        (RampShape::JerkLimited, Some(j)) => {
+            format!("RAMPS JERK-LIMITED, JERK {} MM/S3", fixed(j, 0))
+        }
+        (RampShape::Bell, _) => "RAMPS BELL-SHAPED".to_string(),
+        _ => "RAMPS TRAPEZOID, CONSTANT ACCELERATION".to_string(),
+    });
     h.push(format!(
         "EXPECTED SAMPLES PER CHANNEL {} AT {} MS",
         prog.expected_samples(opts.sample_interval_s),

@@ -10,14 +10,18 @@
 //!
 //! A program is a start position and a list of linear moves (target, feed, dwell after).
 //! Timing assumes what the controller does with a G01 block that ends at a reversal or a
-//! dwell: accelerate at a constant rate a to the feed and decelerate to rest at the target
-//! (a trapezoid, or a triangle when the move is too short to reach the feed). The same
-//! kinematics drive the simulator ([`crate::sim::NcPath`]), so a planned program can be
-//! simulated through [`crate::sim::MotionProfile`].
+//! dwell: accelerate to the feed and decelerate to rest at the target with the control's ramp
+//! shape ([`RampShape`]; by default jerk-limited at [`DEFAULT_JERK_MM_S3`], as the
+//! simulator's default; [`TestProgram::with_ramp`] sets another), a shorter profile when the
+//! move is too short to reach the feed. The same kinematics drive the simulator
+//! ([`crate::sim::NcPath`]), so a planned program can be simulated through
+//! [`crate::sim::MotionProfile`]. The amplitudes of the triangular wave are planned with the
+//! trapezoid's distance v²/a ([`Move::motion_time_s`]).
 //!
 //! # Example
 //! ```
 //! use feedscope::plan::{strokes_program, Limits, StrokeTestParams};
+//! use feedscope::sim::RampShape;
 //! let p = StrokeTestParams {
 //!     from_mm: 0.0,
 //!     to_mm: 100.0,
@@ -27,7 +31,12 @@
 //!     accel_mm_s2: 1000.0,
 //! };
 //! let prog = strokes_program(&p, &Limits::default()).unwrap();
-//! // 2 strokes of 100 mm at 10 mm/s (10 s + v/a = 0.01 s each) and 2 dwells of 1 s
+//! // 2 strokes of 100 mm at 10 mm/s and 2 dwells of 1 s; the default jerk-limited ramps at
+//! // 20 m/s³ do not reach 1000 mm/s² at this feed (v·j < a²): each ramp lasts 2·√(v/j)
+//! let ramp = 2.0 * (10.0f64 / 20_000.0).sqrt();
+//! assert!((prog.run_time_s() - 2.0 * (10.0 + ramp + 1.0)).abs() < 1e-9);
+//! // with trapezoids (constant acceleration) a ramp lasts v/a = 0.01 s
+//! let prog = prog.with_ramp(RampShape::Trapezoid, None).unwrap();
 //! assert!((prog.run_time_s() - 2.0 * (10.0 + 0.01 + 1.0)).abs() < 1e-9);
 //! ```
 //!
@@ -39,7 +48,9 @@ pub mod gcode;
 
 use serde::{Deserialize, Serialize};
 
-use crate::sim::{Kinematics, MotionProfile, NcPath, StrokeConfig};
+use crate::sim::{
+    Kinematics, MotionLimits, MotionProfile, NcPath, RampShape, StrokeConfig, DEFAULT_JERK_MM_S3,
+};
 use crate::units::feed_mm_min_to_mm_s;
 
 /// Why a test cannot be planned.
@@ -167,7 +178,8 @@ pub struct Move {
 
 impl Move {
     /// Time from start to rest at the target, without the dwell (s), for an acceleration
-    /// `accel_mm_s2`: L/v + v/a when L ≥ v²/a (trapezoid), else 2·√(L/a) (triangle).
+    /// `accel_mm_s2` with trapezoid ramps: L/v + v/a when L ≥ v²/a, else 2·√(L/a) (triangle).
+    /// [`TestProgram::run_time_s`] takes the program's ramp shape.
     pub fn motion_time_s(&self, accel_mm_s2: f64) -> f64 {
         let l = (self.to_mm - self.from_mm).abs();
         let v = feed_mm_min_to_mm_s(self.feed_mm_min);
@@ -212,6 +224,11 @@ pub struct TestProgram {
     pub accel_mm_s2: f64,
     /// Notes for the header and the user (e.g. shortened cruise phases).
     pub notes: Vec<String>,
+    /// Ramp shape assumed for timing. Default jerk-limited, as the simulator's.
+    pub ramp: RampShape,
+    /// Jerk limit assumed for timing with the jerk-limited ramp (mm/s³); `None` for the other
+    /// shapes. Default [`DEFAULT_JERK_MM_S3`].
+    pub jerk_mm_s3: Option<f64>,
     path: NcPath,
 }
 
@@ -223,7 +240,47 @@ impl TestProgram {
         accel_mm_s2: f64,
         notes: Vec<String>,
     ) -> Self {
-        let strokes: Vec<StrokeConfig> = moves
+        let mut p = Self {
+            kind,
+            start_mm,
+            moves,
+            accel_mm_s2,
+            notes,
+            ramp: RampShape::JerkLimited,
+            jerk_mm_s3: Some(DEFAULT_JERK_MM_S3),
+            path: NcPath::plan(start_mm, &[], accel_mm_s2, None, 0.0, 0.0),
+        };
+        p.replan();
+        p
+    }
+
+    /// The program timed with the ramp shape `ramp` and, for [`RampShape::JerkLimited`], the
+    /// jerk limit `jerk_mm_s3` (mm/s³; `None` = [`DEFAULT_JERK_MM_S3`]; ignored by the other
+    /// shapes): set these to the control's, so that the run time is what the control takes.
+    ///
+    /// # Errors
+    /// [`PlanError::InvalidValue`] (`jerk_mm_s3`) for a jerk that is not finite and > 0.
+    pub fn with_ramp(
+        mut self,
+        ramp: RampShape,
+        jerk_mm_s3: Option<f64>,
+    ) -> Result<Self, PlanError> {
+        if let Some(j) = jerk_mm_s3 {
+            positive("jerk_mm_s3", j)?;
+        }
+        self.ramp = ramp;
+        self.jerk_mm_s3 = match ramp {
+            RampShape::JerkLimited => Some(jerk_mm_s3.unwrap_or(DEFAULT_JERK_MM_S3)),
+            RampShape::Trapezoid | RampShape::Bell => None,
+        };
+        self.replan();
+        Ok(self)
+    }
+
+    /// The simulator's path of the moves with the program's ramp (no lead-in or lead-out).
+    fn replan(&mut self) {
+        let strokes: Vec<StrokeConfig> = self
+            .moves
             .iter()
             .map(|m| StrokeConfig {
                 to_mm: m.to_mm,
@@ -231,23 +288,20 @@ impl TestProgram {
                 dwell_s: m.dwell_s,
             })
             .collect();
-        let path = NcPath::plan(start_mm, &strokes, accel_mm_s2, None, 0.0, 0.0);
-        Self {
-            kind,
-            start_mm,
-            moves,
-            accel_mm_s2,
-            notes,
-            path,
-        }
+        let limits = MotionLimits {
+            acceleration_mm_s2: self.accel_mm_s2,
+            jerk_mm_s3: self.jerk_mm_s3,
+            rapid_rate_mm_min: 1.0,
+            rapid_acceleration_mm_s2: self.accel_mm_s2,
+            ramp: self.ramp,
+        };
+        self.path = NcPath::plan_strokes(self.start_mm, &strokes, &limits, None, &[], 0.0, 0.0);
     }
 
-    /// Expected run time: motion plus dwells (s), from the start position.
+    /// Expected run time: motion plus dwells (s), from the start position, with the
+    /// program's ramp shape (the duration of [`TestProgram::path`]).
     pub fn run_time_s(&self) -> f64 {
-        self.moves
-            .iter()
-            .map(|m| m.motion_time_s(self.accel_mm_s2) + m.dwell_s)
-            .sum()
+        self.path.duration_s()
     }
 
     /// Samples of one channel sampled every `interval_s` over the run: ⌊T/Δt⌋ + 1.

@@ -15,12 +15,15 @@ fn strokes() -> StrokeTestParams {
 }
 
 /// Paper 000's test by hand: 410 mm at 5, 20 and 80 mm/min, 3 forward/backward pairs each,
-/// 1 s dwell after every stroke. A stroke takes L/v + v/a: 410/(5/60) = 4920 s plus
-/// (5/60)/1000 s; likewise 1230 s and 307.5 s. Total = 6·(4920 + 1230 + 307.5)
-/// + 6·(5 + 20 + 80)/60/1000 + 18·1 = 38 763.0105 s.
+/// 1 s dwell after every stroke. With trapezoid ramps a stroke takes L/v + v/a:
+/// 410/(5/60) = 4920 s plus (5/60)/1000 s; likewise 1230 s and 307.5 s. Total =
+/// 6·(4920 + 1230 + 307.5) + 6·(5 + 20 + 80)/60/1000 + 18·1 = 38 763.0105 s.
 #[test]
 fn run_time_matches_hand_calculation() {
-    let p = strokes_program(&strokes(), &Limits::default()).unwrap();
+    let p = strokes_program(&strokes(), &Limits::default())
+        .unwrap()
+        .with_ramp(RampShape::Trapezoid, None)
+        .unwrap();
     assert_eq!(p.moves.len(), 18);
     let hand = 6.0 * (4920.0 + 1230.0 + 307.5) + 6.0 * 105.0 / 60.0 / 1000.0 + 18.0;
     assert!((p.run_time_s() - hand).abs() < 1e-9, "{}", p.run_time_s());
@@ -28,6 +31,90 @@ fn run_time_matches_hand_calculation() {
     assert_eq!(p.expected_samples(0.072), 538_376);
     // the simulator's path of the program lasts exactly as long
     assert!((p.duration_s() - hand).abs() < 1e-6);
+}
+
+/// The default ramp is the simulator's: jerk-limited at 20 m/s³. At these feeds
+/// (v ≤ 1.33 mm/s, v·j ≤ 2.7e4 mm²/s⁴ < a² = 1e6) the acceleration limit is not reached and
+/// each ramp lasts t_a = 2·√(v/j), a stroke L/v + t_a: total = 6·(4920 + 1230 + 307.5)
+/// \+ 12·(√(5/60/j) + √(20/60/j) + √(80/60/j)) + 18 = 38 763.1715 s, and
+/// ⌊38 763.1715/0.072⌋ + 1 = 538 378 samples at 72 ms. The bell ramp takes T = 2v/a per ramp.
+#[test]
+fn run_time_follows_the_ramp_shape() {
+    let p = strokes_program(&strokes(), &Limits::default()).unwrap();
+    assert_eq!(
+        (p.ramp, p.jerk_mm_s3),
+        (RampShape::JerkLimited, Some(20_000.0))
+    );
+    let j = 20_000.0f64;
+    let ramps: f64 = [5.0f64, 20.0, 80.0]
+        .iter()
+        .map(|f| (f / 60.0 / j).sqrt())
+        .sum();
+    let hand = 6.0 * (4920.0 + 1230.0 + 307.5) + 12.0 * ramps + 18.0;
+    assert!(
+        (p.run_time_s() - hand).abs() < 1e-9,
+        "{} {hand}",
+        p.run_time_s()
+    );
+    assert!((hand - 38_763.171_5).abs() < 1e-4, "{hand}");
+    assert_eq!(p.expected_samples(0.072), 538_378);
+    // with j = 5 m/s³ every feed stays below a²/j = 200 mm/s: still 2·√(v/j) per ramp
+    let q = p
+        .clone()
+        .with_ramp(RampShape::JerkLimited, Some(5_000.0))
+        .unwrap();
+    let ramps5: f64 = [5.0f64, 20.0, 80.0]
+        .iter()
+        .map(|f| (f / 60.0 / 5_000.0).sqrt())
+        .sum();
+    assert!((q.run_time_s() - (hand - 12.0 * ramps + 12.0 * ramps5)).abs() < 1e-9);
+    let b = p.with_ramp(RampShape::Bell, Some(5_000.0)).unwrap();
+    assert_eq!(b.jerk_mm_s3, None);
+    let bell = 6.0 * 2.0 * (5.0 + 20.0 + 80.0) / 60.0 / 1000.0;
+    let hand_b = 6.0 * (4920.0 + 1230.0 + 307.5) + bell + 18.0;
+    assert!((b.run_time_s() - hand_b).abs() < 1e-9, "{}", b.run_time_s());
+    assert!(matches!(
+        strokes_program(&strokes(), &Limits::default())
+            .unwrap()
+            .with_ramp(RampShape::JerkLimited, Some(0.0)),
+        Err(PlanError::InvalidValue {
+            name: "jerk_mm_s3",
+            ..
+        })
+    ));
+}
+
+/// The simulated path of a planned program follows its ramp: for every shape the moves end
+/// at their targets at rest, and the run time is the path's duration.
+#[test]
+fn path_follows_the_ramp_and_ends_at_the_targets() {
+    let t = TriangleParams {
+        window_min_mm: 20.0,
+        window_max_mm: 140.0,
+        feed_max_mm_min: 8000.0,
+        levels: 4,
+        ..TriangleParams::default()
+    };
+    for shape in [
+        RampShape::Trapezoid,
+        RampShape::JerkLimited,
+        RampShape::Bell,
+    ] {
+        let p = triangle_program(&t, &Limits::default())
+            .unwrap()
+            .with_ramp(shape, None)
+            .unwrap();
+        assert!((p.run_time_s() - p.duration_s()).abs() < 1e-12);
+        for s in p.path().strokes() {
+            let k = p.kinematics(s.end_time_s);
+            assert_eq!(
+                k.position_m.to_bits(),
+                (s.end_mm * 1e-3).to_bits(),
+                "{shape:?}"
+            );
+            assert!(k.velocity_m_s.abs() < 1e-15);
+        }
+    }
 }
 
 /// A move too short to reach its feed is a triangle: 2·√(L/a).

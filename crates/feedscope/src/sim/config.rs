@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use super::friction::{FrictionModel, FrictionParams};
-use super::motion::{FeedModulation, MotionLimits, NcPath, StrokeConfig};
+use super::motion::{FeedModulation, FeedOverride, MotionLimits, NcPath, RampShape, StrokeConfig};
 use super::SimError;
 use crate::axis::{AxisError, AxisParams};
 use crate::nc::{NcError, NcProgram, ParseOptions};
@@ -90,8 +90,14 @@ pub struct MotionConfig {
     pub start_mm: f64,
     /// Acceleration limit of feed moves (mm/s²), > 0. Default 1000.
     pub acceleration_mm_s2: f64,
-    /// Jerk limit of every move (mm/s³), > 0. Absent (default): no jerk limit, trapezoidal
-    /// velocity profiles; present: 7-phase jerk-limited (S-curve) profiles.
+    /// Shape of every speed change (TOML `ramp`: `"trapezoid"`, `"jerk_limited"` (default) or
+    /// `"bell"`), see [`RampShape`].
+    pub ramp: RampShape,
+    /// Jerk limit of the jerk-limited ramp (mm/s³), > 0. Absent (default):
+    /// [`super::DEFAULT_JERK_MM_S3`] (20 m/s³). Not used by the trapezoid and bell ramps: in
+    /// TOML giving it with `ramp = "trapezoid"` or `"bell"` is an error naming both keys;
+    /// from Rust it is ignored for those shapes. An old config with `jerk_mm_s3` alone keeps
+    /// meaning jerk-limited.
     pub jerk_mm_s3: Option<f64>,
     /// Rapid traverse rate for G0 (mm/min), > 0. Absent (default): `axis.rapid_rate_mm_min`,
     /// else 15000.
@@ -124,6 +130,12 @@ pub struct MotionConfig {
     pub program_lathe_incremental: bool,
     /// Optional sinusoidal feed modulation of feed moves (`[motion.modulation]`).
     pub modulation: Option<FeedModulation>,
+    /// Feed-override schedule of feed moves (TOML `[[motion.override]]`, `{at_s, percent}`),
+    /// see [`FeedOverride`]; empty (default) = 100 % throughout. It stays in the config: the
+    /// truth reports each move's programmed feed (`feed_mm_min`), the override it started
+    /// under and the speed changes it made ([`super::CommandedStroke::feed_changes`]). Cannot
+    /// be combined with `modulation` in a config.
+    pub overrides: Vec<FeedOverride>,
 }
 
 impl Default for MotionConfig {
@@ -131,6 +143,7 @@ impl Default for MotionConfig {
         Self {
             start_mm: 0.0,
             acceleration_mm_s2: 1000.0,
+            ramp: RampShape::JerkLimited,
             jerk_mm_s3: None,
             rapid_rate_mm_min: None,
             rapid_acceleration_mm_s2: None,
@@ -154,6 +167,7 @@ impl Default for MotionConfig {
             program_axis: 'Z',
             program_lathe_incremental: false,
             modulation: None,
+            overrides: Vec::new(),
         }
     }
 }
@@ -171,6 +185,7 @@ impl MotionConfig {
             rapid_acceleration_mm_s2: self
                 .rapid_acceleration_mm_s2
                 .unwrap_or(self.acceleration_mm_s2),
+            ramp: self.ramp,
         }
     }
 
@@ -228,6 +243,7 @@ impl MotionConfig {
 struct MotionToml {
     start_mm: f64,
     acceleration_mm_s2: f64,
+    ramp: RampShape,
     #[serde(skip_serializing_if = "Option::is_none")]
     jerk_mm_s3: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -246,6 +262,8 @@ struct MotionToml {
     program_lathe_incremental: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
     modulation: Option<FeedModulation>,
+    #[serde(rename = "override", skip_serializing_if = "Vec::is_empty")]
+    overrides: Vec<FeedOverride>,
 }
 
 impl Default for MotionToml {
@@ -265,6 +283,17 @@ impl TryFrom<MotionToml> for MotionConfig {
         if has_program && t.stroke.is_some() {
             return Err(PROGRAM_AND_STROKES.to_string());
         }
+        if let (Some(j), RampShape::Trapezoid | RampShape::Bell) = (t.jerk_mm_s3, t.ramp) {
+            return Err(format!(
+                "keys `motion.jerk_mm_s3` = {j} and `motion.ramp` = \"{}\" are both given: \
+                 only the jerk-limited ramp has a jerk limit (drop `motion.jerk_mm_s3`, or \
+                 set `motion.ramp = \"jerk_limited\"`)",
+                match t.ramp {
+                    RampShape::Trapezoid => "trapezoid",
+                    _ => "bell",
+                }
+            ));
+        }
         let strokes = match t.stroke {
             Some(s) => s,
             None if has_program => Vec::new(),
@@ -273,6 +302,7 @@ impl TryFrom<MotionToml> for MotionConfig {
         Ok(Self {
             start_mm: t.start_mm,
             acceleration_mm_s2: t.acceleration_mm_s2,
+            ramp: t.ramp,
             jerk_mm_s3: t.jerk_mm_s3,
             rapid_rate_mm_min: t.rapid_rate_mm_min,
             rapid_acceleration_mm_s2: t.rapid_acceleration_mm_s2,
@@ -285,6 +315,7 @@ impl TryFrom<MotionToml> for MotionConfig {
             program_axis: t.program_axis,
             program_lathe_incremental: t.program_lathe_incremental,
             modulation: t.modulation,
+            overrides: t.overrides,
         })
     }
 }
@@ -295,7 +326,9 @@ impl From<MotionConfig> for MotionToml {
         Self {
             start_mm: m.start_mm,
             acceleration_mm_s2: m.acceleration_mm_s2,
-            jerk_mm_s3: m.jerk_mm_s3,
+            ramp: m.ramp,
+            // a jerk the shape does not use is not written (TOML would refuse it)
+            jerk_mm_s3: m.jerk_mm_s3.filter(|_| m.ramp == RampShape::JerkLimited),
             rapid_rate_mm_min: m.rapid_rate_mm_min,
             rapid_acceleration_mm_s2: m.rapid_acceleration_mm_s2,
             lead_in_s: m.lead_in_s,
@@ -306,6 +339,7 @@ impl From<MotionConfig> for MotionToml {
             program_axis: m.program_axis,
             program_lathe_incremental: m.program_lathe_incremental,
             modulation: m.modulation,
+            overrides: m.overrides,
         }
     }
 }
@@ -331,8 +365,10 @@ pub enum DynamicsMode {
 /// The servo is a P position loop (gain K_p) cascaded with a PI velocity loop whose
 /// proportional gain is chosen so that the velocity loop has the bandwidth ω_v on the rigid
 /// plant of Eq. 5: K_v = ω_v·m_eq/((2π/p)·k_e) (A per m/s), K_i = K_v·ω_i (A per m), plus
-/// velocity feed-forward (into the velocity reference) and acceleration + viscous feed-forward
-/// (m_eq·a_cmd + b_eq·v_cmd as current). The current follows its command with a first-order
+/// velocity feed-forward k_ff·v_cmd (into the velocity reference) and acceleration + viscous
+/// feed-forward k_ff·(m_eq·a_cmd + b_eq·v_cmd) as current, k_ff = `velocity_feedforward`.
+/// Without feed-forward (k_ff = 0) the table trails the command at constant speed v by the
+/// following error v/K_p, K_p = `position_gain_per_s`. The current follows its command with a first-order
 /// lag τ. The controller runs every `step_ms` with zero-order hold; the plant is integrated by
 /// RK4 with sub-steps where the friction sign change makes it stiff.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -342,7 +378,9 @@ pub struct DynamicsConfig {
     pub mode: DynamicsMode,
     /// Controller period and base integration step (ms), > 0. Default 0.1.
     pub step_ms: f64,
-    /// Position loop gain K_p (1/s), > 0. Default 30.
+    /// Position loop gain K_p (1/s), > 0. Default 30. This is the K_v factor of real controls
+    /// (velocity per following error), e.g. SINUMERIK's servo gain factor, given there in
+    /// (m/min)/mm: 1 (m/min)/mm = 16.67/s.
     pub position_gain_per_s: f64,
     /// Velocity loop bandwidth ω_v/2π (Hz), > 0. Default 50.
     pub velocity_bandwidth_hz: f64,
@@ -350,6 +388,11 @@ pub struct DynamicsConfig {
     pub velocity_integral_corner_hz: f64,
     /// Current loop time constant τ (ms), > 0. Default 0.2.
     pub current_time_constant_ms: f64,
+    /// Velocity feed-forward k_ff (fraction, in [0, 1]). Default 1 (full feed-forward: the
+    /// table follows the command up to the loop's dynamic error). It scales the velocity fed
+    /// into the velocity reference and the acceleration and viscous current feed-forward
+    /// alike; with 0 the steady following error at speed v is v/K_p (servo lag).
+    pub velocity_feedforward: f64,
 }
 
 impl Default for DynamicsConfig {
@@ -361,6 +404,7 @@ impl Default for DynamicsConfig {
             velocity_bandwidth_hz: 50.0,
             velocity_integral_corner_hz: 10.0,
             current_time_constant_ms: 0.2,
+            velocity_feedforward: 1.0,
         }
     }
 }
@@ -752,6 +796,36 @@ impl SimConfig {
                 message: PROGRAM_AND_STROKES.to_string(),
             });
         }
+        let mut prev_at: Option<f64> = None;
+        for (k, o) in m.overrides.iter().enumerate() {
+            let key = format!("motion.override[{k}].at_s");
+            non_negative(&key, o.at_s)?;
+            if let Some(p) = prev_at {
+                if o.at_s <= p {
+                    return Err(bad(
+                        &key,
+                        o.at_s,
+                        "must be later than the previous entry's at_s (strictly increasing)",
+                    ));
+                }
+            }
+            prev_at = Some(o.at_s);
+            if !(o.percent.is_finite() && o.percent > 0.0 && o.percent <= 200.0) {
+                return Err(bad(
+                    &format!("motion.override[{k}].percent"),
+                    o.percent,
+                    "must lie in (0, 200] (% of the programmed feed)",
+                ));
+            }
+        }
+        if !m.overrides.is_empty() && m.modulation.is_some() {
+            return Err(SimError::InvalidSetting {
+                key: "motion.override".to_string(),
+                message: "`motion.override` and `motion.modulation` are both given: the twin \
+                          modulates only an unbroken constant-feed phase, give one of them"
+                    .to_string(),
+            });
+        }
         if let Some(md) = &m.modulation {
             probability(
                 "motion.modulation.relative_amplitude",
@@ -773,6 +847,13 @@ impl SimConfig {
             "dynamics.current_time_constant_ms",
             d.current_time_constant_ms,
         )?;
+        if !(d.velocity_feedforward.is_finite() && (0.0..=1.0).contains(&d.velocity_feedforward)) {
+            return Err(bad(
+                "dynamics.velocity_feedforward",
+                d.velocity_feedforward,
+                "must lie in [0, 1] (a fraction of the commanded velocity)",
+            ));
+        }
         if d.mode == DynamicsMode::Servo {
             if self.axis.equivalent_mass_kg() <= 0.0 {
                 return Err(bad(
@@ -910,6 +991,7 @@ impl SimConfig {
                 &m.strokes,
                 &m.limits(&self.axis),
                 m.modulation.as_ref(),
+                &m.overrides,
                 m.lead_in_s,
                 m.lead_out_s,
             )),
@@ -943,6 +1025,7 @@ impl SimConfig {
             program,
             &m.limits(&self.axis),
             m.modulation.as_ref(),
+            &m.overrides,
             m.lead_in_s,
             m.lead_out_s,
         )

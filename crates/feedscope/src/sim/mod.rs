@@ -44,8 +44,8 @@ pub use friction::{
     VelocityTerm,
 };
 pub use motion::{
-    CommandedStroke, FeedModulation, FnProfile, Kinematics, MotionLimits, MotionProfile, MoveKind,
-    NcPath, StrokeConfig,
+    CommandedStroke, FeedChange, FeedModulation, FeedOverride, FnProfile, Kinematics, MotionLimits,
+    MotionProfile, MoveKind, NcPath, RampShape, StrokeConfig, DEFAULT_JERK_MM_S3,
 };
 pub use servo::{RunStats, StateSample};
 

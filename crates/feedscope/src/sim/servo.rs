@@ -223,6 +223,7 @@ pub(crate) fn run_servo(
     let kv = w_v * plant.m / plant.k; // A per m/s
     let ki = kv * 2.0 * PI * dyn_cfg.velocity_integral_corner_hz; // A per m
     let kp = dyn_cfg.position_gain_per_s;
+    let k_ff = dyn_cfg.velocity_feedforward;
     let v_eps = plant.friction.sign_smoothing_m_s();
 
     // Bound of |F_f| for the stiffness estimate near reversals.
@@ -269,9 +270,11 @@ pub(crate) fn run_servo(
     while t < duration_s {
         // Controller update (zero-order hold over the step).
         let c = profile.kinematics(t);
-        let e_v = c.velocity_m_s + kp * (c.position_m - x.z) - x.v;
+        // velocity reference k_ff·v_cmd + K_p·(z_cmd − z); k_ff also scales the current
+        // feed-forward, so that k_ff = 0 is a plain cascade (steady lag v/K_p)
+        let e_v = k_ff * c.velocity_m_s + kp * (c.position_m - x.z) - x.v;
         let i_cmd =
-            kv * e_v + integ + (plant.m * c.accel_m_s2 + plant.b * c.velocity_m_s) / plant.k;
+            kv * e_v + integ + k_ff * (plant.m * c.accel_m_s2 + plant.b * c.velocity_m_s) / plant.k;
         integ += ki * e_v * h;
 
         // Sub-steps where the smooth sign makes the friction stiff (|v| within a few v_ε of 0
