@@ -509,6 +509,8 @@ fn unknown_summary(stroke: usize, direction: Direction, summary_name: &str) -> S
         stroke,
         direction,
         feed_mm_min: f64::NAN,
+        feed_min_mm_min: None,
+        feed_max_mm_min: None,
         start_mm: 0.0,
         end_mm: 0.0,
         length_mm: 0.0,

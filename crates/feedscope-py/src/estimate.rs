@@ -192,6 +192,17 @@ impl Stroke {
     fn feed_mm_min(&self) -> f64 {
         self.summary.feed_mm_min
     }
+    /// Low end of the feed's range along the stroke: the 5th percentile of its chord speeds
+    /// (mm/min), or None when not known.
+    #[getter]
+    fn feed_min_mm_min(&self) -> Option<f64> {
+        self.summary.feed_min_mm_min
+    }
+    /// High end of the feed's range: the 95th percentile of its chord speeds (mm/min), or None.
+    #[getter]
+    fn feed_max_mm_min(&self) -> Option<f64> {
+        self.summary.feed_max_mm_min
+    }
     /// First resampled position (mm).
     #[getter]
     fn start_mm(&self) -> f64 {

@@ -751,6 +751,29 @@ pub fn print_table(summary: &Summary) -> Result<()> {
             s.verdict.as_ref().map_or("-", |v| v.support.as_str())
         );
     }
+    // A feed that varies along a stroke by more than ±10 % of its mean (a modulation, an
+    // override changed mid-block) is named with its range.
+    let varying: Vec<(&StrokeSummary, f64, f64)> = summary
+        .strokes
+        .iter()
+        .filter_map(|s| Some((s, s.feed_min_mm_min?, s.feed_max_mm_min?)))
+        .filter(|&(s, lo, hi)| lo < 0.9 * s.feed_mm_min || hi > 1.1 * s.feed_mm_min)
+        .collect();
+    if !varying.is_empty() {
+        outln!();
+        outln!("feed varies along strokes (5th-95th percentile of the chord speeds):");
+        for (s, lo, hi) in varying {
+            outln!(
+                "  stroke {:>4}  {:>10.1} mm/min, from {:.1} to {:.1} mm/min ({:+.0} % / {:+.0} %)",
+                s.stroke,
+                s.feed_mm_min,
+                lo,
+                hi,
+                100.0 * (lo / s.feed_mm_min - 1.0),
+                100.0 * (hi / s.feed_mm_min - 1.0)
+            );
+        }
+    }
     outln!();
     outln!("{}", summary.verdict.headline());
     let left_out: Vec<&Move> = summary

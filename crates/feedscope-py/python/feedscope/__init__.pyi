@@ -169,6 +169,12 @@ class Stroke:
     def feed_mm_min(self) -> float:
         """Measured plateau feed (mm/min)."""
     @property
+    def feed_min_mm_min(self) -> Optional[float]:
+        """5th percentile of the stroke's chord speeds (mm/min): low end of its feed range."""
+    @property
+    def feed_max_mm_min(self) -> Optional[float]:
+        """95th percentile of the stroke's chord speeds (mm/min): high end of its feed range."""
+    @property
     def start_mm(self) -> float: ...
     @property
     def end_mm(self) -> float: ...

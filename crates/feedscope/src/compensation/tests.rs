@@ -227,6 +227,8 @@ fn stroke(dir: Direction, feed: f64) -> StrokeFriction {
             stroke: 0,
             direction: dir,
             feed_mm_min: feed,
+            feed_min_mm_min: None,
+            feed_max_mm_min: None,
             start_mm: z[0] * 1e3,
             end_mm: z[n - 1] * 1e3,
             length_mm: 40.0,

@@ -298,6 +298,15 @@ pub struct StrokeSummary {
     pub direction: Direction,
     /// Measured plateau feed of the stroke (mm/min), the commanded feed up to override.
     pub feed_mm_min: f64,
+    /// Low end of the stroke's feed range (mm/min): the 5th percentile of its chord speeds
+    /// ([`segment`], module docs); a feed that varies along the stroke (a modulation, an
+    /// override changed mid-block) shows here. `None` when not known (a friction CSV read
+    /// without its summary).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub feed_min_mm_min: Option<f64>,
+    /// High end of the stroke's feed range (mm/min): the 95th percentile of its chord speeds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub feed_max_mm_min: Option<f64>,
     /// First resampled position (mm).
     pub start_mm: f64,
     /// Last resampled position (mm).
@@ -1052,6 +1061,8 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
             kind: MoveKind::Measuring,
             direction: dir,
             feed_mm_min: feed_m_s * 60e3,
+            feed_min_mm_min: Some(span.feed_min_m_s * 60e3),
+            feed_max_mm_min: Some(span.feed_max_m_s * 60e3),
             start_mm: 0.0,
             end_mm: 0.0,
             length_mm: 0.0,

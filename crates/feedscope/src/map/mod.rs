@@ -66,6 +66,7 @@
 //!     StrokeFriction {
 //!         summary: StrokeSummary {
 //!             stroke: 0, direction: Direction::Forward, feed_mm_min: feed,
+//!             feed_min_mm_min: None, feed_max_mm_min: None,
 //!             start_mm: 10.0, end_mm: 50.0, length_mm: 40.0, start_time_s: 0.0,
 //!             end_time_s: 1.0, mean_friction_n: 0.0, friction_std_n: 0.0,
 //!             position_samples: n, effort_samples: n, points: n,

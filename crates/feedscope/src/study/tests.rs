@@ -19,6 +19,8 @@ fn stroke(feed: f64) -> StrokeFriction {
             stroke: 0,
             direction: Direction::Forward,
             feed_mm_min: feed,
+            feed_min_mm_min: None,
+            feed_max_mm_min: None,
             start_mm: 10.0,
             end_mm: 50.0,
             length_mm: 40.0,
