@@ -962,11 +962,28 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
         let n = ts.len() - 1;
         let (q1, q3) = (n / 4, 3 * n / 4);
         let v_mid = s * (zs_raw[q3] - zs_raw[q1]) / (ts[q3] - ts[q1]).max(1e-300);
-        let reach = 0.98 * v_mid;
+        // The ramps end where the speed reaches 98 % of the feed held after them: the middle
+        // half's mean at a steady feed; where the feed varies along the stroke (a feed
+        // override, a modulated feed: its range beyond ±25 %), the fastest quarter of the
+        // stroke's first (last) eighth, so that a later change of the feed moves neither end.
+        let varies = span.feed_min_m_s < 0.75 * v_mid || span.feed_max_m_s > 1.25 * v_mid;
+        let (reach_a, reach_b) = if varies && n >= 32 {
+            let mean =
+                |a: usize, b: usize| s * (zs_raw[b] - zs_raw[a]) / (ts[b] - ts[a]).max(1e-300);
+            let e = n / 8;
+            let fastest = |start: usize| {
+                (0..4)
+                    .map(|k| mean(start + k * e / 4, start + (k + 1) * e / 4))
+                    .fold(f64::NEG_INFINITY, f64::max)
+            };
+            (0.98 * fastest(0), 0.98 * fastest(n - e))
+        } else {
+            (0.98 * v_mid, 0.98 * v_mid)
+        };
         let (i_first, i_last) = (span.first - k0, span.last - k0);
         let mut speed = |i: usize| s * zs.eval_in(i.min(tz.len() - 2), tz[i]).1;
-        let ramp_end = (i_first..=i_last).find(|&i| speed(i) >= reach);
-        let decel_start = (i_first..=i_last).rev().find(|&i| speed(i) >= reach);
+        let ramp_end = (i_first..=i_last).find(|&i| speed(i) >= reach_a);
+        let decel_start = (i_first..=i_last).rev().find(|&i| speed(i) >= reach_b);
         let (Some(i_a), Some(i_b)) = (ramp_end, decel_start) else {
             return Ok(StrokeOutcome::Skipped(Skip::TooShortToSettle {
                 left_mm: 0.0,

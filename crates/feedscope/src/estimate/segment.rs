@@ -933,10 +933,14 @@ pub(crate) fn move_between(
     let (moving_lo, moving_hi) =
         keys_at_least(params.stop_fraction * plateau).unwrap_or((i64::MAX, i64::MIN));
     let slow = |k: i64| (k < moving_lo) | (k > moving_hi);
-    // Step 3: the steady part.
+    // Step 3: the moving part (its ends are trimmed per stretch, step 4), if the move
+    // reaches a steady speed at all.
+    if !keys.iter().any(|&k| steady(k)) {
+        return this;
+    }
     let (Some(c_first), Some(c_last)) = (
-        keys.iter().position(|&k| steady(k)),
-        keys.iter().rposition(|&k| steady(k)),
+        keys.iter().position(|&k| !slow(k)),
+        keys.iter().rposition(|&k| !slow(k)),
     ) else {
         return this;
     };
@@ -1015,17 +1019,33 @@ fn push_stroke(
     keys: &[i64],
     copy: &mut Vec<i64>,
 ) {
-    let steady = |k: i64| steady_keys.0 <= k && k <= steady_keys.1;
     let i0 = this.first;
     // The stretch from its first to its last steady chord (none when it never got up to
-    // speed between two standstills).
+    // speed between two standstills); steady near each end against the feed held there.
     let stretch = &keys[a..=b];
+    let head = edge_steady_keys(
+        &stretch[..edge_window(stretch.len())],
+        this,
+        steady_keys,
+        params,
+        copy,
+    );
+    let tail = edge_steady_keys(
+        &stretch[stretch.len() - edge_window(stretch.len())..],
+        this,
+        steady_keys,
+        params,
+        copy,
+    );
     let (Some(f), Some(l)) = (
-        stretch.iter().position(|&k| steady(k)),
-        stretch.iter().rposition(|&k| steady(k)),
+        stretch.iter().position(|&k| head.0 <= k && k <= head.1),
+        stretch.iter().rposition(|&k| tail.0 <= k && k <= tail.1),
     ) else {
         return;
     };
+    if l < f {
+        return;
+    }
     let (c0, c1) = (a + f, a + l);
     let run = &keys[c0..=c1];
     let top = run.iter().copied().fold(i64::MIN, i64::max);
@@ -1058,6 +1078,38 @@ fn push_stroke(
         move_last: this.last,
     });
 }
+
+/// Chords at each end of a stretch of `len` chords over which the feed held there is judged:
+/// an eighth of the stretch, at least 8 (all of a shorter one).
+fn edge_window(len: usize) -> usize {
+    (len / 8).max(8).min(len)
+}
+
+/// The keys counted steady at one end of a stretch whose chords there are keyed in `window`
+/// (module docs, step 4): `steady_keys` (≥ `steady_fraction` × P), unless the feed held at
+/// that end (the 75th percentile of the window, so that a ramp filling up to three quarters of
+/// it does not count) is below 0.8 × P — a feed override turned down or a slower block's feed
+/// — when the bound is `steady_fraction` × that feed, so that the stroke keeps that end.
+fn edge_steady_keys(
+    window: &[i64],
+    this: &MoveSpan,
+    steady_keys: (i64, i64),
+    params: &SegmentParams,
+    copy: &mut Vec<i64>,
+) -> (i64, i64) {
+    copy.clear();
+    copy.extend_from_slice(window);
+    let rank = ((copy.len() - 1) as f64 * 0.75).round() as usize;
+    let held = select_key(copy, rank);
+    if held < EDGE_SLOWER * this.plateau_speed_m_s {
+        keys_at_least(params.steady_fraction * held).unwrap_or(steady_keys)
+    } else {
+        steady_keys
+    }
+}
+
+/// An end of a stretch holds a slower feed when it is below this fraction of the plateau.
+const EDGE_SLOWER: f64 = 0.8;
 
 /// The 5th and 95th percentile (m/s) of the chord speeds keyed in `run` (not empty), over at
 /// most [`FEED_RANGE_SAMPLE`] of them evenly spread; `copy` is scratch.
@@ -1579,10 +1631,14 @@ mod tests {
             let standstill = params.stop_fraction * plateau;
             let v: Vec<f64> = (0..keys.len()).map(speed).collect();
             let is_steady = |c: usize| v[c] >= threshold;
-            let Some(c_first) = (0..v.len()).find(|&c| is_steady(c)) else {
+            if !(0..v.len()).any(is_steady) {
+                return this;
+            }
+            let moving = |c: usize| v[c] >= standstill;
+            let Some(c_first) = (0..v.len()).find(|&c| moving(c)) else {
                 return this;
             };
-            let c_last = (0..v.len()).rev().find(|&c| is_steady(c)).unwrap();
+            let c_last = (0..v.len()).rev().find(|&c| moving(c)).unwrap();
             // Stretches between runs of at least MIN_STANDSTILL_CHORDS slow chords.
             let mut stretches = Vec::new();
             let mut from = c_first;
@@ -1606,10 +1662,30 @@ mod tests {
                 stretches.push((from, c_last));
             }
             for (a, b) in stretches {
-                let Some(c0) = (a..=b).find(|&c| is_steady(c)) else {
+                // Each end steady against the feed held there when that is clearly slower.
+                let len = b - a + 1;
+                let win = (len / 8).max(8).min(len);
+                let edge_threshold = |range: std::ops::Range<usize>| {
+                    let mut e: Vec<f64> = v[range].to_vec();
+                    e.sort_by(f64::total_cmp);
+                    let held = e[((e.len() - 1) as f64 * 0.75).round() as usize];
+                    if held < 0.8 * plateau {
+                        params.steady_fraction * held
+                    } else {
+                        threshold
+                    }
+                };
+                let (th, tt) = (
+                    edge_threshold(a..a + win),
+                    edge_threshold(b + 1 - win..b + 1),
+                );
+                let Some(c0) = (a..=b).find(|&c| v[c] >= th) else {
                     continue;
                 };
-                let c1 = (a..=b).rev().find(|&c| is_steady(c)).unwrap();
+                let c1 = (a..=b).rev().find(|&c| v[c] >= tt).unwrap();
+                if c1 < c0 {
+                    continue;
+                }
                 if !holds_a_plateau(&keys[c0..=c1], sel) {
                     continue;
                 }
