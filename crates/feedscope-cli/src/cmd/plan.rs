@@ -9,6 +9,7 @@ use feedscope::plan::{
     strokes_program, triangle_program, Limits, Move, StrokeTestParams, TestKind, TestProgram,
     TriangleParams,
 };
+use feedscope::sim::{RampShape, DEFAULT_JERK_MM_S3};
 use feedscope::units::s_to_min;
 use serde::Serialize;
 
@@ -23,7 +24,9 @@ use super::BadInput;
 /// travel limits of the axis file (`travel_min_mm`, `travel_max_mm`) or --travel-min /
 /// --travel-max, feeds against --feed-limit; a violation is an error naming the limit
 /// (exit 2). The header comment states the purpose, travel, feeds, expected run time and the
-/// expected number of samples per channel.
+/// expected number of samples per channel. The run time assumes the control's ramp shape and
+/// limits (--accel-mm-s2, --ramp, --jerk-mm-s3; by default jerk-limited at 20 m/s³, as the
+/// simulator's default), so that it is what the control (and the twin) takes.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(subcommand)]
@@ -54,6 +57,17 @@ pub enum MachineArg {
     Lathe,
     /// FANUC mill / machining centre: G90 G94.
     Mill,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum RampArg {
+    /// Constant acceleration (trapezoidal speed; SINUMERIK BRISK).
+    Trapezoid,
+    /// Jerk-limited S-curve (SINUMERIK SOFT, Heidenhain TNC, Beckhoff TwinCAT NC).
+    JerkLimited,
+    /// Bell-shaped (raised-cosine) speed changes (FANUC bell-shaped acc./dec. before
+    /// interpolation).
+    Bell,
 }
 
 #[derive(Debug, clap::Args)]
@@ -88,6 +102,14 @@ pub struct Common {
     /// Acceleration the control uses for the axis (mm/s²), for run time and planning.
     #[arg(long, default_value_t = 1000.0)]
     pub accel_mm_s2: f64,
+    /// Shape of the control's speed changes, for the run time (the simulator's default is
+    /// jerk-limited too).
+    #[arg(long, value_enum, default_value_t = RampArg::JerkLimited)]
+    pub ramp: RampArg,
+    /// Jerk limit of the control for the axis (mm/s³), for the run time with --ramp
+    /// jerk-limited [default: 20000].
+    #[arg(long)]
+    pub jerk_mm_s3: Option<f64>,
     /// Sampling interval of the acquisition (ms), for the sample counts.
     #[arg(long, default_value_t = 72.0, conflicts_with = "sample_rate_hz")]
     pub sample_interval_ms: f64,
@@ -168,6 +190,8 @@ struct Summary {
     sample_interval_s: f64,
     samples_per_channel: u64,
     accel_mm_s2: f64,
+    ramp: RampShape,
+    jerk_mm_s3: Option<f64>,
     notes: Vec<String>,
     moves: Vec<Move>,
 }
@@ -253,6 +277,20 @@ pub fn run(args: Args) -> Result<()> {
             (triangle_program(&p, &lim).map_err(bad)?, &t.common)
         }
     };
+    let ramp = match common.ramp {
+        RampArg::Trapezoid => RampShape::Trapezoid,
+        RampArg::JerkLimited => RampShape::JerkLimited,
+        RampArg::Bell => RampShape::Bell,
+    };
+    if common.jerk_mm_s3.is_some() && ramp != RampShape::JerkLimited {
+        return Err(bad(
+            "--jerk-mm-s3 applies only to --ramp jerk-limited (trapezoid and bell ramps have \
+             no jerk limit)",
+        ));
+    }
+    let prog = prog
+        .with_ramp(ramp, common.jerk_mm_s3)
+        .map_err(|e| bad(format!("--jerk-mm-s3: {e}")))?;
     let opts = options(common)?;
     if let Some(f) = common.approach_feed {
         if !(f.is_finite() && f > 0.0) {
@@ -274,6 +312,8 @@ pub fn run(args: Args) -> Result<()> {
         sample_interval_s: opts.sample_interval_s,
         samples_per_channel: prog.expected_samples(opts.sample_interval_s),
         accel_mm_s2: prog.accel_mm_s2,
+        ramp: prog.ramp,
+        jerk_mm_s3: prog.jerk_mm_s3,
         notes: prog.notes.clone(),
         moves: prog.moves.clone(),
     };
@@ -290,9 +330,19 @@ pub fn run(args: Args) -> Result<()> {
                 summary.span_mm.1,
                 summary.feeds_mm_min.len()
             )?;
+            let ramp = match (summary.ramp, summary.jerk_mm_s3) {
+                (RampShape::JerkLimited, j) => {
+                    format!(
+                        "jerk-limited ramps, {:.0} mm/s³",
+                        j.unwrap_or(DEFAULT_JERK_MM_S3)
+                    )
+                }
+                (RampShape::Bell, _) => "bell-shaped ramps".to_string(),
+                _ => "trapezoid ramps".to_string(),
+            };
             writeln!(
                 w,
-                "expected run time {:.1} s ({:.2} min) at {:.0} mm/s²",
+                "expected run time {:.1} s ({:.2} min) at {:.0} mm/s², {ramp}",
                 summary.run_time_s,
                 s_to_min(summary.run_time_s),
                 summary.accel_mm_s2

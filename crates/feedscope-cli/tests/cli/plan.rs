@@ -90,16 +90,22 @@ fn triangle_siemens_golden() {
     insta::assert_snapshot!("plan_triangle_siemens", gcode(&a));
 }
 
-/// The printed run time is the hand calculation of paper 000's test (see the library test
-/// `run_time_matches_hand_calculation`): 38 763.0 s, and ⌊38 763.0105/0.072⌋ + 1 samples.
+/// The printed run time is the hand calculation of paper 000's test (see the library tests
+/// `run_time_follows_the_ramp_shape` and `run_time_matches_hand_calculation`): with the
+/// default jerk-limited ramps at 20 m/s³ each stroke takes L/v + 2·√(v/j), 38 763.1715 s
+/// in all and ⌊38 763.1715/0.072⌋ + 1 = 538 378 samples; with trapezoid ramps L/v + v/a,
+/// 38 763.0105 s and 538 376 samples.
 #[test]
 fn prints_run_time_and_samples() {
     let d = tempfile::tempdir().unwrap();
     let o = plan(d.path(), STROKES);
     let out = stdout(&o);
-    assert!(out.contains("expected run time 38763.0 s"), "{out}");
     assert!(
-        out.contains("expected samples per channel 538376 at 72.000 ms"),
+        out.contains("expected run time 38763.2 s (646.05 min) at 1000 mm/s², jerk-limited ramps, 20000 mm/s³"),
+        "{out}"
+    );
+    assert!(
+        out.contains("expected samples per channel 538378 at 72.000 ms"),
         "{out}"
     );
     let mut a = STROKES.to_vec();
@@ -107,7 +113,40 @@ fn prints_run_time_and_samples() {
     let o = plan(d.path(), &a);
     let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert_eq!(v["moves"].as_array().unwrap().len(), 18);
-    assert_eq!(v["samples_per_channel"], 538376);
+    assert_eq!(v["samples_per_channel"], 538378);
+    assert_eq!(v["ramp"], "jerk_limited");
+    assert_eq!(v["jerk_mm_s3"], 20000.0);
+    let mut a = STROKES.to_vec();
+    a.extend(["--ramp", "trapezoid"]);
+    let out = stdout(&plan(d.path(), &a));
+    assert!(out.contains("expected run time 38763.0 s"), "{out}");
+    assert!(out.contains("trapezoid ramps"), "{out}");
+    assert!(
+        out.contains("expected samples per channel 538376 at"),
+        "{out}"
+    );
+    // a softer jerk lengthens every ramp: 12·(√(5/60/j) + √(20/60/j) + √(80/60/j)) with
+    // j = 500 mm/s³ is 1.08 s more than the 18 dwells and cruises
+    let mut a = STROKES.to_vec();
+    a.extend(["--jerk-mm-s3", "500"]);
+    let out = stdout(&plan(d.path(), &a));
+    assert!(out.contains("expected run time 38764.1 s"), "{out}");
+}
+
+#[test]
+fn bad_ramp_options_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    for extra in [
+        ["--ramp", "bell", "--jerk-mm-s3", "1000"].as_slice(),
+        ["--jerk-mm-s3", "0"].as_slice(),
+    ] {
+        let mut a = STROKES.to_vec();
+        a.extend(extra);
+        let o = plan(d.path(), &a);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains("--jerk-mm-s3"), "{}", stderr(&o));
+        assert!(!d.path().join("test.nc").exists());
+    }
 }
 
 #[test]

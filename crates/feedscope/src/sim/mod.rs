@@ -2,7 +2,9 @@
 //!
 //! [`simulate`] plans the motion of a [`SimConfig`] (`[[motion.stroke]]` entries, or an NC
 //! program read by [`crate::nc`]: [`MotionConfig::program`], [`simulate_program`]) block by
-//! block with exact stop, as trapezoids or jerk-limited S-curves ([`NcPath`]), moves the table
+//! block with exact stop, every speed change of one [`RampShape`] (trapezoid, jerk-limited
+//! S-curve by default, bell) and under an optional feed-override schedule ([`FeedOverride`])
+//! ([`NcPath`]), moves the table
 //! through the plant of paper 000 Eq. 5 with a [`FrictionModel`] (ideal inverse dynamics or a
 //! cascaded servo loop), samples position and effort as a controller does (jitter, offsets,
 //! dropouts, stamp errors, noise, quantisation) and returns the [`Trace`] with its [`Truth`],
