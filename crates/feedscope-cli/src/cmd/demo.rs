@@ -53,7 +53,10 @@ pub fn run(args: Args) -> Result<()> {
         axis,
         ..SimConfig::default()
     };
-    eprintln!("simulating the demo lathe Z axis (0 -> 410 -> 0 mm at 100 mm/min) ...");
+    eprintln!(
+        "simulating the demo lathe Z axis (0 -> 410 -> 0 mm at 100 mm/min, jerk-limited ramps \
+         as real controls make them) ..."
+    );
     let pb = bar(1000, "simulate");
     let sim = simulate(&cfg, &mut |f| pb.set_position((f * 1000.0) as u64));
     pb.finish_and_clear();

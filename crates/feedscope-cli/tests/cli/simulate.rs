@@ -180,3 +180,62 @@ fn help_mentions_units_and_files() {
         assert!(h.contains(s), "{s} missing from help");
     }
 }
+
+/// Issue 30 end to end: a config with bell ramps and a feed modulated by ±60 % (60 mm/min, 1.5 s)
+/// simulates, and `estimate` of that trace finds one stroke per direction (no pause), lists the
+/// feed range of both, and exits 0.
+#[test]
+fn modulated_feed_with_bell_ramps_estimates_one_stroke_per_direction() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write(
+        tmp.path(),
+        "sim.toml",
+        "seed = 3\n\
+         [motion]\nstart_mm = 20\nramp = \"bell\"\nlead_in_s = 0.3\nlead_out_s = 0.3\n\
+         [motion.modulation]\nrelative_amplitude = 0.6\nperiod_s = 1.5\n\
+         [[motion.stroke]]\nto_mm = 50\nfeed_mm_min = 60\ndwell_s = 0.5\n\
+         [[motion.stroke]]\nto_mm = 20\nfeed_mm_min = 60\n\
+         [sampling]\nmode = \"synchronous\"\nsynchronous_rate_hz = 250\n",
+    );
+    let mut c = feedscope(tmp.path());
+    c.args(["simulate", "--config"])
+        .arg(&cfg)
+        .args(["--out", "out"]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut c = feedscope(tmp.path());
+    c.args([
+        "estimate",
+        "out/trace.csv",
+        "--axis",
+        "out/axis.toml",
+        "-o",
+        "friction.csv",
+    ]);
+    let o = run(c);
+    let (out, err) = (stdout(&o), stderr(&o));
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("feed varies along strokes"),
+        "no feed range in {out}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("friction.json")).unwrap())
+            .unwrap();
+    let strokes = json["strokes"].as_array().unwrap();
+    assert_eq!(strokes.len(), 2, "{json:#}");
+    for s in strokes {
+        let len = s["length_mm"].as_f64().unwrap();
+        let (lo, hi) = (
+            s["feed_min_mm_min"].as_f64().unwrap(),
+            s["feed_max_mm_min"].as_f64().unwrap(),
+        );
+        assert!(len >= 0.95 * 30.0, "{s:#}");
+        assert!(lo < 40.0 && hi > 80.0, "{s:#}");
+    }
+    let zones = json["zones"].as_array().unwrap();
+    assert!(
+        zones.iter().all(|z| z["kind"] != "pause"),
+        "a pause in a stroke that never stops: {zones:#?}"
+    );
+}
