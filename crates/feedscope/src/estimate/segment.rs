@@ -6,7 +6,7 @@
 //!    ε = max(8 × the position quantum seen in the data, 10⁻⁴ × the travel, 0.1 µm).
 //! 2. Each move between turning points has a plateau speed P: the median chord speed
 //!    (Δz/Δt over `w` consecutive sample intervals, `w` chosen so a chord covers at least 8
-//!    position quanta, [`chord_samples`]) over chords faster than a quarter of the move's
+//!    position quanta, `chord_samples`) over chords faster than a quarter of the move's
 //!    95th-percentile speed.
 //! 3. The move's steady part runs from its first chord at ≥ `steady_fraction` × P to its last:
 //!    the acceleration and deceleration ramps and the dwells at the ends are left out.
@@ -19,7 +19,7 @@
 //!    the deceleration into a stop and the acceleration out of it stay out. A feed that varies
 //!    but never falls below the standstill speed (a modulated feed, an override changed in
 //!    the middle of a block) is therefore one stroke.
-//! 5. A stretch is a stroke when it holds a feed ([`holds_a_plateau`]: not only a rise to one
+//! 5. A stretch is a stroke when it holds a feed (`holds_a_plateau`: not only a rise to one
 //!    peak and a fall from it), and after `trim_knots` knots are dropped at either end (the
 //!    knot at the start of the run, still in the dwell or the acceleration ramp, never enters
 //!    the stroke's spline) it keeps at least `min_knots` knots and `min_stroke_mm` of travel.

@@ -22,8 +22,10 @@ enum Sampling {
 }
 
 fn drive(ramp: RampShape, sampling: Sampling, effort: EffortKind, feed_mm_min: f64) -> SimConfig {
-    let mut c = SimConfig::default();
-    c.seed = 77;
+    let mut c = SimConfig {
+        seed: 77,
+        ..SimConfig::default()
+    };
     c.axis.lead_mm = 20.0;
     c.axis.table_mass_kg = 350.0;
     c.axis.inertia_kgm2 = 0.004;
