@@ -13,7 +13,7 @@ use crate::errors::{bad_input, BadInput};
 
 /// An NC program of a friction test: `text` (the G-code, as `feedscope plan` writes it) and
 /// its summary (`run_time_s` (s), `samples_per_channel`, `feeds_mm_min`, `span_mm`, `moves`,
-/// `notes`, ...), as the binary's `--format json` prints it.
+/// `notes`, `ramp` and `jerk_mm_s3` the run time assumes, ...), as the binary's `--format json` prints it.
 #[pyclass(module = "feedscope", frozen)]
 pub struct Plan {
     /// The program text.
@@ -171,6 +171,8 @@ fn finish(prog: TestProgram, c: &Common) -> PyResult<Plan> {
         "sample_interval_s": c.opts.sample_interval_s,
         "samples_per_channel": prog.expected_samples(c.opts.sample_interval_s),
         "accel_mm_s2": prog.accel_mm_s2,
+        "ramp": prog.ramp,
+        "jerk_mm_s3": prog.jerk_mm_s3,
         "notes": prog.notes,
         "moves": prog.moves,
     });
