@@ -13,7 +13,8 @@ use crate::errors::{bad_input, BadInput};
 
 /// An NC program of a friction test: `text` (the G-code, as `feedscope plan` writes it) and
 /// its summary (`run_time_s` (s), `samples_per_channel`, `feeds_mm_min`, `span_mm`, `moves`,
-/// `notes`, `ramp` and `jerk_mm_s3` the run time assumes, ...), as the binary's `--format json` prints it.
+/// `notes`, `ramp` and `jerk_mm_s3` the run time assumes, ...), as the binary's
+/// `--format json` prints it.
 #[pyclass(module = "feedscope", frozen)]
 pub struct Plan {
     /// The program text.
