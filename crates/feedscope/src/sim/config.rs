@@ -748,6 +748,20 @@ impl SimConfig {
         };
         in_travel("motion.start_mm", m.start_mm)?;
         positive("motion.acceleration_mm_s2", m.acceleration_mm_s2)?;
+        // Below 1 mm/s² (1 mm/s³) a ramp to any feed lasts minutes and its closed forms lose
+        // every digit (a subnormal limit makes them NaN): no feed axis moves like that.
+        let physical = |key: &str, v: f64, unit: &str| {
+            if v >= 1.0 {
+                Ok(())
+            } else {
+                Err(SimError::InvalidValue {
+                    key: key.to_string(),
+                    value: v,
+                    reason: format!("must be at least 1 {unit} (no feed axis ramps slower)"),
+                })
+            }
+        };
+        physical("motion.acceleration_mm_s2", m.acceleration_mm_s2, "mm/s²")?;
         non_negative("motion.lead_in_s", m.lead_in_s)?;
         non_negative("motion.lead_out_s", m.lead_out_s)?;
         for (k, s) in m.strokes.iter().enumerate() {
@@ -757,12 +771,14 @@ impl SimConfig {
         }
         if let Some(j) = m.jerk_mm_s3 {
             positive("motion.jerk_mm_s3", j)?;
+            physical("motion.jerk_mm_s3", j, "mm/s³")?;
         }
         if let Some(v) = m.rapid_rate_mm_min {
             positive("motion.rapid_rate_mm_min", v)?;
         }
         if let Some(a) = m.rapid_acceleration_mm_s2 {
             positive("motion.rapid_acceleration_mm_s2", a)?;
+            physical("motion.rapid_acceleration_mm_s2", a, "mm/s²")?;
         }
         let axes = if m.program_lathe_incremental {
             "XYZ"
@@ -1093,6 +1109,10 @@ mod tests {
                 "axis.lead_mm",
             ),
             ("[motion]\nacceleration_mm_s2 = nan\n", "motion.acceleration_mm_s2"),
+            // a subnormal limit once made the ramp's closed forms NaN (a fuzz finding)
+            ("[motion]\nacceleration_mm_s2 = 4.9e-324\n", "motion.acceleration_mm_s2"),
+            ("[motion]\njerk_mm_s3 = 1e-300\n", "motion.jerk_mm_s3"),
+            ("[motion]\nrapid_acceleration_mm_s2 = 0.5\n", "motion.rapid_acceleration_mm_s2"),
             ("[sampling]\nsynchronous_rate_hz = 0\n", "sampling.synchronous_rate_hz"),
             ("[sampling.position]\ninterval_ms = 1e-6\njitter_ms = 0\n", "sampling.position.interval_ms"),
             ("[motion]\nfeedd = 3\n", "feedd"),
