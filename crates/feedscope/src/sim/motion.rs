@@ -1073,21 +1073,29 @@ mod tests {
         );
     }
 
+    /// The distance (m, signed) the speed of `p` integrates to over stroke `s`, by the
+    /// trapezoidal rule with steps of about `h_s` (s): a slow reference independent of the
+    /// closed-form positions.
+    fn integrated_distance_m(p: &NcPath, s: &CommandedStroke, h_s: f64) -> f64 {
+        let n = ((s.end_time_s - s.start_time_s) / h_s).ceil().max(1.0) as usize;
+        let h = (s.end_time_s - s.start_time_s) / n as f64;
+        let mut dist = 0.0;
+        let mut prev = p.kinematics(s.start_time_s).velocity_m_s;
+        for k in 1..=n {
+            let v = p.kinematics(s.start_time_s + k as f64 * h).velocity_m_s;
+            dist += 0.5 * h * (prev + v);
+            prev = v;
+        }
+        dist
+    }
+
     /// The distance covered is the integral of the speed (trapezoidal rule over 1 µs, a
     /// slow reference independent of the closed-form positions).
     #[test]
     fn s_curve_speed_integrates_to_the_distance() {
         let p = NcPath::plan_strokes(5.0, &s_strokes(), &limits(), None, &[], 0.0, 0.0);
         for s in p.strokes() {
-            let n = ((s.end_time_s - s.start_time_s) / 1e-6).ceil().max(1.0) as usize;
-            let h = (s.end_time_s - s.start_time_s) / n as f64;
-            let mut dist = 0.0;
-            let mut prev = p.kinematics(s.start_time_s).velocity_m_s;
-            for k in 1..=n {
-                let v = p.kinematics(s.start_time_s + k as f64 * h).velocity_m_s;
-                dist += 0.5 * h * (prev + v);
-                prev = v;
-            }
+            let dist = integrated_distance_m(&p, s, 1e-6);
             // error of the trapezoidal rule: T·h²/12·max|z'''| ≤ 2 s·1e-12/12·20
             assert!(
                 (dist * 1e3 - (s.end_mm - s.start_mm)).abs() < 1e-6,
@@ -1266,15 +1274,7 @@ mod tests {
         // a_p = j·(L/(2j))^⅓ = 0.74 m/s²)
         assert!(peak_a > 0.45 * a_max, "{what}: {peak_a}");
         for s in p.strokes() {
-            let n = ((s.end_time_s - s.start_time_s) / 1e-5).ceil().max(1.0) as usize;
-            let h = (s.end_time_s - s.start_time_s) / n as f64;
-            let mut dist = 0.0;
-            let mut prev = p.kinematics(s.start_time_s).velocity_m_s;
-            for k in 1..=n {
-                let v = p.kinematics(s.start_time_s + k as f64 * h).velocity_m_s;
-                dist += 0.5 * h * (prev + v);
-                prev = v;
-            }
+            let dist = integrated_distance_m(&p, s, 1e-5);
             // trapezoidal rule: error ≤ T·h²/12·max|z'''| ≤ 2 s·1e-10 s²/12·180 m/s³ =
             // 3e-9 m, plus |Δz''|·h²/8 per jump of z''; 1e-5 mm = 1e-8 m
             assert!(
