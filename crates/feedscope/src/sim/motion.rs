@@ -1274,7 +1274,7 @@ mod tests {
         // a_p = j·(L/(2j))^⅓ = 0.74 m/s²)
         assert!(peak_a > 0.45 * a_max, "{what}: {peak_a}");
         for s in p.strokes() {
-            let dist = integrated_distance_m(&p, s, 1e-5);
+            let dist = integrated_distance_m(p, s, 1e-5);
             // trapezoidal rule: error ≤ T·h²/12·max|z'''| ≤ 2 s·1e-10 s²/12·180 m/s³ =
             // 3e-9 m, plus |Δz''|·h²/8 per jump of z''; 1e-5 mm = 1e-8 m
             assert!(
