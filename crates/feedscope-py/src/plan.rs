@@ -3,6 +3,7 @@ use feedscope::plan::gcode::{write_gcode, Dialect, FanucMachine, GcodeOptions};
 use feedscope::plan::{
     strokes_program, triangle_program, Limits, StrokeTestParams, TestProgram, TriangleParams,
 };
+use feedscope::sim::RampShape;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use serde_json::json;
@@ -87,6 +88,8 @@ struct Common {
     limits: Limits,
     opts: GcodeOptions,
     accel_mm_s2: f64,
+    ramp: RampShape,
+    jerk_mm_s3: Option<f64>,
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -103,7 +106,26 @@ fn common(
     accel_mm_s2: f64,
     sample_interval_ms: f64,
     sample_rate_hz: Option<f64>,
+    ramp: &str,
+    jerk_mm_s3: Option<f64>,
 ) -> PyResult<Common> {
+    // The CLI's --ramp names, with Python's underscores accepted too.
+    let ramp = match ramp {
+        "trapezoid" => RampShape::Trapezoid,
+        "jerk_limited" | "jerk-limited" => RampShape::JerkLimited,
+        "bell" => RampShape::Bell,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "ramp must be \"trapezoid\", \"jerk_limited\" or \"bell\", not {other:?}"
+            )))
+        }
+    };
+    if jerk_mm_s3.is_some() && ramp != RampShape::JerkLimited {
+        return Err(bad(
+            "jerk_mm_s3 applies only to ramp=\"jerk_limited\" (trapezoid and bell ramps have no \
+             jerk limit)",
+        ));
+    }
     let (lo, hi) = axis.map_or((None, None), |a| {
         (a.inner.travel_min_mm, a.inner.travel_max_mm)
     });
@@ -145,6 +167,8 @@ fn common(
         limits,
         opts,
         accel_mm_s2,
+        ramp,
+        jerk_mm_s3,
     })
 }
 
@@ -155,6 +179,9 @@ fn bad<E: std::fmt::Display>(e: E) -> PyErr {
 
 /// The G-code and summary of a program, with the CLI's checks of the approach feed.
 fn finish(prog: TestProgram, c: &Common) -> PyResult<Plan> {
+    let prog = prog
+        .with_ramp(c.ramp, c.jerk_mm_s3)
+        .map_err(|e| bad(format!("jerk_mm_s3: {e}")))?;
     if let Some(f) = c.opts.approach_feed_mm_min {
         if !(f.is_finite() && f > 0.0) {
             return Err(bad(format!("approach_feed_mm_min {f}: must be > 0")));
@@ -186,13 +213,16 @@ fn finish(prog: TestProgram, c: &Common) -> PyResult<Plan> {
 /// travel_max_mm) or `travel_min_mm`/`travel_max_mm`; feeds checked against
 /// `feed_limit_mm_min`. `dialect` "fanuc" or "siemens"; `fanuc_machine` "lathe" or "mill";
 /// `accel_mm_s2` (mm/s²) and `sample_interval_ms` (ms) or `sample_rate_hz` (Hz) for the run
-/// time and sample counts.
+/// time and sample counts; `ramp` ("jerk_limited", the default, "trapezoid" or "bell") and
+/// `jerk_mm_s3` (mm/s³, jerk-limited only; default 20,000) the control's ramps the run time
+/// assumes, as the CLI's --ramp and --jerk-mm-s3.
 #[pyfunction]
 #[pyo3(signature = (from_mm, to_mm, feeds_mm_min, *, repeats=3, dwell_s=1.0, axis=None,
                     travel_min_mm=None, travel_max_mm=None, feed_limit_mm_min=None,
                     dialect="fanuc", fanuc_machine="lathe", axis_letter='Z',
                     program_number=1000, approach_feed_mm_min=None, accel_mm_s2=1000.0,
-                    sample_interval_ms=72.0, sample_rate_hz=None))]
+                    sample_interval_ms=72.0, sample_rate_hz=None, ramp="jerk_limited",
+                    jerk_mm_s3=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn plan_strokes(
     from_mm: f64,
@@ -212,6 +242,8 @@ pub fn plan_strokes(
     accel_mm_s2: f64,
     sample_interval_ms: f64,
     sample_rate_hz: Option<f64>,
+    ramp: &str,
+    jerk_mm_s3: Option<f64>,
 ) -> PyResult<Plan> {
     let c = common(
         axis,
@@ -226,6 +258,8 @@ pub fn plan_strokes(
         accel_mm_s2,
         sample_interval_ms,
         sample_rate_hz,
+        ramp,
+        jerk_mm_s3,
     )?;
     let p = StrokeTestParams {
         from_mm,
@@ -250,7 +284,8 @@ pub fn plan_strokes(
                     axis=None, travel_min_mm=None, travel_max_mm=None, feed_limit_mm_min=None,
                     dialect="fanuc", fanuc_machine="lathe", axis_letter='Z',
                     program_number=1000, approach_feed_mm_min=None, accel_mm_s2=1000.0,
-                    sample_interval_ms=72.0, sample_rate_hz=None))]
+                    sample_interval_ms=72.0, sample_rate_hz=None, ramp="jerk_limited",
+                    jerk_mm_s3=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn plan_triangle(
     from_mm: Option<f64>,
@@ -274,6 +309,8 @@ pub fn plan_triangle(
     accel_mm_s2: f64,
     sample_interval_ms: f64,
     sample_rate_hz: Option<f64>,
+    ramp: &str,
+    jerk_mm_s3: Option<f64>,
 ) -> PyResult<Plan> {
     let c = common(
         axis,
@@ -288,6 +325,8 @@ pub fn plan_triangle(
         accel_mm_s2,
         sample_interval_ms,
         sample_rate_hz,
+        ramp,
+        jerk_mm_s3,
     )?;
     let lim = &c.limits;
     let from = from_mm

@@ -54,3 +54,31 @@ def test_plan_errors_match_cli(tmp_path):
         feedscope.plan_strokes(0, 100, [100], dialect="heidenhain")
     with pytest.raises(ValueError, match="strokes"):
         feedscope.plan("spiral")
+
+
+@pytest.mark.parametrize("ramp,cli_ramp,jerk", [("bell", "bell", None),
+                                                ("trapezoid", "trapezoid", None),
+                                                ("jerk_limited", "jerk-limited", 5000.0)])
+def test_ramp_and_jerk_match_cli(tmp_path, ramp, cli_ramp, jerk):
+    extra = ["--jerk-mm-s3", str(jerk)] if jerk else []
+    text, summary = cli_plan(tmp_path, "strokes", "--from", "10", "--to", "60",
+                             "--feeds", "3000", "--ramp", cli_ramp, *extra)
+    p = feedscope.plan_strokes(10, 60, [3000], ramp=ramp, jerk_mm_s3=jerk)
+    assert p.text == text
+    assert p.to_dict() == summary
+    assert summary["ramp"] == ramp and summary["jerk_mm_s3"] == jerk
+
+
+def test_ramp_changes_the_run_time_and_bad_ramps_are_refused():
+    # A gentle jerk lengthens every ramp: the run time grows, the program text does not change.
+    fast = feedscope.plan_strokes(10, 60, [3000], jerk_mm_s3=100000.0)
+    slow = feedscope.plan_strokes(10, 60, [3000], jerk_mm_s3=2000.0)
+    assert slow.run_time_s > fast.run_time_s
+    assert slow.text == fast.text
+    with pytest.raises(ValueError, match="ramp must be"):
+        feedscope.plan_strokes(10, 60, [3000], ramp="scurve")
+    with pytest.raises(feedscope.BadInputError, match="only to ramp=\"jerk_limited\""):
+        feedscope.plan_triangle(from_mm=0, to_mm=100, feed_max_mm_min=1000, ramp="bell",
+                                jerk_mm_s3=1000.0)
+    with pytest.raises(feedscope.BadInputError, match="jerk_mm_s3"):
+        feedscope.plan_strokes(10, 60, [3000], jerk_mm_s3=-1.0)

@@ -238,4 +238,28 @@ fn modulated_feed_with_bell_ramps_estimates_one_stroke_per_direction() {
         zones.iter().all(|z| z["kind"] != "pause"),
         "a pause in a stroke that never stops: {zones:#?}"
     );
+    // `analyze` says that each stroke's mean profile mixes the feeds it ran at.
+    let mut c = feedscope(tmp.path());
+    c.args([
+        "analyze",
+        "out/trace.csv",
+        "--axis",
+        "out/axis.toml",
+        "--out",
+        "analysis",
+    ]);
+    let o = run(c);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(
+        err.matches("the feed varied from").count(),
+        2,
+        "one warning per stroke: {err}"
+    );
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(tmp.path().join("analysis/analysis.json")).unwrap(),
+    )
+    .unwrap();
+    let codes = json.to_string().matches("feed-varies-along-stroke").count();
+    assert_eq!(codes, 2, "the warning's code in analysis.json");
 }

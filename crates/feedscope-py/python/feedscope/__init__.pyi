@@ -372,10 +372,13 @@ def plan_strokes(
     accel_mm_s2: float = 1000.0,
     sample_interval_ms: float = 72.0,
     sample_rate_hz: Optional[float] = None,
+    ramp: str = "jerk_limited",
+    jerk_mm_s3: Optional[float] = None,
 ) -> Plan:
     """A stroke test (paper 000), as `feedscope plan strokes`: strokes from_mm → to_mm (mm)
     and back at each feed (mm/min), repeats pairs per feed, dwell_s (s) after each. Travel
-    limits from axis or travel_min_mm/travel_max_mm; dialect "fanuc" or "siemens"."""
+    limits from axis or travel_min_mm/travel_max_mm; dialect "fanuc" or "siemens"; the run
+    time assumes ramp ("jerk_limited", "trapezoid" or "bell") and jerk_mm_s3 (mm/s³)."""
 
 def plan_triangle(
     *,
@@ -400,6 +403,8 @@ def plan_triangle(
     accel_mm_s2: float = 1000.0,
     sample_interval_ms: float = 72.0,
     sample_rate_hz: Optional[float] = None,
+    ramp: str = "jerk_limited",
+    jerk_mm_s3: Optional[float] = None,
 ) -> Plan:
     """A triangle test (paper 002 Eq. 8), as `feedscope plan triangle`: a variable-amplitude,
     variable-velocity triangular wave in from_mm..to_mm (mm), feeds geometric from

@@ -1285,14 +1285,15 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     if let Some(order) = sm.position_cutoff_order {
         if order < sm.max_order {
             sm.max_order = order;
-            if order < 10.0 {
+            let (highest, cause) = highest_expected_order(axis);
+            if order < highest {
                 warnings.push(Diagnostic::new(
                     "position-smoothed-below-order",
                     format!(
                         "the position is smoothed above {:.1} Hz, order {order:.1} at this feed: \
                      the table acceleration of higher orders is not resolved, so their \
-                     amplitudes lack the inertia term; finer position quanta, faster sampling \
-                     or a slower feed resolve more",
+                     amplitudes lack the inertia term ({cause} at order {highest:.1} is among \
+                     them); finer position quanta, faster sampling or a slower feed resolve more",
                         sm.position_cutoff_hz.unwrap_or(0.0)
                     ),
                 ));
@@ -2174,6 +2175,41 @@ fn estimate_chunk<T: Send, E>(
         }
     }
     Ok(())
+}
+
+/// The order a friction fluctuation of this axis is expected to reach (cycles per lead) and
+/// what causes it: the shaft orders 1-4, the ball-refeed orders of nut and guides (paper 000
+/// Eq. 7) with their second harmonics, the groups of significant components of paper 000
+/// section 4.1.2, and the declared orders. Without the geometry of nut or guides, order 10,
+/// where the refeed orders of common drives lie (z/2 of 14-30 balls a turn, less the
+/// contact-angle term).
+fn highest_expected_order(axis: &AxisParams) -> (f64, String) {
+    let mut best = (4.0, "shaft order 4".to_string());
+    let mut consider = |order: f64, cause: String| {
+        if order.is_finite() && order > best.0 {
+            best = (order, cause);
+        }
+    };
+    let refeeds = [
+        (axis.nut_refeed_order(), "the nut's ball refeed 2x"),
+        (axis.guide_refeed_order(), "the guides' ball refeed 2x"),
+    ];
+    let geometry = refeeds.iter().any(|(o, _)| o.is_some());
+    for (o, cause) in refeeds {
+        if let Some(o) = o {
+            consider(2.0 * o, cause.to_string());
+        }
+    }
+    if !geometry {
+        consider(
+            10.0,
+            "the ball refeed of a typical nut or guide (no geometry in the axis file)".to_string(),
+        );
+    }
+    for d in &axis.declared_orders {
+        consider(d.order, format!("declared order {}", d.cause));
+    }
+    best
 }
 
 #[cfg(test)]

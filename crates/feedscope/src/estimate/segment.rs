@@ -748,12 +748,19 @@ fn median_key(keys: &mut [i64]) -> f64 {
 /// short run, at least 5) whose median
 /// speeds are compared: it is a triangle when the blocks rise to a single peak and fall after
 /// it (each step within 1 % of monotone), the first and last block lie below 80 % of the peak,
-/// and at most 2 blocks are within 2 % of it. A feed held for a tenth of the run already
-/// makes 2 blocks flat; a modulated feed rises and falls more than once.
+/// and at most 2 blocks are within the flatness band of it: 0.5 %, or 3 standard deviations
+/// of a block's median where the chords are noisier ([`block_median_noise`]). A feed held for
+/// a sixth of the run makes 3 blocks flat; a modulated feed rises and falls more than once.
 ///
-/// `keys` are the speeds' [`order_key`]s, none NaN, and `top` is the largest of them;
-/// `scratch` is reused for the blocks.
-fn holds_a_plateau(keys: &[i64], top: i64, scratch: &mut Vec<i64>) -> bool {
+/// The band is narrow because jerk-limited and bell-shaped ramps round the top of a move that
+/// never holds its feed: the speed falls off the peak as the square (S-curve) or the cube
+/// (bell) of the time from it, so within 2 % of the peak lie 10-16 % of such a move (3-4
+/// blocks), within 0.5 % at most 9 % (2 blocks).
+///
+/// `keys` are the speeds' [`order_key`]s, none NaN, of chords `w` sample intervals long
+/// starting at consecutive knots, and `top` is the largest of them; `scratch` is reused for
+/// the blocks.
+fn holds_a_plateau(keys: &[i64], top: i64, w: usize, scratch: &mut Vec<i64>) -> bool {
     // Fewer chords than blocks (a short move at a slow sampling rate): one chord a block.
     let blocks_n = keys.len().min(20);
     if blocks_n < 5 {
@@ -796,8 +803,43 @@ fn holds_a_plateau(keys: &[i64], top: i64, scratch: &mut Vec<i64>) -> bool {
     let rising = blocks[..=peak_at].windows(2).all(|w| w[1] >= 0.99 * w[0]);
     let falling = blocks[peak_at..].windows(2).all(|w| w[1] <= 1.01 * w[0]);
     let ends_low = blocks[0] < 0.8 * peak && blocks[blocks_n - 1] < 0.8 * peak;
-    let near_peak = blocks.iter().filter(|&&v| v >= 0.98 * peak).count();
-    !(rising && falling && ends_low && near_peak <= 2)
+    if !(rising && falling && ends_low) {
+        return true;
+    }
+    let band = PLATEAU_BAND.max(3.0 * block_median_noise(keys, w, blocks_n, scratch) / peak);
+    let near_peak = blocks.iter().filter(|&&v| v >= (1.0 - band) * peak).count();
+    near_peak > 2
+}
+
+/// How close to its peak (relative) a block's median must be to count as holding it, where
+/// the chords are clean ([`holds_a_plateau`]).
+const PLATEAU_BAND: f64 = 0.005;
+
+/// Second differences that [`block_median_noise`] takes at most, evenly spread over the run.
+const NOISE_SAMPLE: usize = 4096;
+
+/// The standard deviation (m/s) of one block's median speed in [`holds_a_plateau`]'s `blocks_n`
+/// blocks, from the chords' noise: the second differences of chords `w` knots apart (which
+/// share no sample interval) cancel every linear trend of the speed, so their median
+/// magnitude over the run gives the chord noise σ_c = 1.4826 · median|e| / √6 even on a
+/// ramp; a block's median of n independent chords scatters by 1.2533 · σ_c / √n. Kinks (a
+/// trapezoid's corners) touch a few differences only, which the median ignores.
+fn block_median_noise(keys: &[i64], w: usize, blocks_n: usize, scratch: &mut Vec<i64>) -> f64 {
+    let lag = w.max(1);
+    let Some(m) = keys.len().checked_sub(2 * lag).filter(|&m| m > 0) else {
+        return 0.0;
+    };
+    let step = m.div_ceil(NOISE_SAMPLE);
+    let v = |i: usize| from_order_key(keys[i]);
+    scratch.clear();
+    scratch.extend(
+        (0..m)
+            .step_by(step)
+            .map(|i| order_key((v(i + 2 * lag) - 2.0 * v(i + lag) + v(i)).abs())),
+    );
+    let sigma_chord = 1.4826 * median_key(scratch) / 6f64.sqrt();
+    let independent = (keys.len() / blocks_n / lag).max(1) as f64;
+    1.2533 * sigma_chord / independent.sqrt()
 }
 
 /// Find the steady strokes in a position channel (time strictly increasing).
@@ -1049,7 +1091,7 @@ fn push_stroke(
     let (c0, c1) = (a + f, a + l);
     let run = &keys[c0..=c1];
     let top = run.iter().copied().fold(i64::MIN, i64::max);
-    if !holds_a_plateau(run, top, copy) {
+    if !holds_a_plateau(run, top, w, copy) {
         return;
     }
     // Chord c joins knots i0+c and i0+c+w. A steady chord may straddle the start (or end) of
@@ -1533,7 +1575,7 @@ mod tests {
             select_key(keys, mid)
         }
 
-        fn holds_a_plateau(keys: &[i64], scratch: &mut Vec<i64>) -> bool {
+        fn holds_a_plateau(keys: &[i64], w: usize, scratch: &mut Vec<i64>) -> bool {
             let blocks_n = keys.len().min(20);
             if blocks_n < 5 {
                 return true;
@@ -1558,8 +1600,28 @@ mod tests {
             let rising = blocks[..=peak_at].windows(2).all(|w| w[1] >= 0.99 * w[0]);
             let falling = blocks[peak_at..].windows(2).all(|w| w[1] <= 1.01 * w[0]);
             let ends_low = blocks[0] < 0.8 * peak && blocks[blocks_n - 1] < 0.8 * peak;
-            let near_peak = blocks.iter().filter(|&&v| v >= 0.98 * peak).count();
-            !(rising && falling && ends_low && near_peak <= 2)
+            if !(rising && falling && ends_low) {
+                return true;
+            }
+            // The chord noise from every second difference of chords w apart (the real one
+            // takes at most NOISE_SAMPLE of them, evenly spread).
+            let v: Vec<f64> = keys.iter().map(|&k| from_order_key(k)).collect();
+            let m = v.len().saturating_sub(2 * w);
+            let step = m.div_ceil(NOISE_SAMPLE).max(1);
+            let mut e: Vec<f64> = (0..m)
+                .step_by(step)
+                .map(|i| (v[i + 2 * w] - 2.0 * v[i + w] + v[i]).abs())
+                .collect();
+            let noise = if e.is_empty() {
+                0.0
+            } else {
+                let mid = e.len() / 2;
+                let med = *e.select_nth_unstable_by(mid, f64::total_cmp).1;
+                let n = (keys.len() / blocks_n / w).max(1) as f64;
+                1.2533 * 1.4826 * med / 6f64.sqrt() / n.sqrt()
+            };
+            let band = 0.005f64.max(3.0 * noise / peak);
+            blocks.iter().filter(|&&v| v >= (1.0 - band) * peak).count() > 2
         }
 
         #[allow(clippy::too_many_arguments)]
@@ -1686,7 +1748,7 @@ mod tests {
                 if c1 < c0 {
                     continue;
                 }
-                if !holds_a_plateau(&keys[c0..=c1], sel) {
+                if !holds_a_plateau(&keys[c0..=c1], w, sel) {
                     continue;
                 }
                 let first = i0 + c0 + (w - 1) + params.trim_knots;

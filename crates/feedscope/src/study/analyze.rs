@@ -2,7 +2,8 @@
 //! Table 2 order scan, the IAFV, the FFS and its spectra in screw orders; the single polynomial
 //! of the best scanned order (the paper's dotted line); Table 2 averaged per direction.
 use crate::axis::AxisParams;
-use crate::estimate::{estimate, EstimateParams, StrokeFriction};
+use crate::diag::Diagnostic;
+use crate::estimate::{estimate, EstimateParams, StrokeFriction, StrokeSummary};
 use crate::order::SpectrumAnalyzer;
 use crate::profile::{
     analyze_stroke, fit_piecewise, order_scan_table, AnalysisParams, OrderScanTable, PiecewiseFit,
@@ -124,6 +125,9 @@ pub fn analyze_strokes(
             }
         })?;
         withhold::apply(&mut a, withhold::support_of(s));
+        if let Some(d) = mixed_feeds(&s.summary) {
+            a.fluctuation.warnings.push(d);
+        }
         let order = a.order_scan.best_order;
         let single =
             fit_piecewise(v.position_m, v.friction_n, &[], &[order]).map_err(|source| {
@@ -164,4 +168,31 @@ pub fn analyze_trace(
     let mut study = analyze_strokes(est.strokes, axis, params, progress)?;
     study.verdict = Some(est.verdict);
     Ok(study)
+}
+
+/// How far (relative) a stroke's feed range may reach from its feed before the analysis says
+/// the profile mixes feeds: as the estimate's settling window, ±25 %.
+const MIXED_FEED_FRACTION: f64 = 0.25;
+
+/// A warning (`feed-varies-along-stroke`) when the feed of a stroke varied beyond ±25 % of its
+/// mean (an override turned during the stroke, a modulated feed): the IAFV (paper 000 Eq. 6)
+/// is one mean profile, so where friction depends on the feed (the Stribeck and viscous
+/// terms) it averages the feeds the stroke ran at, and follows a step of the override only
+/// over its window. The orders are unaffected: they are fixed in position.
+fn mixed_feeds(s: &StrokeSummary) -> Option<Diagnostic> {
+    let (lo, hi) = (s.feed_min_mm_min?, s.feed_max_mm_min?);
+    let f = s.feed_mm_min;
+    let mixed = lo < (1.0 - MIXED_FEED_FRACTION) * f || hi > (1.0 + MIXED_FEED_FRACTION) * f;
+    mixed.then(|| {
+        Diagnostic::new(
+            "feed-varies-along-stroke",
+            format!(
+                "the feed varied from {lo:.1} to {hi:.1} mm/min along this stroke (mean {f:.1}; \
+                 an override turned or a modulated feed): the mean profile (IAFV) mixes the \
+                 friction of these feeds where it depends on the feed, and follows a step of \
+                 the feed only over its window; the orders are fixed in position and are not \
+                 affected. A steady feed per stroke gives a profile of one feed"
+            ),
+        )
+    })
 }

@@ -51,11 +51,6 @@ pub fn mill(rate: Rate, quantum_mm: f64, seed: u64) -> SimConfig {
     c.friction = None;
     c.motion.start_mm = 10.0;
     c.motion.acceleration_mm_s2 = 1500.0;
-    // Trapezoids, as this program was written for before the twin's default became
-    // jerk-limited: with S-curves the 10 mm G0 (a bell of speed with a flat top, no feed
-    // held) passes `holds_a_plateau` at 250 Hz-8 kHz and is taken for a measuring move, and the
-    // 3000 mm/min stroke at 8 kHz is 10.1 % off with no warning — open in issue 30's note.
-    c.motion.ramp = feedscope::sim::RampShape::Trapezoid;
     c.motion.strokes = STROKES
         .iter()
         .flat_map(|&(feed, travel)| {

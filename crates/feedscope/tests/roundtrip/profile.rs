@@ -157,9 +157,12 @@ fn lead5_drive_profile_and_spectra() {
     c.sampling.position.interval_ms = 50.0;
     c.sampling.effort.interval_ms = 50.0;
     c.sampling.position.quantum_mm = 1e-4;
-    // Trapezoids, as measured before the twin's default became jerk-limited: with S-curves
-    // one segment of the forward stroke shows 2 spurious components (at most 1 allowed) —
-    // open in issue 30's note.
+    // Trapezoids, as this case was measured before the twin's default became jerk-limited.
+    // The ramp shape is not what decides it: at 40 mm/min the ramps last milliseconds and
+    // change only where the samples fall, i.e. the noise realisation. With seeds 5 and 8 the
+    // trapezoid fails too (one segment with 2 unexplained peaks at about 4× their floor), as
+    // the S-curve does with this seed: the per-segment false-alarm rate of the spectra is its
+    // own open question (issue 30's closing note), not one of ramps.
     c.motion.ramp = feedscope::sim::RampShape::Trapezoid;
     check("lead 5 mm", c);
 }
