@@ -51,6 +51,7 @@ pub mod floor;
 pub mod moves;
 pub mod segment;
 pub mod stream;
+mod transient;
 mod view;
 
 use rayon::prelude::*;
@@ -1170,6 +1171,10 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     // appended with one copy per column: six pushes per point re-read and re-stored six
     // lengths and checked six capacities, a sizeable share of the loop's instructions.
     let mut cols = [[0.0f64; BLOCK]; 6];
+    // Feed changes inside the stroke faster than the smoothing resolves (`transient`).
+    let mut transients = cutoff_hz.map(|fc| {
+        transient::TransientScan::new(m_eq, out.summary.noise_floor.total_n, fc, feed_m_s)
+    });
     // The cubics of the knot intervals a block spans (see `GridWalk::invert`).
     let mut table = PieceTable::new();
     let mut j0 = 0;
@@ -1196,6 +1201,9 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
                 position_mm: zg * 1e3,
             }
             .into());
+        }
+        if let Some(scan) = &mut transients {
+            scan.push(&cols[0][..len], &cols[2][..len], &cols[3][..len]);
         }
         for (col, dst) in cols.iter().zip(out.columns_mut()) {
             dst.extend_from_slice(&col[..len]);
@@ -1225,6 +1233,12 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
             }
             emitted += piece.friction_n.len();
             emit(piece)?;
+        }
+    }
+    if let (Some(scan), Some(fc)) = (transients, cutoff_hz) {
+        let found = scan.finish();
+        if !found.is_empty() {
+            warnings.push(feed_changes_unresolved(&found, fc, feed_m_s, s));
         }
     }
     if walk.non_monotone {
@@ -2175,6 +2189,46 @@ fn estimate_chunk<T: Send, E>(
         }
     }
     Ok(())
+}
+
+/// The warning for feed changes inside a stroke that the position cut-off `fc` (Hz) does not
+/// resolve ([`transient`]); `feed_m_s` the stroke's feed, `s` its direction's sign.
+fn feed_changes_unresolved(
+    found: &[transient::FeedChange],
+    fc: f64,
+    feed_m_s: f64,
+    s: f64,
+) -> Diagnostic {
+    const LISTED: usize = 6;
+    let reach_mm = 2.0 * feed_m_s / fc * 1e3;
+    let mut at: Vec<String> = found
+        .iter()
+        .take(LISTED)
+        .map(|c| {
+            format!(
+                "{:.1} mm ({:+.0} mm/min)",
+                c.position_m * 1e3,
+                s * c.delta_v_m_s * 60e3
+            )
+        })
+        .collect();
+    if found.len() > LISTED {
+        at.push(format!("and {} more", found.len() - LISTED));
+    }
+    let peak = found.iter().map(|c| c.peak_inertia_n).fold(0.0, f64::max);
+    Diagnostic::new(
+        "feed-change-unresolved",
+        format!(
+            "the feed changed inside the stroke faster than the position smoothing resolves \
+             (cut-off {fc:.1} Hz) at {}: the effort shows the inertia of each change at once, \
+             the smoothed acceleration spreads it over about {:.0} ms (up to {peak:.0} N), so \
+             the friction within about ±{reach_mm:.2} mm of each is off; the rest of the stroke \
+             is not affected. A gentler override change, finer position quanta or faster \
+             sampling (a higher cut-off) narrow it",
+            at.join(", "),
+            1e3 / fc
+        ),
+    )
 }
 
 /// The order a friction fluctuation of this axis is expected to reach (cycles per lead) and

@@ -7,7 +7,9 @@
 //! truth (plus 3 standard errors); and, where the estimator says it resolves every true
 //! component (its `max_order` above the highest true order), RMS error along the travel below
 //! max(10 % of the true fluctuation's RMS, 1.5 × its own predicted noise floor). Where it does
-//! not, it must say so: its `max_order` is below the truth's highest order.
+//! not, it must say so: its `max_order` is below the truth's highest order. Under an override
+//! every change of it is listed (`feed-change-unresolved`) and the bound holds away from them;
+//! on a quiet drive (floor a few % of the fluctuation) it is 10 % with no allowance for noise.
 use feedscope::estimate::{estimate, Direction, EstimateParams};
 use feedscope::sim::{FeedOverride, RampShape, SamplingMode, SimConfig, StrokeConfig};
 use feedscope::trace::EffortKind;
@@ -197,6 +199,101 @@ fn estimate_over_ramp_shapes_sampling_effort_and_feeds() {
 /// fluctuation's RMS or 1.5 × the estimator's predicted noise floor, whichever is larger.
 #[test]
 fn override_turned_during_the_strokes_keeps_one_stroke() {
+    override_case(false);
+}
+
+/// Effort noise and quanta a quarter of the default's (a torque read at 16 bits), so that the
+/// floor is a few percent of the fluctuation: what is left is the estimator's own error.
+fn quieten(c: &mut SimConfig) {
+    let e = &mut c.sampling.effort;
+    e.current_noise_std_a /= 4.0;
+    e.current_quantum_a /= 4.0;
+    e.torque_noise_std_nm /= 4.0;
+    e.torque_quantum_nm /= 4.0;
+}
+
+/// The override and the modulated feed on a quiet drive: where the noise floor is small, the
+/// friction is within 10 % of the fluctuation's RMS without any allowance for the floor (the
+/// issue's criterion); the matrix's allowance is for noise, not for the varying feed.
+#[test]
+fn quiet_drive_override_and_modulation_within_10_percent() {
+    override_case(true);
+    modulated_case(true);
+}
+
+/// The bound of the RMS error (N): 10 % of the fluctuation, and on a noisy drive at least
+/// 1.5 × the estimator's own floor.
+fn bound_n(quiet: bool, fluctuation_rms_n: f64, floor_n: f64) -> f64 {
+    if quiet {
+        0.10 * fluctuation_rms_n
+    } else {
+        (0.10 * fluctuation_rms_n).max(1.5 * floor_n)
+    }
+}
+
+/// The positions (mm) a stroke's `feed-change-unresolved` warning lists.
+fn unresolved_feed_changes_mm(s: &feedscope::estimate::StrokeFriction) -> Vec<f64> {
+    let Some(w) = s
+        .summary
+        .warnings
+        .iter()
+        .find(|w| w.code == "feed-change-unresolved")
+    else {
+        return Vec::new();
+    };
+    w.message
+        .split(" mm (")
+        .filter_map(|head| head.rsplit([' ', ',']).next()?.parse::<f64>().ok())
+        .collect()
+}
+
+/// Where the twin's table was when an override change of the schedule was made, inside the
+/// stroke's output range (mm, in the order of travel).
+fn override_positions_mm(
+    c: &SimConfig,
+    out: &feedscope::sim::SimOutput,
+    s: &feedscope::estimate::StrokeFriction,
+) -> Vec<f64> {
+    let pos = &out.trace.position_m;
+    let (t0, t1) = (s.summary.start_time_s, s.summary.end_time_s);
+    c.motion
+        .overrides
+        .iter()
+        .filter(|o| o.at_s > t0 && o.at_s < t1)
+        .map(|o| {
+            let k = pos.time_s.partition_point(|&t| t < o.at_s);
+            pos.value[k] * 1e3
+        })
+        .collect()
+}
+
+/// [`errors`] over the points farther than `reach_mm` from every one of `changes_mm`.
+fn errors_away_from(
+    out: &feedscope::sim::SimOutput,
+    s: &feedscope::estimate::StrokeFriction,
+    changes_mm: &[f64],
+    reach_mm: f64,
+) -> Errors {
+    let model = &out.truth.friction;
+    let (mut se, mut sf, mut n) = (0.0, 0.0, 0.0);
+    for j in inner(s, 2.0) {
+        let (z, v) = (s.position_m[j], s.velocity_m_s[j]);
+        if changes_mm.iter().any(|c| (z * 1e3 - c).abs() < reach_mm) {
+            continue;
+        }
+        se += (s.friction_n[j] - model.friction_n(z, v)).powi(2);
+        sf += model.fluctuation_n(s.summary.direction, z).powi(2);
+        n += 1.0;
+    }
+    Errors {
+        rms_n: (se / n).sqrt(),
+        fluctuation_rms_n: (sf / n).sqrt(),
+        mean_rel: 0.0,
+        mean_truth_n: 0.0,
+    }
+}
+
+fn override_case(quiet: bool) {
     let mut c = drive(
         RampShape::Bell,
         Sampling::Synchronous {
@@ -226,13 +323,17 @@ fn override_turned_during_the_strokes_keeps_one_stroke() {
             percent: 60.0,
         },
     ];
+    if quiet {
+        quieten(&mut c);
+    }
     let out = run(&c);
     let est = est(&out);
     assert_eq!(est.strokes.len(), 2, "{:#?}", est.zones);
     for s in &est.strokes {
         let e = errors(&out, s);
         eprintln!(
-            "override {:?}: {:.1} mm of 100, rms {:.2} N of {:.2} N (floor {:.2} N), mean {:+.2} %",
+            "override{} {:?}: {:.1} mm of 100, rms {:.2} N of {:.2} N (floor {:.2} N), mean {:+.2} %",
+            if quiet { " (quiet)" } else { "" },
             s.summary.direction,
             s.summary.length_mm,
             e.rms_n,
@@ -250,11 +351,27 @@ fn override_turned_during_the_strokes_keeps_one_stroke() {
             lo < 0.8 * s.summary.feed_mm_min && hi > 1.1 * s.summary.feed_mm_min,
             "{lo} {hi}"
         );
-        // as in the matrix: 10 % of the fluctuation, or the estimator's own noise floor
+        // Each override change is a step of the feed within a few ms, faster than the
+        // position cut-off: the stroke says where, and away from there the friction holds
+        // the bound (10 % of the fluctuation, on the noisy drive at least 1.5 × the floor).
+        let changes = unresolved_feed_changes_mm(s);
+        let expected = override_positions_mm(&c, &out, s);
+        assert_eq!(changes.len(), expected.len(), "{changes:?} vs {expected:?}");
+        for (got, want) in changes.iter().zip(&expected) {
+            assert!((got - want).abs() < 1.0, "{changes:?} vs {expected:?}");
+        }
+        let reach_mm = 2.0 * s.summary.feed_mm_min / 60.0 / s.summary.position_cutoff_hz.unwrap();
+        let e = errors_away_from(&out, s, &changes, reach_mm);
         let floor = s.summary.noise_floor.total_n;
+        eprintln!(
+            "  away from the {} changes (±{reach_mm:.2} mm): rms {:.2} N of {:.2} N",
+            changes.len(),
+            e.rms_n,
+            e.fluctuation_rms_n
+        );
         assert!(
-            e.rms_n < (0.10 * e.fluctuation_rms_n).max(1.5 * floor),
-            "{e:?}, floor {floor}"
+            e.rms_n < bound_n(quiet, e.fluctuation_rms_n, floor),
+            "quiet {quiet}: {e:?}, floor {floor}"
         );
     }
 }
@@ -265,6 +382,10 @@ fn override_turned_during_the_strokes_keeps_one_stroke() {
 /// fluctuation's RMS or 1.5 × the noise floor, and the feed range reported.
 #[test]
 fn modulated_feed_is_one_stroke_per_direction() {
+    modulated_case(false);
+}
+
+fn modulated_case(quiet: bool) {
     for (rate_hz, quantum_mm, effort) in [
         (83.33, 1e-3, EffortKind::CurrentA),
         (1000.0, 1e-4, EffortKind::TorqueNm),
@@ -283,6 +404,9 @@ fn modulated_feed_is_one_stroke_per_direction() {
             relative_amplitude: 0.6,
             period_s: 1.5,
         });
+        if quiet {
+            quieten(&mut c);
+        }
         let out = run(&c);
         let est = est(&out);
         assert_eq!(est.strokes.len(), 2, "{rate_hz} Hz: {:#?}", est.zones);
@@ -294,8 +418,9 @@ fn modulated_feed_is_one_stroke_per_direction() {
                 s.summary.feed_max_mm_min.unwrap(),
             );
             eprintln!(
-                "modulated {rate_hz} Hz {:?}: {:.1} mm of 30, feed {:.0} ({lo:.0}-{hi:.0}) mm/min, \
-                 rms {:.2} N of {:.2} N (floor {floor:.2} N)",
+                "modulated{} {rate_hz} Hz {:?}: {:.1} mm of 30, feed {:.0} ({lo:.0}-{hi:.0}) \
+                 mm/min, rms {:.2} N of {:.2} N (floor {floor:.2} N)",
+                if quiet { " (quiet)" } else { "" },
                 s.summary.direction,
                 s.summary.length_mm,
                 s.summary.feed_mm_min,
@@ -305,8 +430,8 @@ fn modulated_feed_is_one_stroke_per_direction() {
             assert!(s.summary.length_mm >= 0.95 * 30.0, "{:?}", s.summary);
             assert!(lo < 40.0 && hi > 80.0, "feed range {lo}-{hi}");
             assert!(
-                e.rms_n < (0.10 * e.fluctuation_rms_n).max(1.5 * floor),
-                "{e:?}, floor {floor}"
+                e.rms_n < bound_n(quiet, e.fluctuation_rms_n, floor),
+                "quiet {quiet}: {e:?}, floor {floor}"
             );
         }
     }
