@@ -83,24 +83,76 @@ fn remove_stale(dest: &Path) {
 /// A file written under a temporary name and renamed into place on [`AtomicFile::commit`];
 /// dropped without commit, it is removed, so an error never leaves a partial output behind.
 /// Creating it removes the temporary files that killed runs left beside the same output.
+///
+/// A symbolic link is written through: the file it points at is replaced, the link stays. A
+/// destination that exists and is neither a regular file nor a folder (a device such as
+/// `/dev/null` or `/dev/stdout`, a named pipe) is written directly, as a shell redirection
+/// would: it cannot be replaced, and its output is not atomic.
 pub struct AtomicFile {
     tmp: PathBuf,
     dest: PathBuf,
     file: Option<std::io::BufWriter<std::fs::File>>,
+    /// Written straight into `dest` (a device or a pipe): nothing to rename or remove.
+    direct: bool,
+}
+
+/// How many symbolic links [`resolve_links`] follows before it calls the chain a loop (as
+/// Linux's `ELOOP`).
+const MAX_LINKS: usize = 40;
+
+/// `dest` with every symbolic link at its end followed, also a link whose target does not
+/// exist yet (which `canonicalize` refuses): a relative target is taken from the link's
+/// folder.
+fn resolve_links(dest: &Path) -> Result<PathBuf> {
+    let mut path = dest.to_path_buf();
+    for _ in 0..MAX_LINKS {
+        match std::fs::symlink_metadata(&path) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let target = std::fs::read_link(&path)
+                    .with_context(|| format!("reading the link {}", path.display()))?;
+                path = match path.parent() {
+                    Some(dir) if target.is_relative() => dir.join(target),
+                    _ => target,
+                };
+            }
+            _ => return Ok(path),
+        }
+    }
+    anyhow::bail!(
+        "{}: more than {MAX_LINKS} symbolic links in a row (a loop?)",
+        dest.display()
+    )
 }
 
 impl AtomicFile {
     /// Start `dest`; its folder is made when missing ([`crate::paths::ensure_parent_dir`]).
     pub fn create(dest: &Path) -> Result<Self> {
-        crate::paths::ensure_parent_dir(dest)?;
-        let tmp = side_name(dest, std::process::id(), "tmp")?;
-        remove_stale(dest);
+        let dest = resolve_links(dest)?;
+        let special = std::fs::metadata(&dest)
+            .map(|m| !m.is_file() && !m.is_dir())
+            .unwrap_or(false);
+        if special {
+            let file = std::fs::OpenOptions::new()
+                .write(true)
+                .open(&dest)
+                .with_context(|| format!("opening {} for writing", dest.display()))?;
+            return Ok(Self {
+                tmp: dest.clone(),
+                dest,
+                file: Some(std::io::BufWriter::with_capacity(1 << 20, file)),
+                direct: true,
+            });
+        }
+        crate::paths::ensure_parent_dir(&dest)?;
+        let tmp = side_name(&dest, std::process::id(), "tmp")?;
+        remove_stale(&dest);
         let file =
             std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
         Ok(Self {
             tmp,
-            dest: dest.to_path_buf(),
+            dest,
             file: Some(std::io::BufWriter::with_capacity(1 << 20, file)),
+            direct: false,
         })
     }
 
@@ -118,6 +170,9 @@ impl AtomicFile {
     pub fn commit(mut self) -> Result<()> {
         self.flush()?;
         drop(self.file.take());
+        if self.direct {
+            return Ok(());
+        }
         std::fs::rename(&self.tmp, &self.dest)
             .with_context(|| format!("renaming into {}", self.dest.display()))?;
         Ok(())
@@ -126,7 +181,7 @@ impl AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        if self.file.take().is_some() {
+        if self.file.take().is_some() && !self.direct {
             let _ = std::fs::remove_file(&self.tmp);
         }
     }
@@ -186,6 +241,10 @@ impl OutputSet {
         let mut result = Ok(());
         for mut f in files {
             drop(f.file.take());
+            if f.direct {
+                // Already written where it goes (a device or a pipe).
+                continue;
+            }
             let step = (|| -> Result<Option<PathBuf>> {
                 let backup = if f.dest.is_file() {
                     let b = side_name(&f.dest, std::process::id(), "bak")?;

@@ -466,4 +466,87 @@ mod outputs {
             done.keys()
         );
     }
+    /// Issue 34 item 4: `-o` writes through a symbolic link (the link stays, the file it names
+    /// is written, also one that does not exist yet), and into a named pipe directly (it stays
+    /// a pipe and its reader gets the output), as a shell redirection would.
+    #[test]
+    #[cfg(unix)]
+    fn outputs_write_through_links_and_into_pipes() {
+        use std::os::unix::fs::FileTypeExt;
+        let tmp = tempfile::tempdir().unwrap();
+        let d = tmp.path();
+        stroke_trace(d, "one.csv", 1);
+        std::fs::create_dir(d.join("real")).unwrap();
+        std::fs::write(d.join("real/friction.csv"), "old").unwrap();
+        std::os::unix::fs::symlink("real/friction.csv", d.join("link.csv")).unwrap();
+        // a link to a file not there yet, through a second link
+        std::os::unix::fs::symlink("real/new.csv", d.join("dangling.csv")).unwrap();
+        std::os::unix::fs::symlink("dangling.csv", d.join("chain.csv")).unwrap();
+        for out in ["link.csv", "chain.csv"] {
+            let mut c = feedscope(d);
+            c.args(["estimate", "one.csv", "--axis", "axis.toml", "-o", out]);
+            let o = run(c);
+            assert!(o.status.success(), "{}", stderr(&o));
+            let m = std::fs::symlink_metadata(d.join(out)).unwrap();
+            assert!(m.file_type().is_symlink(), "{out} replaced by a file");
+        }
+        let written = std::fs::read_to_string(d.join("real/friction.csv")).unwrap();
+        assert!(written.contains("position_mm"), "{written:.200}");
+        let created = std::fs::read_to_string(d.join("real/new.csv")).unwrap();
+        assert!(created.contains("position_mm"), "{created:.200}");
+        assert!(
+            std::fs::read_dir(d.join("real")).unwrap().all(|e| !e
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with('.')),
+            "a temporary file left beside the link's target"
+        );
+        // a link loop is an error naming it, not a hang
+        std::os::unix::fs::symlink("loop_b.csv", d.join("loop_a.csv")).unwrap();
+        std::os::unix::fs::symlink("loop_a.csv", d.join("loop_b.csv")).unwrap();
+        let mut c = feedscope(d);
+        c.args([
+            "estimate",
+            "one.csv",
+            "--axis",
+            "axis.toml",
+            "-o",
+            "loop_a.csv",
+        ]);
+        let o = run(c);
+        assert!(!o.status.success());
+        assert!(stderr(&o).contains("symbolic links"), "{}", stderr(&o));
+
+        // A named pipe with a reader on the other end.
+        let fifo = d.join("pipe.csv");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
+        };
+        let mut c = feedscope(d);
+        c.args([
+            "estimate",
+            "one.csv",
+            "--axis",
+            "axis.toml",
+            "-o",
+            "pipe.csv",
+            "--summary",
+            "p.json",
+            "--plot",
+            "p.svg",
+        ]);
+        let o = run(c);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let got = reader.join().unwrap();
+        assert!(got.contains("position_mm"), "{got:.200}");
+        let m = std::fs::symlink_metadata(&fifo).unwrap();
+        assert!(m.file_type().is_fifo(), "the pipe was replaced");
+    }
 }
