@@ -314,7 +314,7 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
     let detectors = super::history::DetectorArgs::default();
     super::report::write_report(
         &crate::store::StoreSpec::Sqlite(db.clone()),
-        "demo lathe",
+        Some("demo lathe"),
         Some("Z"),
         5,
         &detectors,

@@ -183,9 +183,9 @@ pub struct RemoveArgs {
 
 #[derive(Debug, clap::Args, Clone)]
 pub struct TrendArgs {
-    /// Machine name.
-    #[arg(long, default_value = "machine")]
-    pub machine: String,
+    /// Machine name [default: the only machine in the store].
+    #[arg(long)]
+    pub machine: Option<String>,
     /// Axis name [default: the only axis of the machine].
     #[arg(long)]
     pub axis_name: Option<String>,
@@ -804,11 +804,12 @@ fn stroke_profiles(
 fn trend(spec: &StoreSpec, a: &TrendArgs) -> Result<bool> {
     let thresholds = load_thresholds(a.thresholds.as_deref())?;
     let store = spec.open()?;
-    let axis = resolve_axis(&*store, &a.machine, a.axis_name.as_deref())?;
-    let thresholds = with_axis_thresholds(&*store, &a.machine, &axis, thresholds)?;
+    let machine = super::series::resolve_machine(&*store, a.machine.as_deref())?;
+    let axis = resolve_axis(&*store, &machine, a.axis_name.as_deref())?;
+    let thresholds = with_axis_thresholds(&*store, &machine, &axis, thresholds)?;
     let t = axis_trends(
         &*store,
-        &a.machine,
+        &machine,
         &axis,
         a.baseline_tests,
         &a.detectors,

@@ -31,9 +31,9 @@ pub struct Args {
     /// file [env: FEEDSCOPE_STORE]; not with --db.
     #[arg(long, value_name = "SPEC")]
     pub store: Option<String>,
-    /// Machine name.
-    #[arg(long, default_value = "machine")]
-    pub machine: String,
+    /// Machine name [default: the only machine in the store].
+    #[arg(long)]
+    pub machine: Option<String>,
     /// Axis name [default: the only axis of the machine].
     #[arg(long)]
     pub axis_name: Option<String>,
@@ -54,7 +54,7 @@ pub struct Args {
 /// Write the report of `machine`/`axis` from the store `spec` to `out`.
 pub fn write_report(
     spec: &StoreSpec,
-    machine: &str,
+    machine: Option<&str>,
     axis: Option<&str>,
     baseline_tests: usize,
     detectors: &DetectorArgs,
@@ -68,6 +68,7 @@ pub fn write_report(
         }
     }
     let store = spec.open()?;
+    let machine = &super::series::resolve_machine(&*store, machine)?;
     let axis = resolve_axis(&*store, machine, axis)?;
     let thresholds = super::history::with_axis_thresholds(&*store, machine, &axis, thresholds)?;
     let t = axis_trends(
@@ -118,7 +119,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     write_report(
         &spec,
-        &args.machine,
+        args.machine.as_deref(),
         args.axis_name.as_deref(),
         args.baseline_tests,
         &args.detectors,

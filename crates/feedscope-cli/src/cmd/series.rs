@@ -72,8 +72,38 @@ pub fn store_options() -> Result<OpenOptions> {
         )))
 }
 
-/// The default of `--machine` in `history add`, `history trend` and `report`.
+/// The default of `--machine` in `history add` (and of `history trend` and `report` among
+/// several machines, one of them named so).
 const DEFAULT_MACHINE: &str = "machine";
+
+/// The machine `history trend` and `report` look at: `given`, or without `--machine` the only
+/// machine in the store (or, among several, the one named [`DEFAULT_MACHINE`], what `history
+/// add` stores without `--machine`). Otherwise bad input listing the machines.
+pub fn resolve_machine(store: &dyn Store, given: Option<&str>) -> Result<String> {
+    if let Some(m) = given {
+        return Ok(m.to_string());
+    }
+    let mut machines: Vec<String> = store.axes()?.into_iter().map(|a| a.machine).collect();
+    machines.sort_unstable();
+    machines.dedup();
+    match machines.as_slice() {
+        [] => Err(BadInput(format!(
+            "the database holds no tests yet; store one with `{}`",
+            how_to_add(None)
+        ))
+        .into()),
+        [one] => Ok(one.clone()),
+        many if many.iter().any(|m| m == DEFAULT_MACHINE) => Ok(DEFAULT_MACHINE.to_string()),
+        many => Err(BadInput(format!(
+            "the database holds several machines ({}): choose one with --machine",
+            many.iter()
+                .map(|m| format!("{m:?}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))
+        .into()),
+    }
+}
 
 /// `"a" (3 tests)`.
 fn one(a: &AxisSeries) -> String {
@@ -115,10 +145,8 @@ pub fn check_known(store: &dyn Store, machine: &str, axis: Option<&str>) -> Resu
                 machines.push(line);
             }
         }
-        let hint = if machines.len() == 1 && all[0].machine == DEFAULT_MACHINE {
+        let hint = if machines.len() == 1 {
             "; it is the only one, the default when --machine is not given".to_string()
-        } else if machines.len() == 1 {
-            format!("; it is the only one: give --machine {:?}", all[0].machine)
         } else {
             "; choose one with --machine".to_string()
         };

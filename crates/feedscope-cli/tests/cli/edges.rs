@@ -192,6 +192,59 @@ fn series_names_are_listed_and_announced() {
     assert!(!d.join("r.html").exists());
 }
 
+/// Issue 34 item 11: `report` and `history trend` without `--machine` use the only machine
+/// in the store, whatever its name; among several they name them and ask for one.
+#[test]
+fn the_only_machine_is_the_default_of_report_and_trend() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    axis_file(d);
+    for (k, week) in ["2030-01-01T00:00:00Z", "2030-01-08T00:00:00Z"]
+        .iter()
+        .enumerate()
+    {
+        let t = triangle_trace(d, &format!("m{k}.csv"), 1.0, 31 + k as u64);
+        let o = add_triangle(d, &t, &["--machine", "mill 7", "--time", week]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let mut c = feedscope(d);
+    c.args(["history", "--db", "h.db", "trend"]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).starts_with("mill 7 simulated lathe Z: 2 tests"),
+        "{}",
+        stdout(&o)
+    );
+    let mut c = feedscope(d);
+    c.args(["report", "--db", "h.db", "-o", "r.html"]);
+    let o = run(c);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(d.join("r.html"))
+        .unwrap()
+        .contains("mill 7"));
+    std::fs::remove_file(d.join("r.html")).unwrap();
+
+    let t = triangle_trace(d, "l.csv", 1.0, 35);
+    let o = add_triangle(
+        d,
+        &t,
+        &["--machine", "lathe 2", "--time", "2030-01-02T00:00:00Z"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    for cmd in [
+        &["report", "--db", "h.db", "-o", "r.html"][..],
+        &["history", "--db", "h.db", "trend"][..],
+    ] {
+        expect_bad_input(
+            d,
+            cmd,
+            &["several machines (\"lathe 2\", \"mill 7\"): choose one with --machine"],
+        );
+    }
+    assert!(!d.join("r.html").exists());
+}
+
 /// A semicolon CSV, a raw SHDR log and a raw UMich CSV given to `estimate` are named as such,
 /// with the import command for the last two; `import shdr` on a trace CSV says it is no SHDR.
 #[test]
