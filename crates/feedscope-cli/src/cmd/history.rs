@@ -396,7 +396,12 @@ fn add(spec: &StoreSpec, a: &AddArgs) -> Result<()> {
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0.0, |d| d.as_secs_f64()),
     };
-    let mut store = spec.open()?;
+    // An existing store is opened (and so checked) before the analysis; a new SQLite file is
+    // only made once the test has been analysed, so that a refused add leaves no database.
+    let early = match spec.sqlite_path() {
+        Some(db) if !db.exists() => None,
+        _ => Some(spec.open()?),
+    };
     let (trace, report) = read_trace_file_with(
         &a.trace,
         &ReadOptions::default(),
@@ -412,16 +417,12 @@ fn add(spec: &StoreSpec, a: &AddArgs) -> Result<()> {
         reference: a.reference,
         compensation: a.compensation.clone(),
     };
-    let (outcome, t) = analyse_and_store(
-        &mut *store,
-        spec,
-        &trace,
-        &mut axis,
-        a.kind,
-        a.interval_mm,
-        &bytes,
-        meta,
-    )?;
+    let t = analyse_for_store(&trace, &mut axis, a.kind, a.interval_mm, &bytes, meta)?;
+    let mut store = match early {
+        Some(s) => s,
+        None => spec.open()?,
+    };
+    let outcome = store.add(&t).map_err(|e| store_err(e, spec))?;
     super::series::announce_add(&*store, &t, outcome, a.time.is_none().then_some(&*a.trace))?;
     let (id, dup) = match outcome {
         AddOutcome::Added(id) => (id, false),
@@ -476,6 +477,20 @@ pub fn analyse_and_store(
     bytes: &[u8],
     meta: TestMeta,
 ) -> Result<(AddOutcome, NewTest)> {
+    let t = analyse_for_store(trace, axis, kind, interval_mm, bytes, meta)?;
+    let outcome = store.add(&t).map_err(|e| store_err(e, spec))?;
+    Ok((outcome, t))
+}
+
+/// The analysis of a test as [`analyse_and_store`] stores it, without the store.
+fn analyse_for_store(
+    trace: &feedscope::trace::Trace,
+    axis: &mut AxisParams,
+    kind: TestKind,
+    interval_mm: f64,
+    bytes: &[u8],
+    meta: TestMeta,
+) -> Result<NewTest> {
     let params = TestStudyParams {
         strokes: StrokeStudyParams {
             interval_mm,
@@ -509,8 +524,7 @@ pub fn analyse_and_store(
     t.program = meta.program;
     t.reference = meta.reference;
     t.compensation_ref = meta.compensation;
-    let outcome = store.add(&t).map_err(|e| store_err(e, spec))?;
-    Ok((outcome, t))
+    Ok(t)
 }
 
 fn list(spec: &StoreSpec, a: &ListArgs) -> Result<()> {

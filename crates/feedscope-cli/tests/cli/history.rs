@@ -200,6 +200,38 @@ fn bad_time_is_bad_input() {
     );
 }
 
+/// Issue 34 item 8: an add refused for its trace (one that cannot be read, one whose table
+/// never moves) creates no database; once one exists, a refused add leaves it as it was.
+#[test]
+fn a_refused_add_creates_no_database() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    axis_file(d);
+    std::fs::write(
+        d.join("bad.csv"),
+        "time_s,channel,value\n0.0,position_mm,x\n",
+    )
+    .unwrap();
+    let mut still = String::from("time_s,channel,value\n");
+    for k in 0..2000 {
+        let t = k as f64 * 0.01;
+        still.push_str(&format!("{t},position_mm,100.0\n{t},current_a,0.5\n"));
+    }
+    std::fs::write(d.join("still.csv"), still).unwrap();
+    for name in ["bad.csv", "still.csv"] {
+        let o = add(d, &d.join(name), "2030-01-01T00:00:00Z");
+        assert_eq!(o.status.code(), Some(2), "{name}: {}", stderr(&o));
+        assert!(!d.join("h.db").exists(), "{name}: a database was created");
+    }
+    let good = triangle_trace(d, "good.csv", 1.0, 5);
+    let o = add(d, &good, "2030-01-01T00:00:00Z");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = ids(d);
+    let o = add(d, &d.join("still.csv"), "2030-01-02T00:00:00Z");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(ids(d), before);
+}
+
 /// SIGKILL while `history add` is inside its transaction: the committed test stays, the
 /// killed one is absent, the file passes the integrity check, and the lock is released
 /// (the same trace then lands).
