@@ -96,6 +96,38 @@ pub struct AtomicFile {
     direct: bool,
 }
 
+/// The temporary files of this process not yet renamed into place or removed: what an
+/// interrupt removes ([`remove_temporaries_on_interrupt`]).
+static IN_FLIGHT: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Note a temporary file an interrupt should remove.
+pub(crate) fn register(tmp: &Path) {
+    if let Ok(mut v) = IN_FLIGHT.lock() {
+        v.push(tmp.to_path_buf());
+    }
+}
+
+/// The temporary file is gone or in place: an interrupt leaves it alone.
+pub(crate) fn unregister(tmp: &Path) {
+    if let Ok(mut v) = IN_FLIGHT.lock() {
+        v.retain(|p| p != tmp);
+    }
+}
+
+/// On Ctrl-C (SIGINT) remove the temporary files of the outputs being written and exit with
+/// 130, as a shell reports an interrupted command: the outputs of an earlier run stay as they
+/// were and no partial one is left beside them. Not for `watch`, which ends on Ctrl-C itself.
+pub fn remove_temporaries_on_interrupt() {
+    // Fails only when a handler is already set, which then decides.
+    let _ = ctrlc::set_handler(|| {
+        let removed = IN_FLIGHT.lock().map_or(0, |v| {
+            v.iter().filter(|p| std::fs::remove_file(p).is_ok()).count()
+        });
+        eprintln!("interrupted: {removed} unfinished output file(s) removed");
+        std::process::exit(130);
+    });
+}
+
 /// How many symbolic links [`resolve_links`] follows before it calls the chain a loop (as
 /// Linux's `ELOOP`).
 const MAX_LINKS: usize = 40;
@@ -146,8 +178,11 @@ impl AtomicFile {
         crate::paths::ensure_parent_dir(&dest)?;
         let tmp = side_name(&dest, std::process::id(), "tmp")?;
         remove_stale(&dest);
-        let file =
-            std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
+        register(&tmp);
+        let file = std::fs::File::create(&tmp).with_context(|| {
+            unregister(&tmp);
+            format!("creating {}", tmp.display())
+        })?;
         Ok(Self {
             tmp,
             dest,
@@ -173,9 +208,13 @@ impl AtomicFile {
         if self.direct {
             return Ok(());
         }
-        std::fs::rename(&self.tmp, &self.dest)
-            .with_context(|| format!("renaming into {}", self.dest.display()))?;
-        Ok(())
+        let renamed = std::fs::rename(&self.tmp, &self.dest)
+            .with_context(|| format!("renaming into {}", self.dest.display()));
+        if renamed.is_err() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+        unregister(&self.tmp);
+        renamed
     }
 }
 
@@ -183,6 +222,7 @@ impl Drop for AtomicFile {
     fn drop(&mut self) {
         if self.file.take().is_some() && !self.direct {
             let _ = std::fs::remove_file(&self.tmp);
+            unregister(&self.tmp);
         }
     }
 }
@@ -270,8 +310,11 @@ impl OutputSet {
                 Err(e) => {
                     let _ = std::fs::remove_file(&f.tmp);
                     result = Err(e);
-                    break;
                 }
+            }
+            unregister(&f.tmp);
+            if result.is_err() {
+                break;
             }
         }
         if result.is_err() {

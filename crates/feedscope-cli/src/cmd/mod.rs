@@ -112,6 +112,9 @@ fn is_broken_pipe(err: &anyhow::Error) -> bool {
 }
 
 pub fn run(cli: Cli) -> std::process::ExitCode {
+    if !matches!(cli.command, Command::Watch(_)) {
+        crate::output::remove_temporaries_on_interrupt();
+    }
     let result = match cli.command {
         Command::Demo(a) => demo::run(a),
         Command::Analyze(a) => analyze::run(a),

@@ -208,6 +208,7 @@ pub(crate) fn write_outputs_as(
     let result = (|| -> anyhow::Result<()> {
         let create = |name: &str| {
             let p = tmp_name(dir, name);
+            crate::output::register(&p);
             std::fs::File::create(&p).with_context(|| format!("creating {}", p.display()))
         };
         if parquet {
@@ -237,6 +238,11 @@ pub(crate) fn write_outputs_as(
         for name in files {
             let _ = std::fs::remove_file(tmp_name(dir, name));
         }
+    }
+    for name in files {
+        crate::output::unregister(&tmp_name(dir, name));
+    }
+    if result.is_err() {
         if created {
             let _ = std::fs::remove_dir(dir);
         }

@@ -549,4 +549,58 @@ mod outputs {
         let m = std::fs::symlink_metadata(&fifo).unwrap();
         assert!(m.file_type().is_fifo(), "the pipe was replaced");
     }
+    /// Issue 34 item 11: Ctrl-C (SIGINT) while the outputs are written removes their
+    /// temporary files and exits with 130; the previous outputs stay as they were.
+    #[test]
+    #[cfg(unix)]
+    fn an_interrupt_leaves_no_temporary_file() {
+        let tmp = tempfile::tempdir().unwrap();
+        let d = tmp.path();
+        // 300 s at 8 kHz: a trace of about 100 MB, whose writing takes long enough to be
+        // caught in the middle.
+        std::fs::write(
+            d.join("long.toml"),
+            "seed = 5\n[motion]\nstart_mm = 20\n[[motion.stroke]]\nto_mm = 320\n\
+             feed_mm_min = 60\n[sampling]\nmode = \"synchronous\"\nsynchronous_rate_hz = 8000\n",
+        )
+        .unwrap();
+        std::fs::create_dir(d.join("out")).unwrap();
+        std::fs::write(d.join("out/axis.toml"), "previous").unwrap();
+        let mut c = feedscope(d);
+        c.args(["simulate", "--config", "long.toml", "--out", "out"])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped());
+        let mut child = c.spawn().unwrap();
+        let hidden = |d: &Path| {
+            std::fs::read_dir(d.join("out"))
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .filter(|n| n.starts_with('.'))
+                .collect::<Vec<_>>()
+        };
+        let start = std::time::Instant::now();
+        while hidden(d).is_empty() {
+            assert!(child.try_wait().unwrap().is_none(), "ended before writing");
+            assert!(start.elapsed().as_secs() < 120, "no temporary file seen");
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        let killed = std::process::Command::new("kill")
+            .args(["-INT", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(killed.success());
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(130), "{err}");
+        assert!(
+            err.contains("interrupted: 1 unfinished output file(s) removed"),
+            "{err}"
+        );
+        assert!(hidden(d).is_empty(), "{:?} left behind", hidden(d));
+        assert!(!d.join("out/trace.csv").exists());
+        assert_eq!(
+            std::fs::read_to_string(d.join("out/axis.toml")).unwrap(),
+            "previous"
+        );
+    }
 }
