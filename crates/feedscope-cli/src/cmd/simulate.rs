@@ -234,18 +234,14 @@ pub(crate) fn write_outputs_as(
         }
         Ok(())
     })();
-    if result.is_err() {
-        for name in files {
+    for name in files {
+        if result.is_err() {
             let _ = std::fs::remove_file(tmp_name(dir, name));
         }
-    }
-    for name in files {
         crate::output::unregister(&tmp_name(dir, name));
     }
-    if result.is_err() {
-        if created {
-            let _ = std::fs::remove_dir(dir);
-        }
+    if result.is_err() && created {
+        let _ = std::fs::remove_dir(dir);
     }
     result
 }
