@@ -301,3 +301,31 @@ fn a_cut_csv_is_read_with_a_warning_naming_its_last_line() {
         serde_json::from_str(&std::fs::read_to_string(d.path().join("f.json")).unwrap()).unwrap();
     assert!(v.get("unterminated_last_line").is_none());
 }
+
+/// Issue 34 item 11: a time of −1e-300 after one of 0 is named as it was written, not with
+/// 300 zeros.
+#[test]
+fn a_time_of_minus_1e300_is_named_in_short_form() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "axis.toml", AXIS.as_bytes());
+    write(
+        d.path(),
+        "trace.csv",
+        b"time_s,channel,value\n0,position_mm,1\n-1e-300,position_mm,2\n",
+    );
+    expect_bad_input(
+        d.path(),
+        &[
+            "estimate",
+            "trace.csv",
+            "--axis",
+            "axis.toml",
+            "-o",
+            "f.csv",
+        ],
+        &[
+            "trace.csv:3:",
+            "time -1e-300 s does not come after the previous sample at 0 s",
+        ],
+    );
+}

@@ -87,8 +87,10 @@ pub enum TraceError {
     },
     /// Time does not strictly increase within a channel.
     #[error(
-        "{source_name}:{line}: channel `{channel}`: time {time_s} s does not come after the \
-         previous sample at {previous_time_s} s (time must strictly increase within a channel)"
+        "{source_name}:{line}: channel `{channel}`: time {} s does not come after the \
+         previous sample at {} s (time must strictly increase within a channel)",
+        exact_time(.time_s),
+        exact_time(.previous_time_s)
     )]
     TimeNotIncreasing {
         /// The file.
@@ -293,8 +295,10 @@ pub enum TraceError {
     /// Time does not strictly increase within a channel of a Parquet file
     /// ([`TraceError::TimeNotIncreasing`] of a row, not a line).
     #[error(
-        "{source_name}: row {row}: channel `{channel}`: time {time_s} s does not come after the \
-         previous sample at {previous_time_s} s (time must strictly increase within a channel)"
+        "{source_name}: row {row}: channel `{channel}`: time {} s does not come after the \
+         previous sample at {} s (time must strictly increase within a channel)",
+        exact_time(.time_s),
+        exact_time(.previous_time_s)
     )]
     TimeNotIncreasingInRow {
         /// The file.
@@ -462,6 +466,18 @@ fn num(x: f64, decimals: usize) -> String {
         }
     } else {
         format!("{x:.3e}")
+    }
+}
+
+/// A time (s) for a message that compares two of them: every digit that tells it apart
+/// (Rust's shortest round-trip form), in scientific notation when that would be long (below
+/// 10⁻⁴ or from 10¹⁵ on; −1e-300 otherwise prints 300 zeros).
+fn exact_time(x: &f64) -> String {
+    let a = x.abs();
+    if a == 0.0 || !a.is_finite() || (1e-4..1e15).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
     }
 }
 
