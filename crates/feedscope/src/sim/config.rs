@@ -924,23 +924,63 @@ impl SimConfig {
                 ));
             }
         }
-        non_negative("sampling.position.quantum_mm", s.position.quantum_mm)?;
-        non_negative("sampling.position.noise_std_mm", s.position.noise_std_mm)?;
-        non_negative(
+        // Quanta and noise as a controller can have them: 0 (none) or within a span that
+        // keeps every reading finite and meaningful. A subnormal quantum (1e-320) made the
+        // rounding divide to inf and a noise of 1e308 wrote inf into the trace.
+        let reading = |key: &str, v: f64, lo: f64, hi: f64, unit: &str| {
+            if v == 0.0 || (v.is_finite() && (lo..=hi).contains(&v)) {
+                Ok(())
+            } else {
+                Err(bad(
+                    key,
+                    v,
+                    &format!("must be 0 (none) or lie in [{lo:e}, {hi:e}] {unit}"),
+                ))
+            }
+        };
+        let p = &s.position;
+        reading(
+            "sampling.position.quantum_mm",
+            p.quantum_mm,
+            1e-7,
+            10.0,
+            "mm",
+        )?;
+        reading(
+            "sampling.position.noise_std_mm",
+            p.noise_std_mm,
+            1e-9,
+            10.0,
+            "mm",
+        )?;
+        let e = &s.effort;
+        reading(
             "sampling.effort.current_quantum_a",
-            s.effort.current_quantum_a,
+            e.current_quantum_a,
+            1e-9,
+            100.0,
+            "A",
         )?;
-        non_negative(
+        reading(
             "sampling.effort.current_noise_std_a",
-            s.effort.current_noise_std_a,
+            e.current_noise_std_a,
+            1e-12,
+            1e3,
+            "A",
         )?;
-        non_negative(
+        reading(
             "sampling.effort.torque_quantum_nm",
-            s.effort.torque_quantum_nm,
+            e.torque_quantum_nm,
+            1e-9,
+            1e3,
+            "N·m",
         )?;
-        non_negative(
+        reading(
             "sampling.effort.torque_noise_std_nm",
-            s.effort.torque_noise_std_nm,
+            e.torque_noise_std_nm,
+            1e-12,
+            1e4,
+            "N·m",
         )?;
         positive("truth.interval_ms", self.truth.interval_ms)?;
         Ok(())
@@ -1066,6 +1106,23 @@ mod tests {
 
     fn err_of(toml_text: &str) -> String {
         SimConfig::from_toml_str(toml_text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn readings_outside_what_a_controller_gives_are_refused_naming_the_key() {
+        let e = err_of("[sampling.position]\nquantum_mm = 1e-320\n");
+        assert!(
+            e.contains("sampling.position.quantum_mm") && e.contains("1e-7"),
+            "{e}"
+        );
+        let e = err_of("[sampling.effort]\ncurrent_noise_std_a = 1e308\n");
+        assert!(e.contains("sampling.effort.current_noise_std_a"), "{e}");
+        let e = err_of("[sampling.effort]\ntorque_quantum_nm = -1\n");
+        assert!(e.contains("sampling.effort.torque_quantum_nm"), "{e}");
+        // none and the usual values pass
+        SimConfig::from_toml_str("[sampling.position]\nquantum_mm = 0\nnoise_std_mm = 0\n")
+            .unwrap();
+        SimConfig::from_toml_str("[sampling.position]\nquantum_mm = 1e-4\n").unwrap();
     }
 
     #[test]
