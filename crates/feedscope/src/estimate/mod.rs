@@ -2238,30 +2238,26 @@ fn feed_changes_unresolved(
 /// where the refeed orders of common drives lie (z/2 of 14-30 balls a turn, less the
 /// contact-angle term).
 fn highest_expected_order(axis: &AxisParams) -> (f64, String) {
-    let mut best = (4.0, "shaft order 4".to_string());
-    let mut consider = |order: f64, cause: String| {
-        if order.is_finite() && order > best.0 {
-            best = (order, cause);
-        }
-    };
-    let refeeds = [
-        (axis.nut_refeed_order(), "the nut's ball refeed 2x"),
-        (axis.guide_refeed_order(), "the guides' ball refeed 2x"),
-    ];
-    let geometry = refeeds.iter().any(|(o, _)| o.is_some());
-    for (o, cause) in refeeds {
-        if let Some(o) = o {
-            consider(2.0 * o, cause.to_string());
-        }
-    }
-    if !geometry {
-        consider(
+    use crate::order::{kinematic_orders, Cause};
+    // The kinematic orders less the refeeds' third harmonics, which section 4.1.2 does not
+    // find significant.
+    let kin = kinematic_orders(axis);
+    let geometry = kin
+        .iter()
+        .any(|k| matches!(k.cause, Cause::NutRefeed(_) | Cause::GuideRefeed(_)));
+    let mut best = if geometry {
+        (0.0, String::new())
+    } else {
+        (
             10.0,
             "the ball refeed of a typical nut or guide (no geometry in the axis file)".to_string(),
-        );
-    }
-    for d in &axis.declared_orders {
-        consider(d.order, format!("declared order {}", d.cause));
+        )
+    };
+    for k in kin {
+        let significant = !matches!(k.cause, Cause::NutRefeed(h) | Cause::GuideRefeed(h) if h > 2);
+        if significant && k.order.is_finite() && k.order > best.0 {
+            best = (k.order, k.cause.to_string());
+        }
     }
     best
 }
