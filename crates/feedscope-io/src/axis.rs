@@ -53,10 +53,12 @@ impl AxisFileError {
 /// [`AxisParams::parse`].
 pub fn load(path: &Path) -> Result<AxisParams, AxisFileError> {
     let source_name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|error| AxisFileError::Read {
-        source_name: source_name.clone(),
-        error,
-    })?;
+    let text = crate::bounded::read_to_string(path, crate::bounded::MAX_CONFIG_BYTES).map_err(
+        |error| AxisFileError::Read {
+            source_name: source_name.clone(),
+            error,
+        },
+    )?;
     Ok(AxisParams::parse(
         &text,
         ConfigFormat::from_path(path),
@@ -72,10 +74,12 @@ pub fn load(path: &Path) -> Result<AxisParams, AxisFileError> {
 /// As [`load`].
 pub fn load_for_identification(path: &Path) -> Result<AxisParams, AxisFileError> {
     let source_name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|error| AxisFileError::Read {
-        source_name: source_name.clone(),
-        error,
-    })?;
+    let text = crate::bounded::read_to_string(path, crate::bounded::MAX_CONFIG_BYTES).map_err(
+        |error| AxisFileError::Read {
+            source_name: source_name.clone(),
+            error,
+        },
+    )?;
     Ok(AxisParams::parse_for_identification(
         &text,
         ConfigFormat::from_path(path),

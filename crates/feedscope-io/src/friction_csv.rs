@@ -326,7 +326,7 @@ pub struct EstimateSummary {
 /// [`FrictionCsvError::SummaryJson`] when the file is not JSON,
 /// [`FrictionCsvError::SummaryStrokes`] when its `strokes` list does not hold stroke summaries.
 pub fn read_summary(path: &Path) -> Result<Option<EstimateSummary>, FrictionCsvError> {
-    let Ok(text) = std::fs::read_to_string(path) else {
+    let Ok(text) = crate::bounded::read_to_string(path, crate::bounded::MAX_DATA_BYTES) else {
         return Ok(None);
     };
     let source_name = || path.display().to_string();
@@ -373,10 +373,13 @@ fn default_samples_per_lead() -> f64 {
 /// of [`parse`].
 pub fn read(path: &Path, lead_m: f64) -> Result<Vec<StrokeFriction>, FrictionCsvError> {
     let source_name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|error| FrictionCsvError::Read {
-        source_name: source_name.clone(),
-        error,
-    })?;
+    let text =
+        crate::bounded::read_to_string(path, crate::bounded::MAX_DATA_BYTES).map_err(|error| {
+            FrictionCsvError::Read {
+                source_name: source_name.clone(),
+                error,
+            }
+        })?;
     let summary_path = path.with_extension("json");
     let summary = read_summary(&summary_path)?;
     parse(

@@ -43,6 +43,7 @@
 //!   descriptions, NC programs, simulator configs (with their program file), the index of a
 //!   test set and its traces.
 //! - [`fixed`]: fast fixed-decimal formatting for large CSV outputs.
+//! - [`bounded`]: whole-file reads with a size bound (`/dev/zero` named as a file is an error).
 //!
 //! Errors are one enum per file kind, naming the file and, where there is one, the 1-based
 //! line (or Parquet row). The errors of [`axis`], [`friction_csv`] and [`stribeck_table`] tell
@@ -52,6 +53,7 @@
 #![deny(clippy::float_cmp)]
 
 pub mod axis;
+pub mod bounded;
 pub mod compensation;
 pub mod controller_compensation;
 pub mod fixed;

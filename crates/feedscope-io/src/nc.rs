@@ -27,7 +27,8 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>, NcError> {
             "{len} bytes, more than the {MAX_FILE_BYTES} this reader accepts"
         )));
     }
-    std::fs::read(path).map_err(|e| file_error(format!("cannot read the file: {e}")))
+    crate::bounded::read(path, crate::bounded::MAX_PROGRAM_BYTES)
+        .map_err(|e| file_error(format!("cannot read the file: {e}")))
 }
 
 /// Read a program file; errors name the file.

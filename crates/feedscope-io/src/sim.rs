@@ -45,9 +45,12 @@ pub fn config_from_toml_str_in_dir(text: &str, dir: &Path) -> Result<SimConfig, 
 /// # Errors
 /// [`SimError::Parse`] when the file cannot be read; as [`config_from_toml_str_in_dir`].
 pub fn read_config(path: &Path) -> Result<SimConfig, SimError> {
-    let text = std::fs::read_to_string(path).map_err(|e| SimError::Parse {
-        message: format!("cannot read {}: {e}", path.display()),
-    })?;
+    let text =
+        crate::bounded::read_to_string(path, crate::bounded::MAX_CONFIG_BYTES).map_err(|e| {
+            SimError::Parse {
+                message: format!("cannot read {}: {e}", path.display()),
+            }
+        })?;
     let dir = path.parent().unwrap_or(Path::new("."));
     config_from_toml_str_in_dir(&text, dir)
 }

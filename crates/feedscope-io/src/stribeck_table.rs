@@ -297,10 +297,12 @@ impl TableError {
 /// [`TableError::Read`] when the file cannot be read; as [`parse`].
 pub fn read(path: &Path, opts: &TableOptions) -> Result<SteadySpeedTable, TableError> {
     let source_name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|error| TableError::Read {
-        source_name: source_name.clone(),
-        error,
-    })?;
+    let text = crate::bounded::read_to_string(path, crate::bounded::MAX_CONFIG_BYTES).map_err(
+        |error| TableError::Read {
+            source_name: source_name.clone(),
+            error,
+        },
+    )?;
     parse(&text, &source_name, opts)
 }
 

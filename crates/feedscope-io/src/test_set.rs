@@ -16,11 +16,14 @@ use crate::trace::{read_trace_file_with, ReadOptions};
 /// [`MapError::Index`] when the file cannot be read (line 0) or is malformed.
 pub fn read_index(path: &Path) -> Result<TestSet, MapError> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| MapError::Index {
-        source_name: name.clone(),
-        line: 0,
-        message: format!("cannot read: {e}"),
-    })?;
+    let text =
+        crate::bounded::read_to_string(path, crate::bounded::MAX_CONFIG_BYTES).map_err(|e| {
+            MapError::Index {
+                source_name: name.clone(),
+                line: 0,
+                message: format!("cannot read: {e}"),
+            }
+        })?;
     let base = path.parent().unwrap_or(Path::new(""));
     TestSet::parse_index(&text, base, &name)
 }

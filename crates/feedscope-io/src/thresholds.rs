@@ -17,7 +17,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use feedscope::history::{Indicator, Threshold};
+use feedscope::history::{Indicator, Threshold, MAX_ABS_THRESHOLD};
 use serde::Deserialize;
 
 /// Why a threshold file could not be read.
@@ -94,9 +94,11 @@ struct ThresholdFile {
 /// [`ThresholdsError::Read`], [`ThresholdsError::NotUtf8`], as [`parse`].
 pub fn read(path: &Path) -> Result<BTreeMap<String, Threshold>, ThresholdsError> {
     let source_name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|error| ThresholdsError::Read {
-        source_name: source_name.clone(),
-        error,
+    let bytes = crate::bounded::read(path, crate::bounded::MAX_CONFIG_BYTES).map_err(|error| {
+        ThresholdsError::Read {
+            source_name: source_name.clone(),
+            error,
+        }
     })?;
     let text = String::from_utf8(bytes).map_err(|e| ThresholdsError::NotUtf8 {
         source_name: source_name.clone(),
@@ -134,6 +136,12 @@ pub fn parse(
         for (key, v) in [("upper", t.upper), ("lower", t.lower)] {
             if let Some(v) = v.filter(|v| !v.is_finite()) {
                 return Err(bad(format!("{key} = {v} is not a finite number")));
+            }
+            if let Some(v) = v.filter(|v| v.abs() > MAX_ABS_THRESHOLD) {
+                return Err(bad(format!(
+                    "{key} = {v:e} is beyond ±1e9, which no condition indicator of a feed \
+                     drive comes near (a unit slip?)"
+                )));
             }
         }
         if let (Some(lo), Some(hi)) = (t.lower, t.upper) {

@@ -11,6 +11,18 @@ use std::f64::consts::PI;
 
 use serde::{Deserialize, Serialize};
 
+/// Largest `inertia_kgm2` accepted (kg·m²): ten times the largest feed drives' rotor, coupling
+/// and screw.
+pub const MAX_INERTIA_KGM2: f64 = 10.0;
+
+/// Largest `damping_nms_per_rad` accepted (N·m·s/rad): a servo motor's viscous damping is
+/// about 1e-4 to 1e-1 N·m·s/rad.
+pub const MAX_DAMPING_NMS_PER_RAD: f64 = 10.0;
+
+/// Largest `torque_constant_nm_per_a` accepted (N·m/A): feed-drive servo motors have 0.1 to
+/// about 50 N·m/A.
+pub const MAX_TORQUE_CONSTANT_NM_PER_A: f64 = 500.0;
+
 /// Errors reading or validating an axis file.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -291,26 +303,31 @@ impl AxisParams {
             1e6,
             "must be at most 1e6 kg",
         )?;
+        // The upper bounds are physical, ten times and more beyond the largest feed drives:
+        // a value past them is a unit slip (g·cm² for kg·m², N·m·s/rev for /rad, mN·m/A)
+        // that would turn every friction value into nonsense (damping 1000 gave −7.9e6 N).
         non_negative("inertia_kgm2", self.inertia_kgm2)?;
         at_most(
             "inertia_kgm2",
             self.inertia_kgm2,
-            1e3,
-            "must be at most 1000 kg·m²",
+            MAX_INERTIA_KGM2,
+            "must be at most 10 kg·m² (motor rotor, coupling and screw: the largest feed \
+             drives have about 1 kg·m²)",
         )?;
         non_negative("damping_nms_per_rad", self.damping_nms_per_rad)?;
         at_most(
             "damping_nms_per_rad",
             self.damping_nms_per_rad,
-            1e6,
-            "must be at most 1e6 N·m·s/rad",
+            MAX_DAMPING_NMS_PER_RAD,
+            "must be at most 10 N·m·s/rad (a servo motor's viscous damping is about 1e-4 to \
+             1e-1 N·m·s/rad; 10 would take 3 kN·m at 3000 rpm)",
         )?;
         positive("torque_constant_nm_per_a", self.torque_constant_nm_per_a)?;
         at_most(
             "torque_constant_nm_per_a",
             self.torque_constant_nm_per_a,
-            1e4,
-            "must be at most 1e4 N·m/A",
+            MAX_TORQUE_CONSTANT_NM_PER_A,
+            "must be at most 500 N·m/A (feed-drive servo motors have 0.1 to about 50 N·m/A)",
         )?;
         for (key, v) in [
             ("travel_min_mm", self.travel_min_mm),
@@ -396,6 +413,13 @@ impl AxisParams {
             for v in [t.upper, t.lower].into_iter().flatten() {
                 if !v.is_finite() {
                     return Err(bad("thresholds", v, "must be a finite number"));
+                }
+                if v.abs() > crate::history::MAX_ABS_THRESHOLD {
+                    return Err(bad(
+                        "thresholds",
+                        v,
+                        "must lie within ±1e9 (no condition indicator comes near)",
+                    ));
                 }
             }
         }

@@ -49,7 +49,7 @@ pub struct Args {
 
 /// Read and validate the drive file before any output is written.
 fn load(path: &Path) -> Result<DriveModel> {
-    let text = std::fs::read_to_string(path)
+    let text = feedscope_io::bounded::read_to_string(path, feedscope_io::bounded::MAX_CONFIG_BYTES)
         .map_err(|e| BadInput(format!("cannot read drive file {}: {e}", path.display())))?;
     let cfg = DriveConfig::from_toml_str(&text, &path.display().to_string())
         .map_err(|e| BadInput(format!("invalid drive file {}: {e}", path.display())))?;

@@ -129,8 +129,11 @@ fn execute(args: Args) -> Result<(), Failure> {
 fn prepare(args: &Args) -> anyhow::Result<(SimConfig, Layout, PathBuf)> {
     let mut cfg = match &args.config {
         Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading config {}", path.display()))?;
+            let text = feedscope_io::bounded::read_to_string(
+                path,
+                feedscope_io::bounded::MAX_CONFIG_BYTES,
+            )
+            .with_context(|| format!("reading config {}", path.display()))?;
             // A relative motion.program_file is read relative to the config file.
             let dir = path.parent().unwrap_or(Path::new("."));
             feedscope_io::sim::config_from_toml_str_in_dir(&text, dir)

@@ -8,6 +8,7 @@ mod fit_stribeck;
 mod glitch;
 mod history;
 mod identify;
+mod implausible;
 mod import;
 mod import_controllers;
 mod malformed;

@@ -477,9 +477,11 @@ pub(crate) fn split_lines<'a>(
 
 /// Read a file as text, replacing invalid UTF-8 and dropping a byte-order mark.
 pub(crate) fn read_text(path: &std::path::Path) -> Result<String, ImportError> {
-    let bytes = std::fs::read(path).map_err(|error| ImportError::Io {
-        source_name: path.display().to_string(),
-        error,
+    let bytes = crate::bounded::read(path, crate::bounded::MAX_DATA_BYTES).map_err(|error| {
+        ImportError::Io {
+            source_name: path.display().to_string(),
+            error,
+        }
     })?;
     let text = match String::from_utf8(bytes) {
         Ok(s) => s,

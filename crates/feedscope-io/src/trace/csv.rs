@@ -15,8 +15,8 @@ use feedscope::trace::{Channel, EffortKind, GlitchParams, RecordingFacts, Trace}
 use super::format::Layout;
 use super::limits;
 use super::read::{
-    choose_effort, name_problem, screen_and_check, shorten, show_name, EffortChoice, Origin,
-    ReadOptions, ReadReport, TraceError,
+    choose_effort, duplicate_columns, name_problem, screen_and_check, shorten, show_name,
+    EffortChoice, Origin, ReadOptions, ReadReport, TraceError, MAX_LINE_BYTES,
 };
 use crate::fixed::push_fixed;
 
@@ -34,10 +34,6 @@ pub(super) fn read_file(
     glitch: &GlitchParams,
     block_bytes: usize,
 ) -> Result<(Trace, ReadReport), TraceError> {
-    let io = |error| TraceError::Io {
-        source_name: name.to_string(),
-        error,
-    };
     let size_hint = file.metadata().map(|m| m.len()).unwrap_or(0);
     let mut reader = BlockParser::new(name.to_string(), opts, size_hint);
     // A reading thread fills the next block while the workers parse this one. Blocks hold
@@ -52,7 +48,7 @@ pub(super) fn read_file(
             let _ = empty_tx.send(Vec::new());
         }
         for msg in full_rx.iter() {
-            let (buf, eof) = msg.map_err(io)?;
+            let (buf, eof) = msg.map_err(|e| block_error(name, e, reader.lines))?;
             let consumed = reader.feed(&buf, eof)?;
             debug_assert!(eof || consumed == buf.len());
             // The reader stops when its buffers stop coming back; a failed send just means it
@@ -107,10 +103,6 @@ pub(super) fn stream_file<E: From<TraceError>>(
     block_bytes: usize,
     on_chunk: &mut dyn FnMut(TraceChunk<'_>) -> Result<bool, E>,
 ) -> Result<Option<ReadReport>, E> {
-    let io = |error| TraceError::Io {
-        source_name: name.to_string(),
-        error,
-    };
     let size_hint = file.metadata().map(|m| m.len()).unwrap_or(0);
     let mut reader = BlockParser::new(name.to_string(), opts, size_hint);
     reader.streaming = true;
@@ -123,7 +115,7 @@ pub(super) fn stream_file<E: From<TraceError>>(
             let _ = empty_tx.send(Vec::new());
         }
         for msg in full_rx.iter() {
-            let (buf, eof) = msg.map_err(io)?;
+            let (buf, eof) = msg.map_err(|e| block_error(name, e, reader.lines))?;
             reader.feed(&buf, eof)?;
             let _ = empty_tx.send(buf);
             let wide_effort = match &reader.header {
@@ -315,6 +307,37 @@ struct CsvLayout {
 
 /// Read `file` in blocks of about `block_bytes` that end at a line terminator (except at the
 /// end of the file) and send them with an end-of-file flag, reusing the buffers sent back.
+/// The reading thread's error payload for a line longer than [`MAX_LINE_BYTES`]; the parser
+/// side turns it into [`TraceError::LineTooLong`] with the line number it has reached.
+#[derive(Debug)]
+struct LineTooLong;
+
+impl std::fmt::Display for LineTooLong {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "a line longer than {MAX_LINE_BYTES} bytes")
+    }
+}
+
+impl std::error::Error for LineTooLong {}
+
+/// The error of a failed block read: [`TraceError::LineTooLong`] for the thread's marker (the
+/// long line is the one after the `lines_parsed` lines handed over so far), else
+/// [`TraceError::Io`].
+fn block_error(name: &str, error: std::io::Error, lines_parsed: u64) -> TraceError {
+    if error.get_ref().is_some_and(|e| e.is::<LineTooLong>()) {
+        TraceError::LineTooLong {
+            source_name: name.to_string(),
+            line: lines_parsed + 1,
+            max_bytes: MAX_LINE_BYTES,
+        }
+    } else {
+        TraceError::Io {
+            source_name: name.to_string(),
+            error,
+        }
+    }
+}
+
 fn read_blocks(
     mut file: File,
     block_bytes: usize,
@@ -328,7 +351,8 @@ fn read_blocks(
         buf.clear();
         buf.extend_from_slice(&carry);
         carry.clear();
-        // Grow until at least one whole line is in: a line longer than a block still works.
+        // Grow until at least one whole line is in: a line longer than a block still works,
+        // up to MAX_LINE_BYTES (`/dev/zero` named as a trace would grow without end).
         // `read_to_end` fills the spare capacity without zeroing it first.
         let eof = loop {
             let start = buf.len();
@@ -348,6 +372,14 @@ fn read_blocks(
                 carry.extend_from_slice(&buf[start + k + 1..]);
                 buf.truncate(start + k + 1);
                 break false;
+            }
+            // No line end in the whole buffer: it is one line so far (the carry holds none).
+            if buf.len() > MAX_LINE_BYTES {
+                let _ = full.send(Err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    LineTooLong,
+                )));
+                return;
             }
         };
         if full.send(Ok((buf, eof))).is_err() || eof {
@@ -607,6 +639,9 @@ impl BlockParser {
                     show_name(n.as_bytes())
                 )));
             }
+        }
+        if let Some(reason) = duplicate_columns(&names) {
+            return Err(bad(reason));
         }
         let time = names
             .iter()

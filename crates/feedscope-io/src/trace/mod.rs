@@ -86,7 +86,9 @@ mod read;
 pub use csv::{write_csv, TraceChunk};
 pub use format::Layout;
 pub use parquet::{decoding_untrusted_parquet, write_parquet};
-pub use read::{DroppedSample, ReadOptions, ReadReport, TraceError, MAX_NAME_BYTES};
+pub use read::{
+    DroppedSample, ReadOptions, ReadReport, TraceError, MAX_LINE_BYTES, MAX_NAME_BYTES,
+};
 
 use format::Format;
 

@@ -423,6 +423,13 @@ fn plan(schema: &Schema, name: &str, opts: &ReadOptions) -> Result<(Plan, Vec<us
         }
     };
     let find = |wanted: &[&str]| names.iter().position(|n| wanted.contains(&n.as_str()));
+    if let Some(reason) = super::read::duplicate_columns(&names) {
+        return Err(TraceError::BadColumn {
+            source_name: name.to_string(),
+            column: names.join(", "),
+            reason,
+        });
+    }
     let numeric = |index: usize, scale: f64| -> Result<(usize, Col), TraceError> {
         let field = &schema.fields()[index];
         if !is_numeric(field.data_type()) {

@@ -3,7 +3,7 @@
 //! with (enough samples, motion, the position screened for glitches). Nothing here reads a
 //! file; the readers call it, never the other way round.
 
-use feedscope::trace::glitch::{remove_samples, screen_position, GlitchParams};
+use feedscope::trace::glitch::{remove_samples, screen_effort, screen_position, GlitchParams};
 use feedscope::trace::{Channel, EffortKind, Trace, MIN_SAMPLES};
 use feedscope::units::feed_m_s_to_mm_min;
 
@@ -20,6 +20,21 @@ pub enum TraceError {
         source_name: String,
         /// The operating system's error.
         error: std::io::Error,
+    },
+    /// A line runs on past [`MAX_LINE_BYTES`] without a line end: not a CSV trace (binary
+    /// data, a device such as `/dev/zero`, a file of another kind). Refused before it is
+    /// held in memory.
+    #[error(
+        "{source_name}:{line}: the line runs on for more than {max_bytes} bytes without a line \
+         end: not a CSV trace (binary data, or a file of another kind)"
+    )]
+    LineTooLong {
+        /// The file.
+        source_name: String,
+        /// 1-based line number.
+        line: u64,
+        /// The limit (bytes).
+        max_bytes: usize,
     },
     /// A `# fact KEY = VALUE` line names an unknown fact or a bad value.
     #[error("{source_name}:{line}: {reason}")]
@@ -327,6 +342,10 @@ impl TraceError {
     }
 }
 
+/// Longest line a CSV trace may hold (bytes): 1 MiB, thousands of times a real row (a wide
+/// row of a few numbers is under 100 bytes). A longer line is [`TraceError::LineTooLong`].
+pub const MAX_LINE_BYTES: usize = 1 << 20;
+
 /// Options for reading a trace.
 #[derive(Debug, Clone, Default)]
 pub struct ReadOptions {
@@ -354,6 +373,13 @@ pub struct ReadReport {
     /// The speed limit the position was screened with (m/s); `None` when it was not screened
     /// (a report made by hand).
     pub max_axis_speed_m_s: Option<f64>,
+    /// Effort samples dropped as glitches (see
+    /// [`feedscope::trace::glitch::screen_effort`]), in time order; they are not in the trace.
+    pub dropped_effort: Vec<DroppedEffort>,
+    /// The magnitude the effort glitches exceeded (A or N·m, the effort's unit); `None` when
+    /// the effort was not screened (too few samples, a mostly zero channel, a report made by
+    /// hand).
+    pub effort_glitch_limit: Option<f64>,
     /// The 1-based line of a CSV file's last data line when the file does not end with a line
     /// end: a file cut off while being written or copied looks like this, and its last row
     /// may hold a shortened number. The row was read as it stands.
@@ -375,6 +401,15 @@ pub struct DroppedSample {
     pub row: Option<u64>,
 }
 
+/// An effort sample dropped as a glitch.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DroppedEffort {
+    /// Its time (s).
+    pub time_s: f64,
+    /// The value it held (A or N·m), as read.
+    pub value: f64,
+}
+
 /// Dropped samples named in full in [`ReadReport::glitch_warning`]; the rest are counted.
 const SHOWN_DROPPED: usize = 5;
 
@@ -389,10 +424,46 @@ impl ReadReport {
                  stands; the recording may end early)"
             )
         });
-        match (self.glitch_warning(), cut) {
-            (Some(g), Some(c)) => Some(format!("{g}; {c}")),
-            (g, c) => g.or(c),
+        let parts: Vec<String> = [self.glitch_warning(), self.effort_glitch_warning(), cut]
+            .into_iter()
+            .flatten()
+            .collect();
+        (!parts.is_empty()).then(|| parts.join("; "))
+    }
+
+    /// One sentence for people when effort samples were dropped as glitches: the count, the
+    /// bound, and the time and value of the first few. `None` when nothing was dropped.
+    pub fn effort_glitch_warning(&self) -> Option<String> {
+        let d = &self.dropped_effort;
+        if d.is_empty() {
+            return None;
         }
+        let limit = self
+            .effort_glitch_limit
+            .map(|l| format!(" beyond ±{}", num(l, 3)))
+            .unwrap_or_default();
+        let list: Vec<String> = d
+            .iter()
+            .take(SHOWN_DROPPED)
+            .map(|s| format!("{} s ({})", secs(s.time_s), num(s.value, 3)))
+            .collect();
+        let more = if d.len() > SHOWN_DROPPED {
+            format!(" and {} more", d.len() - SHOWN_DROPPED)
+        } else {
+            String::new()
+        };
+        let n = d.len();
+        let what = if n == 1 {
+            "1 effort sample as a logger glitch".to_string()
+        } else {
+            format!("{n} effort samples as logger glitches")
+        };
+        Some(format!(
+            "dropped {what} (at most {} in a row{limit}, ten times the recording's 99.9th \
+             percentile magnitude) at t = {}{more}",
+            feedscope::trace::glitch::MAX_GLITCH_RUN,
+            list.join(", ")
+        ))
     }
 
     /// One sentence for people when position samples were dropped as glitches: the count, the
@@ -494,6 +565,33 @@ fn mm(x: f64) -> String {
 /// Speed (mm/min) for messages, to the mm/min.
 fn mm_min(x: f64) -> String {
     num(x, 0)
+}
+
+/// Why a wide header (lower-cased names) is ambiguous, or `None`: a column the readers use
+/// appears twice, or in two units (`time_s` and `time_ms`, `position_mm` and `position_m`).
+/// Taking the first silently dropped a conflicting copy.
+pub(super) fn duplicate_columns(names: &[String]) -> Option<String> {
+    for (group, what) in [
+        (&["time_s", "time_ms"][..], "time"),
+        (&["position_mm", "position_m"], "position"),
+        (&["current_a"], "motor current"),
+        (&["torque_nm"], "motor torque"),
+    ] {
+        let at: Vec<usize> = (0..names.len())
+            .filter(|&k| group.contains(&names[k].as_str()))
+            .collect();
+        if let [a, b, ..] = at[..] {
+            return Some(format!(
+                "columns {} (`{}`) and {} (`{}`) both hold the {what}: which one to read is \
+                 not known; keep one",
+                a + 1,
+                names[a],
+                b + 1,
+                names[b],
+            ));
+        }
+    }
+    None
 }
 
 /// Longest channel or column name accepted (bytes of UTF-8).
@@ -604,6 +702,21 @@ pub(super) fn screen_and_check(
                 limit_mm_min: glitch.max_axis_speed_mm_min(),
             });
         }
+    }
+    // Effort glitches: a few samples far beyond everything else the drive recorded.
+    let e = screen_effort(&trace.effort);
+    report.effort_glitch_limit = e.limit;
+    if !e.glitches.is_empty() {
+        report.dropped_effort = e
+            .glitches
+            .iter()
+            .map(|&k| DroppedEffort {
+                time_s: trace.effort.time_s[k],
+                value: trace.effort.value[k],
+            })
+            .collect();
+        remove_samples(&mut trace.effort, &e.glitches);
+        check_channels(name, &trace.position_m, &trace.effort, trace.effort_kind)?;
     }
     // Kept positions beyond the bound of a feed axis: what the glitch screen could not call
     // a glitch (a whole stretch mis-scaled, or times so far apart that any jump is slow).

@@ -682,14 +682,21 @@ impl DriveConfig {
     }
 }
 
+/// Nearest a nut position may come to a bearing, as a fraction of the screw's length: 0.1 %.
+/// The mesh puts `elements_per_side` elements on either side of the nut, and a side of
+/// 2.2e-308 mm made elements of no length and modes of NaN.
+pub const MIN_END_CLEARANCE: f64 = 1e-3;
+
 fn inside(key: &'static str, value: f64, length_mm: f64) -> Result<(), DynamicsError> {
-    if value.is_finite() && value > 0.0 && value < length_mm {
+    let margin = MIN_END_CLEARANCE * length_mm;
+    if value.is_finite() && value >= margin && value <= length_mm - margin {
         Ok(())
     } else {
         Err(DynamicsError::InvalidValue {
             key,
             value,
-            reason: "must lie strictly between 0 and screw.length_mm",
+            reason: "must lie between 0 and screw.length_mm, at least 0.1 % of the length \
+                     from either end (the nut between the bearings)",
         })
     }
 }

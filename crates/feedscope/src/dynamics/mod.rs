@@ -53,7 +53,7 @@ mod ripple;
 
 pub use config::{
     BearingParams, DriveConfig, FrictionParams, MeshParams, MotorEnd, NutParams, RippleParams,
-    ScrewParams, SweepParams, TableParams,
+    ScrewParams, SweepParams, TableParams, MIN_END_CLEARANCE,
 };
 pub use contact::{hertz_axial_stiffness_n_per_m, JointState};
 pub use modal::{DriveModel, ModalDiagnostics, ModalResult, ModeShape, PositionPlan};
@@ -86,7 +86,10 @@ pub enum DynamicsError {
         reason: &'static str,
     },
     /// The nut position must lie strictly between the two support bearings.
-    #[error("nut position {position_m} m is outside the open interval (0, {length_m}) m")]
+    #[error(
+        "nut position {position_m} m is not between the bearings (0 and {length_m} m, at \
+         least 0.1 % of the length from either)"
+    )]
     PositionOutOfRange {
         /// Requested nut position y from the rear bearing (m).
         position_m: f64,

@@ -80,19 +80,15 @@ impl DriveModel {
     /// form K this way.
     ///
     /// # Errors
-    /// [`DynamicsError::PositionOutOfRange`] unless 0 < y < L.
+    /// [`DynamicsError::PositionOutOfRange`] unless the nut is between the bearings, at least
+    /// [`MIN_END_CLEARANCE`](super::MIN_END_CLEARANCE) of L from either.
     pub fn system_matrices(
         &self,
         y_m: f64,
         feed_m_s: f64,
     ) -> Result<(DMatrix<f64>, DMatrix<f64>), DynamicsError> {
         let length_m = self.screw.length_m;
-        if !(y_m.is_finite() && y_m > 0.0 && y_m < length_m) {
-            return Err(DynamicsError::PositionOutOfRange {
-                position_m: y_m,
-                length_m,
-            });
-        }
+        check_position(y_m, length_m)?;
         let layout = self.screw.layout();
         let (mut k, m) = self.screw.assemble(y_m, &layout);
         let j = self.joints.state(feed_m_s);
@@ -106,16 +102,12 @@ impl DriveModel {
     /// Assemble, factor and project the system with the nut at y (m from the rear bearing).
     ///
     /// # Errors
-    /// [`DynamicsError::PositionOutOfRange`] unless 0 < y < L;
+    /// [`DynamicsError::PositionOutOfRange`] unless the nut is between the bearings (as
+    /// [`Self::system_matrices`]);
     /// [`DynamicsError::MassNotPositiveDefinite`] if the Cholesky factorisation of M fails.
     pub fn at_position(&self, y_m: f64) -> Result<PositionPlan, DynamicsError> {
         let length_m = self.screw.length_m;
-        if !(y_m.is_finite() && y_m > 0.0 && y_m < length_m) {
-            return Err(DynamicsError::PositionOutOfRange {
-                position_m: y_m,
-                length_m,
-            });
-        }
+        check_position(y_m, length_m)?;
         let layout = self.screw.layout();
         let (k0, m) = self.screw.assemble(y_m, &layout);
         let chol = m
@@ -419,4 +411,19 @@ pub(crate) fn generalized_eigenvalues(k: &DMatrix<f64>, m: &DMatrix<f64>) -> Opt
     let mut ev: Vec<f64> = a.symmetric_eigenvalues().iter().copied().collect();
     ev.sort_by(f64::total_cmp);
     Some(ev)
+}
+
+/// [`DynamicsError::PositionOutOfRange`] unless `y_m` lies at least
+/// [`MIN_END_CLEARANCE`](super::MIN_END_CLEARANCE)·L from either bearing: the mesh
+/// puts elements on both sides of the nut, and a side of no length gives modes of NaN.
+fn check_position(y_m: f64, length_m: f64) -> Result<(), DynamicsError> {
+    let c = super::config::MIN_END_CLEARANCE * length_m;
+    if y_m.is_finite() && y_m >= c && y_m <= length_m - c {
+        Ok(())
+    } else {
+        Err(DynamicsError::PositionOutOfRange {
+            position_m: y_m,
+            length_m,
+        })
+    }
 }

@@ -276,6 +276,28 @@ pub enum EstimateError {
         /// [`MAX_GRID_POINTS_PER_SAMPLE`] per position sample.
         limit: usize,
     },
+    /// A move runs faster than any feed axis (or this axis, by its rapid rate) can: the
+    /// positions are in another unit than mm (µm written as mm) or the times are not seconds.
+    #[error(
+        "a move from {start_mm:.1} mm to {end_mm:.1} mm at t = {start_time_s:.3} s runs at \
+         {feed_mm_min:.1} mm/min, beyond {limit_mm_min:.0} mm/min ({why}): no feed axis moves \
+         so fast; the trace's positions are scaled (µm written as mm?) or its times are not in \
+         seconds; check the units of its position and time columns"
+    )]
+    FeedImplausible {
+        /// Plateau speed of the move (mm/min).
+        feed_mm_min: f64,
+        /// The bound (mm/min), [`max_plausible_feed_mm_min`].
+        limit_mm_min: f64,
+        /// Where the bound comes from.
+        why: &'static str,
+        /// Start of the move (s).
+        start_time_s: f64,
+        /// Position at its start (mm).
+        start_mm: f64,
+        /// Position at its end (mm).
+        end_mm: f64,
+    },
     /// A result came out NaN or infinite.
     #[error("stroke {stroke}: {quantity} is not finite at position {position_mm} mm")]
     NonFinite {
@@ -499,11 +521,49 @@ pub struct Plan {
     pub notes: Vec<String>,
 }
 
+/// The fastest plateau feed a move of `axis` can have (mm/min) and where the bound comes
+/// from: [`RAPID_RATE_MARGIN`](crate::trace::glitch::RAPID_RATE_MARGIN) × the axis's rapid
+/// rate when the axis file gives it, else
+/// [`DEFAULT_MAX_AXIS_SPEED_MM_MIN`](crate::trace::glitch::DEFAULT_MAX_AXIS_SPEED_MM_MIN),
+/// above the rapid rate of any ball-screw axis. The same bounds as the glitch screen's, which
+/// lets a sustained speed up to about three times them through (its timing slack).
+pub fn max_plausible_feed_mm_min(axis: &AxisParams) -> (f64, &'static str) {
+    use crate::trace::glitch::{DEFAULT_MAX_AXIS_SPEED_MM_MIN, RAPID_RATE_MARGIN};
+    match axis.rapid_rate_mm_min {
+        Some(r) => (
+            RAPID_RATE_MARGIN * r,
+            "1.25 × rapid_rate_mm_min of the axis file",
+        ),
+        None => (
+            DEFAULT_MAX_AXIS_SPEED_MM_MIN,
+            "the fastest ball-screw axes reach 100-120 m/min; the axis file gives no \
+             rapid_rate_mm_min",
+        ),
+    }
+}
+
+/// [`EstimateError::FeedImplausible`] for the first move faster than
+/// [`max_plausible_feed_mm_min`].
+pub(crate) fn check_feed_plausible(m: &Move, axis: &AxisParams) -> Result<(), EstimateError> {
+    let (limit_mm_min, why) = max_plausible_feed_mm_min(axis);
+    if m.feed_mm_min > limit_mm_min {
+        return Err(EstimateError::FeedImplausible {
+            feed_mm_min: m.feed_mm_min,
+            limit_mm_min,
+            why,
+            start_time_s: m.start_time_s,
+            start_mm: m.start_mm,
+            end_mm: m.end_mm,
+        });
+    }
+    Ok(())
+}
+
 /// Segment a trace into moves, classify them and pick the strokes to estimate.
 ///
 /// # Errors
 /// [`EstimateError::NoStroke`], [`EstimateError::NoMeasuringStroke`],
-/// [`EstimateError::BadSamplesPerLead`].
+/// [`EstimateError::BadSamplesPerLead`], [`EstimateError::FeedImplausible`].
 pub fn plan(
     trace: &Trace,
     axis: &AxisParams,
@@ -514,6 +574,9 @@ pub fn plan(
     }
     let move_spans = segment::find_moves(&trace.position_m, &params.segment);
     let (mut moves, note) = moves::classify(&trace.position_m, &move_spans, axis.rapid_rate_mm_min);
+    for m in &moves {
+        check_feed_plausible(m, axis)?;
+    }
     let mut notes: Vec<String> = note.into_iter().collect();
     if !params.program.is_empty() {
         notes.extend(moves::label_with_program(&mut moves, &params.program));
@@ -640,16 +703,39 @@ struct DirectionMeans {
     /// (Σ mean·length, Σ length) of forward and of backward strokes.
     forward: (f64, f64),
     backward: (f64, f64),
+    /// Σ damping force·length of forward and of backward strokes (N·mm): the axis file's
+    /// 4π²B/p² times the signed feed, the term Eq. 5 subtracts from the drive's force.
+    forward_damping: f64,
+    backward_damping: f64,
 }
 
 impl DirectionMeans {
-    fn add(&mut self, dir: Direction, mean_n: f64, length_mm: f64) {
-        let slot = match dir {
-            Direction::Forward => &mut self.forward,
-            Direction::Backward => &mut self.backward,
+    fn add(&mut self, dir: Direction, mean_n: f64, length_mm: f64, damping_n: f64) {
+        let (slot, d) = match dir {
+            Direction::Forward => (&mut self.forward, &mut self.forward_damping),
+            Direction::Backward => (&mut self.backward, &mut self.backward_damping),
         };
         slot.0 += mean_n * length_mm;
         slot.1 += length_mm;
+        *d += damping_n * length_mm;
+    }
+
+    /// The mean damping force of each direction's strokes (N, signed with the motion).
+    fn damping_means_n(&self) -> (f64, f64) {
+        (
+            self.forward_damping / self.forward.1,
+            self.backward_damping / self.backward.1,
+        )
+    }
+
+    /// Friction along the motion in both directions, and the drive's own force (friction plus
+    /// damping, the inertia averaging out over a steady stroke) with the motion in both: the
+    /// effort's sign is right and the axis file's damping is what turns the friction round.
+    fn damping_turns_friction_round(&self) -> bool {
+        let (df, db) = self.damping_means_n();
+        self.assist_both_ways()
+            && self.forward_mean_n() + df > 0.0
+            && self.backward_mean_n() + db < 0.0
     }
 
     fn forward_mean_n(&self) -> f64 {
@@ -680,7 +766,26 @@ fn recording_reasons(
 ) -> Vec<Diagnostic> {
     let mut out = Vec::new();
     let f = &trace.facts;
-    if friction_sign(trace, params) == FrictionSign::Signed && means.assist_both_ways() {
+    if friction_sign(trace, params) == FrictionSign::Signed && means.damping_turns_friction_round()
+    {
+        let (df, db) = means.damping_means_n();
+        out.push(Diagnostic::new(
+            "damping-exceeds-drive-force",
+            format!(
+                "friction pushes the table along in both directions (mean {:.1} N on forward \
+                 strokes, {:+.1} N on backward ones) only because the axis file's damping \
+                 (damping_nms_per_rad) takes {:.1} N and {:+.1} N off them, more than the \
+                 drive's whole force: the damping is far too large (a servo motor's viscous \
+                 damping is about 1e-4 to 1e-1 N·m·s/rad); correct damping_nms_per_rad, or \
+                 set it to 0 to take the viscous part into the friction; until then every \
+                 friction value here is wrong",
+                means.forward_mean_n(),
+                means.backward_mean_n(),
+                df,
+                db
+            ),
+        ));
+    } else if friction_sign(trace, params) == FrictionSign::Signed && means.assist_both_ways() {
         // A constant force (gravity, a counterweight) adds the same sign to both directions,
         // so it can make one direction's friction look negative, never both: friction that
         // pushes the table along in both directions is an effort counted against the position.
@@ -2065,12 +2170,15 @@ struct Seen {
 }
 
 impl Seen {
-    fn stroke(&mut self, s: &StrokeSummary) {
+    fn stroke(&mut self, s: &StrokeSummary, axis: &AxisParams) {
         self.any = true;
         self.verdicts.extend(s.verdict.clone());
         self.any_backward_positive |= s.direction == Direction::Backward && s.mean_friction_n > 0.0;
         if s.kind == MoveKind::Measuring {
-            self.means.add(s.direction, s.mean_friction_n, s.length_mm);
+            let v_m_s = crate::units::feed_mm_min_to_m_s(s.feed_mm_min) * s.direction.sign();
+            let damping_n = axis.equivalent_damping_n_s_per_m() * v_m_s;
+            self.means
+                .add(s.direction, s.mean_friction_n, s.length_mm, damping_n);
         }
     }
 
@@ -2155,7 +2263,7 @@ fn estimate_chunk<T: Send, E>(
                 StrokeOutcome::Estimated(mut s) => {
                     label(&mut s.summary, m);
                     let summary = Box::new(s.summary.clone());
-                    seen.stroke(&summary);
+                    seen.stroke(&summary, axis);
                     sink(StrokePiece::Rows(map(*s))).map_err(Failed::Sink)?;
                     sink(StrokePiece::End(summary)).map_err(Failed::Sink)?;
                 }
@@ -2181,7 +2289,7 @@ fn estimate_chunk<T: Send, E>(
     for (i, r) in results.into_iter().enumerate() {
         match r? {
             Ok((summary, t)) => {
-                seen.stroke(&summary);
+                seen.stroke(&summary, axis);
                 sink(StrokePiece::Rows(t)).map_err(Failed::Sink)?;
                 sink(StrokePiece::End(summary)).map_err(Failed::Sink)?;
             }

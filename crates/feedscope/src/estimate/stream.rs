@@ -30,7 +30,7 @@ use super::{
     MoveKind, Outline, Seen, StrokeFriction, StrokePiece,
 };
 use crate::axis::AxisParams;
-use crate::trace::glitch::{GlitchParams, JUMP_FLOOR_M};
+use crate::trace::glitch::{EffortMagnitudes, GlitchParams, JUMP_FLOOR_M};
 use crate::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 use crate::verdict::DataVerdict;
 
@@ -108,6 +108,8 @@ pub struct StreamEstimator<'a, T, E> {
     effort_first: Option<f64>,
     effort_constant: bool,
     effort_never_negative: bool,
+    /// |effort| of every sample so far, for the effort glitch screen's bound.
+    effort_magnitudes: EffortMagnitudes,
     seg: Option<Segmenter>,
     /// Why the stream gave up, once it has.
     redo: Option<String>,
@@ -177,6 +179,7 @@ impl<'a, T: Send, E> StreamEstimator<'a, T, E> {
             effort_first: None,
             effort_constant: true,
             effort_never_negative: true,
+            effort_magnitudes: EffortMagnitudes::default(),
             seg: None,
             redo,
             moves: Vec::new(),
@@ -329,6 +332,7 @@ impl<'a, T: Send, E> StreamEstimator<'a, T, E> {
             self.effort_constant &= same;
             self.effort_never_negative &= e >= 0.0;
         }
+        self.effort_magnitudes.add(&effort.value);
         self.n_effort += effort.len();
         self.buf.effort.time_s.extend_from_slice(&effort.time_s);
         self.buf.effort.value.extend_from_slice(&effort.value);
@@ -463,6 +467,11 @@ impl<'a, T: Send, E> StreamEstimator<'a, T, E> {
             return;
         }
         let mut mv = moves::classify_one(&self.buf.position_m, &m, rapid_above);
+        if super::check_feed_plausible(&mv, self.axis).is_err() {
+            // The whole read refuses it, naming the move.
+            self.give_up("a move runs faster than a feed axis can");
+            return;
+        }
         self.steady += m.strokes.len();
         let wanted = match mv.kind {
             MoveKind::Measuring => true,
@@ -591,6 +600,16 @@ impl<'a, T: Send, E> StreamEstimator<'a, T, E> {
                         .into(),
                 );
             }
+        }
+        // Effort glitches: the whole read drops samples beyond this bound (the same
+        // histogram), and what it drops changes the strokes.
+        let m = &self.effort_magnitudes;
+        if m.glitch_limit().is_some_and(|l| m.max_abs() > l) {
+            return Some(
+                "an effort sample lies far beyond the rest: the effort glitch screen needs the \
+                 whole trace"
+                    .into(),
+            );
         }
         // Segmentation: the whole trace's ε must make every decision the prefix's ε made.
         let q = if self.step_min.is_finite() {

@@ -296,6 +296,11 @@ pub fn recent_slope(points: &[Point], window: usize) -> Option<RecentSlope> {
     })
 }
 
+/// Largest |alarm level| a threshold may set (indicator unit): no indicator of a feed drive
+/// (forces in N, σ in N·s/m, J in kg·m², speeds, percentages) comes near 1e9, and a level far
+/// beyond makes projections and plots meaningless (`upper = 4e102` broke the report's charts).
+pub const MAX_ABS_THRESHOLD: f64 = 1e9;
+
 /// A user threshold on an indicator: an alarm level above and/or below.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

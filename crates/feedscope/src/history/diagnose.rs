@@ -433,7 +433,9 @@ pub(crate) fn j_change_sigma(t: &IndicatorTrend) -> Option<f64> {
 
 /// A number with about 3 significant digits.
 pub(crate) fn fmt_num(x: f64) -> String {
-    if x.abs() >= 100.0 {
+    if x.abs() >= 1e6 {
+        format!("{x:.4e}")
+    } else if x.abs() >= 100.0 {
         format!("{x:.0}")
     } else if x.abs() >= 1.0 {
         format!("{x:.1}")
@@ -442,14 +444,35 @@ pub(crate) fn fmt_num(x: f64) -> String {
     }
 }
 
-/// "3 weeks", "5 days", "4 months".
+/// "3 weeks", "5 days", "4 months", "3 years"; beyond a century a straight line says
+/// nothing of a machine: "more than 100 years".
 pub(crate) fn fmt_days(d: f64) -> String {
     if d < 14.0 {
         format!("{:.0} days", d.max(1.0))
     } else if d < 90.0 {
         format!("{:.0} weeks", d / 7.0)
-    } else {
+    } else if d < 730.5 {
         format!("{:.0} months", d / 30.4)
+    } else if d <= 36_525.0 {
+        format!("{:.0} years", d / 365.25)
+    } else {
+        "more than 100 years".to_string()
+    }
+}
+
+#[cfg(test)]
+mod format_tests {
+    use super::*;
+
+    #[test]
+    fn numbers_and_spans_stay_short() {
+        assert_eq!(fmt_num(4e102), "4.0000e102");
+        assert_eq!(fmt_num(480.0), "480");
+        assert_eq!(fmt_days(3.0), "3 days");
+        assert_eq!(fmt_days(400.0), "13 months");
+        assert_eq!(fmt_days(1000.0), "3 years");
+        assert_eq!(fmt_days(1.6e101 * 30.4), "more than 100 years");
+        assert_eq!(fmt_days(f64::INFINITY), "more than 100 years");
     }
 }
 

@@ -39,6 +39,7 @@ mod tests;
 pub use control::{
     baseline, cusum, ewma, ewma_around_estimate, family_limit_width, project_crossing,
     recent_slope, Baseline, BaselineSpec, Cusum, Ewma, Limits, Projection, RecentSlope, Threshold,
+    MAX_ABS_THRESHOLD,
 };
 pub use diagnose::{diagnose, diagnose_with_profiles};
 pub use local::{

@@ -35,9 +35,18 @@
 //!   skipped a stretch while the axis moved fast): [`screen_position`] returns the [`Jump`], and
 //!   the readers of `feedscope-io` refuse the trace with its `TraceError::PositionJump`.
 //!
-//! Only the position is screened. Motor current and torque legitimately jump (an acceleration
-//! step, a reversal, a saturated current loop) and no bound on them follows from the axis
-//! description, so a spike of effort cannot be told from a real one without false alarms.
+//! # Effort glitches
+//! Motor current and torque legitimately jump (an acceleration step, a reversal, a saturated
+//! current loop), and no bound on them follows from the axis description, so the effort is held
+//! to its own recording instead ([`screen_effort`]): a run of at most [`MAX_GLITCH_RUN`]
+//! samples whose magnitude exceeds [`EFFORT_GLITCH_FACTOR`] times the recording's 99.9th
+//! percentile magnitude (in a short recording, the fifth largest) is a logger glitch and is dropped (one torque sample of −496,000 N·m
+//! made friction of −3.4e8 N). A drive's peak current is a few times its rated current, and a
+//! test's accelerations and reversals are among the 0.1 % the percentile covers whenever they
+//! make up that much of the recording; the factor of 10 leaves room for the rest. The
+//! percentile is read from a histogram of 1/8 octave bins ([`EffortMagnitudes`], its upper bin
+//! edge: up to 9 % above the exact value, never below), so that a streamed read finds the same
+//! bound as the whole read without holding the samples.
 
 use super::Channel;
 use crate::units::{feed_m_s_to_mm_min, feed_mm_min_to_m_s};
@@ -262,6 +271,147 @@ fn median_step(t: &[f64]) -> f64 {
     let mid = d.len() / 2;
     let (_, m, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
     *m
+}
+
+/// An effort sample counts as a glitch when its magnitude exceeds this factor times the
+/// recording's 99.9th percentile magnitude ([module doc](self#effort-glitches)).
+pub const EFFORT_GLITCH_FACTOR: f64 = 10.0;
+
+/// The quantile of |effort| the glitch bound is a multiple of.
+pub const EFFORT_SCALE_QUANTILE: f64 = 0.999;
+
+/// Fewest effort samples screened.
+pub const MIN_EFFORT_SCREENED: u64 = 50;
+
+/// Mantissa bits kept in an [`EffortMagnitudes`] bin: 3, eight bins per octave.
+const BIN_MANTISSA_BITS: u32 = 3;
+const BIN_SHIFT: u32 = 52 - BIN_MANTISSA_BITS;
+
+/// A histogram of |effort| in 1/8 octave bins (2¹⁴ of them, every finite f64), filled sample by
+/// sample: the 99.9th percentile and the largest magnitude of a recording without holding it.
+#[derive(Debug, Clone)]
+pub struct EffortMagnitudes {
+    bins: Vec<u64>,
+    n: u64,
+    max_abs: f64,
+}
+
+impl Default for EffortMagnitudes {
+    fn default() -> Self {
+        Self {
+            bins: vec![0; 1 << (63 - BIN_SHIFT)],
+            n: 0,
+            max_abs: 0.0,
+        }
+    }
+}
+
+impl EffortMagnitudes {
+    /// Count the magnitudes of `values` (non-finite values are not counted: readers refuse
+    /// them).
+    pub fn add(&mut self, values: &[f64]) {
+        for &v in values {
+            let a = v.abs();
+            if a.is_finite() {
+                self.bins[(a.to_bits() >> BIN_SHIFT) as usize] += 1;
+                self.n += 1;
+                self.max_abs = self.max_abs.max(a);
+            }
+        }
+    }
+
+    /// Largest magnitude counted.
+    pub fn max_abs(&self) -> f64 {
+        self.max_abs
+    }
+
+    /// The bound a glitch exceeds: [`EFFORT_GLITCH_FACTOR`] × the upper edge of the bin that
+    /// holds the [`EFFORT_SCALE_QUANTILE`] of the magnitudes (in a recording of under 4000
+    /// samples, the magnitude below the largest [`MAX_GLITCH_RUN`] + 1, so that a glitch
+    /// never sets its own bound). `None` when fewer than
+    /// [`MIN_EFFORT_SCREENED`] samples were counted or the percentile is 0 (an effort that is
+    /// mostly zero holds no scale to compare with).
+    pub fn glitch_limit(&self) -> Option<f64> {
+        if self.n < MIN_EFFORT_SCREENED {
+            return None;
+        }
+        // The rank of the quantile, 1-based: ⌈q·n⌉, but below the largest MAX_GLITCH_RUN + 1
+        // (under 4000 samples the quantile is among them, and a glitch would set its own
+        // bound).
+        let rank = ((EFFORT_SCALE_QUANTILE * self.n as f64).ceil() as u64)
+            .min(self.n - MAX_GLITCH_RUN as u64 - 1)
+            .max(1);
+        let mut seen = 0;
+        let bin = self.bins.iter().position(|&c| {
+            seen += c;
+            seen >= rank
+        })?;
+        if bin == 0 {
+            return None;
+        }
+        let upper = f64::from_bits(((bin as u64) + 1) << BIN_SHIFT);
+        Some(EFFORT_GLITCH_FACTOR * upper)
+    }
+}
+
+/// What [`screen_effort`] found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EffortScreening {
+    /// Indices of the samples that are glitches, ascending.
+    pub glitches: Vec<usize>,
+    /// The magnitude they exceed (effort unit); `None` when the channel was not screened
+    /// ([`EffortMagnitudes::glitch_limit`]).
+    pub limit: Option<f64>,
+    /// Runs of more than [`MAX_GLITCH_RUN`] samples beyond the limit, kept (first index,
+    /// length): a stretch, not a glitch.
+    pub long_runs: Vec<(usize, usize)>,
+}
+
+/// Screen an effort channel (A or N·m) for glitches, as described in the
+/// [module doc](self#effort-glitches).
+///
+/// ```
+/// use feedscope::trace::glitch::screen_effort;
+/// use feedscope::trace::Channel;
+/// // 2 kHz of a current near ±2 A with one glitch of -496,000 A
+/// let time_s: Vec<f64> = (0..4000).map(|k| k as f64 * 5e-4).collect();
+/// let mut value: Vec<f64> = time_s.iter().map(|t| 2.0 * (3.0 * t).sin() + 0.1).collect();
+/// value[1234] = -496_000.0;
+/// let s = screen_effort(&Channel { time_s, value });
+/// assert_eq!(s.glitches, [1234]);
+/// ```
+pub fn screen_effort(effort: &Channel) -> EffortScreening {
+    let mut mags = EffortMagnitudes::default();
+    mags.add(&effort.value);
+    let Some(limit) = mags.glitch_limit() else {
+        return EffortScreening::default();
+    };
+    let mut out = EffortScreening {
+        limit: Some(limit),
+        ..EffortScreening::default()
+    };
+    if mags.max_abs() <= limit {
+        return out;
+    }
+    let v = &effort.value;
+    let mut k = 0;
+    while k < v.len() {
+        if v[k].abs() > limit {
+            let start = k;
+            while k < v.len() && v[k].abs() > limit {
+                k += 1;
+            }
+            let len = k - start;
+            if len <= MAX_GLITCH_RUN {
+                out.glitches.extend(start..k);
+            } else {
+                out.long_runs.push((start, len));
+            }
+        } else {
+            k += 1;
+        }
+    }
+    out
 }
 
 /// Remove the samples at `indices` (ascending, in range) from a channel, keeping the order of
@@ -631,5 +781,91 @@ mod tests {
             let s = screen_position(&c, &GlitchParams::default()).unwrap();
             prop_assert_eq!(s.glitches, vec![k]);
         }
+    }
+}
+
+#[cfg(test)]
+mod effort_tests {
+    use super::*;
+    use crate::sim::{simulate, SimConfig};
+
+    /// The twin's trace of moves at `feed` with rapid returns at 12 m/min, sampled as `sampling`
+    /// (a TOML `[sampling]` table body).
+    fn twin_effort(sampling: &str) -> Channel {
+        let mut toml = String::from(
+            "[motion]\nlead_in_s = 0.3\nlead_out_s = 0.3\nacceleration_mm_s2 = 3000\n",
+        );
+        for _ in 0..3 {
+            toml.push_str(
+                "[[motion.stroke]]\nto_mm = 60\nfeed_mm_min = 900\n\
+                 [[motion.stroke]]\nto_mm = 0\nfeed_mm_min = 12000\n",
+            );
+        }
+        toml.push_str(sampling);
+        let cfg = SimConfig::from_toml_str(&toml).unwrap();
+        simulate(&cfg, &mut |_| {}).unwrap().trace.effort
+    }
+
+    #[test]
+    fn real_motion_loses_no_effort_sample_and_a_glitch_is_found() {
+        for (what, sampling) in [
+            ("72 ms polling", ""),
+            (
+                "8 kHz synchronous",
+                "[sampling]\nmode = \"synchronous\"\nsynchronous_rate_hz = 8000\n",
+            ),
+        ] {
+            let mut e = twin_effort(sampling);
+            let s = screen_effort(&e);
+            assert!(s.glitches.is_empty(), "{what}: {:?}", s.glitches);
+            assert!(s.long_runs.is_empty(), "{what}: {:?}", s.long_runs);
+            // Every real sample (reversals, rapids' ramps included) stays well within.
+            let max = e.value.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let limit = s.limit.expect("screened");
+            assert!(max < 0.5 * limit, "{what}: max {max} limit {limit}");
+            let k = e.len() / 3;
+            e.value[k] = -496_000.0;
+            e.value[k + 7] = 1e9;
+            e.value[k + 8] = -1e9;
+            assert_eq!(screen_effort(&e).glitches, [k, k + 7, k + 8], "{what}");
+        }
+    }
+
+    #[test]
+    fn percentile_bin_is_at_or_above_the_exact_value_within_an_eighth_of_an_octave() {
+        let mut v: Vec<f64> = (0..20_000)
+            .map(|k| ((k as f64 * 0.37).sin() * 3.0 + (k % 17) as f64 * 0.01) * 1e-3)
+            .collect();
+        v.push(0.0);
+        let mut m = EffortMagnitudes::default();
+        m.add(&v);
+        let mut a: Vec<f64> = v.iter().map(|x| x.abs()).collect();
+        a.sort_by(f64::total_cmp);
+        let exact = a[(EFFORT_SCALE_QUANTILE * a.len() as f64).ceil() as usize - 1];
+        let got = m.glitch_limit().unwrap() / EFFORT_GLITCH_FACTOR;
+        assert!(
+            got >= exact && got <= exact * 2f64.powf(0.125) * (1.0 + 1e-12),
+            "{got} vs {exact}"
+        );
+        // Too few samples, or a channel that is mostly zero: not screened.
+        let mut few = EffortMagnitudes::default();
+        few.add(&v[..40]);
+        assert_eq!(few.glitch_limit(), None);
+        let mut zeros = EffortMagnitudes::default();
+        zeros.add(&vec![0.0; 5000]);
+        zeros.add(&[3.0]);
+        assert_eq!(zeros.glitch_limit(), None);
+    }
+
+    #[test]
+    fn a_stretch_beyond_the_limit_is_kept_and_reported() {
+        let time_s: Vec<f64> = (0..5000).map(|k| k as f64 * 1e-3).collect();
+        let mut value: Vec<f64> = time_s.iter().map(|t| 1.0 + 0.1 * (7.0 * t).sin()).collect();
+        for v in &mut value[100..104] {
+            *v = 500.0;
+        }
+        let s = screen_effort(&Channel { time_s, value });
+        assert!(s.glitches.is_empty());
+        assert_eq!(s.long_runs, [(100, 4)]);
     }
 }
