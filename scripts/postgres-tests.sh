@@ -3,12 +3,15 @@
 #
 #   scripts/postgres-tests.sh            run the tests (`cargo test ... -- --ignored postgres`)
 #   scripts/postgres-tests.sh --bench    run the PostgreSQL store benchmark instead
-#   scripts/postgres-tests.sh -- CMD...  run CMD with FEEDSCOPE_TEST_POSTGRES set
+#   scripts/postgres-tests.sh -- CMD...  run CMD with FEEDSCOPE_TEST_POSTGRES (and
+#                                        FEEDSCOPE_TEST_POSTGRES_RESTART) set
 #
 # Starts a PostgreSQL server (initdb into a temporary folder, listening on 127.0.0.1 only on
 # a free port, its Unix socket in the same folder, trust authentication for the loopback),
 # creates a database, exports FEEDSCOPE_TEST_POSTGRES=postgres://USER@127.0.0.1:PORT/DB, runs
-# the tests, then stops the server and removes everything (also on failure or Ctrl-C).
+# the tests (then, alone, the crash loop, which restarts the server through the script in
+# FEEDSCOPE_TEST_POSTGRES_RESTART), then stops the server and removes everything (also on
+# failure or Ctrl-C).
 #
 # PostgreSQL refuses to run as root: as root the server runs as the `postgres` system user
 # that the Debian package creates (via runuser or setpriv). On a machine without PostgreSQL it
@@ -105,11 +108,35 @@ as_pg "$pgbin/createdb" -h 127.0.0.1 -p "$port" -U "$pguser" feedscope_test
 export FEEDSCOPE_TEST_POSTGRES="postgres://$pguser@127.0.0.1:$port/feedscope_test"
 echo "== FEEDSCOPE_TEST_POSTGRES=$FEEDSCOPE_TEST_POSTGRES" >&2
 
+# A server crash and restart for the crash-loop test: an immediate stop (no shutdown
+# checkpoint, sessions cut off as by a crash), then a start that waits until the server
+# accepts connections again (after its crash recovery).
+restart="$tmp/restart-server"
+if [ "$(id -u)" = 0 ]; then
+    prefix="$(printf '%q ' runuser -u "$pguser" --)"
+    command -v runuser >/dev/null 2>&1 \
+        || prefix="$(printf '%q ' setpriv --reuid="$pguser" --regid="$(id -g "$pguser")" --init-groups --)"
+else
+    prefix=""
+fi
+{
+    echo '#!/usr/bin/env bash'
+    echo 'set -e'
+    echo "$prefix$(printf '%q ' "$pgbin/pg_ctl" -D "$data" -m immediate -w stop) >/dev/null"
+    echo "$prefix$(printf '%q ' "$pgbin/pg_ctl" -D "$data" -l "$tmp/server.log" -o "$opts" -w start) >/dev/null"
+} >"$restart"
+chmod 755 "$restart"
+export FEEDSCOPE_TEST_POSTGRES_RESTART="$restart"
+
 case "$mode" in
 test)
     # The PostgreSQL tests are #[ignore]d in a plain `cargo test` (they need this server);
-    # `--ignored postgres` runs those whose name contains "postgres".
-    cargo test --release --locked -p feedscope-store -p feedscope-cli -- --ignored postgres
+    # `--ignored postgres` runs those whose name contains "postgres". The crash loop restarts
+    # the server, so it runs alone, after the others; it prints the adds' outcomes.
+    cargo test --release --locked -p feedscope-store -p feedscope-cli -- --ignored postgres \
+        --skip postgres_server_crash_loop
+    cargo test --release --locked -p feedscope-cli --test cli -- --ignored --exact \
+        postgres::postgres_server_crash_loop_during_adds --nocapture
     ;;
 bench)
     cargo bench --locked -p feedscope-store --bench postgres -- "$@"

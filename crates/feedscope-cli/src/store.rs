@@ -141,7 +141,8 @@ pub fn store_err(e: StoreError, spec: &StoreSpec) -> anyhow::Error {
             | StoreError::NewerSchema { .. }
             | StoreError::Corrupt { .. }
             | StoreError::NoFolder { .. }
-            | StoreError::Busy { .. },
+            | StoreError::Busy { .. }
+            | StoreError::CommitUnknown { .. },
             _,
         ) => anyhow::Error::new(e),
         (StoreError::NoSuchTest(_), _) => anyhow::Error::new(e).context(name),
@@ -152,6 +153,26 @@ pub fn store_err(e: StoreError, spec: &StoreSpec) -> anyhow::Error {
             anyhow::Error::new(e).context(name)
         }
         _ => anyhow::Error::new(e).context(format!("database {name}")),
+    }
+}
+
+/// A failed [`Store::add`] of `history add` (and `watch`) as the user needs it: a commit whose
+/// outcome is unknown says so, how to find out and that adding again is safe (the same trace
+/// is recognised and not stored twice); any other failure of a PostgreSQL add says that
+/// nothing was stored (its transaction was rolled back). Otherwise as [`store_err`].
+pub fn add_err(e: StoreError, spec: &StoreSpec) -> anyhow::Error {
+    match (&e, spec) {
+        (StoreError::CommitUnknown { .. }, _) => {
+            let context = format!(
+                "the connection to the database closed while the test was being committed: \
+                 whether it was stored is unknown; check with `feedscope history list --store \
+                 {}`; adding it again is safe (the same trace is not stored twice)",
+                spec.describe()
+            );
+            anyhow::Error::new(e).context(context)
+        }
+        (_, StoreSpec::Postgres(_)) => store_err(e, spec).context("the test was not stored"),
+        _ => store_err(e, spec),
     }
 }
 

@@ -154,6 +154,19 @@ pub enum StoreError {
         /// How to wait longer, as the caller put it ([`sqlite::OpenOptions::busy_hint`]).
         hint: Option<String>,
     },
+    /// The connection to the database server failed while a transaction's `COMMIT` was
+    /// under way (sent, or about to be, with no answer): the server may have committed it or
+    /// not, and nothing here can tell which (PostgreSQL only; SQLite commits in-process).
+    /// Look at the store to find out; [`Store::add`] again is safe, as the same trace is
+    /// never stored twice.
+    #[error("{path}: connection lost during COMMIT, outcome unknown")]
+    CommitUnknown {
+        /// The store (a URL without its password).
+        path: String,
+        /// What the connection said (closed, an I/O error, the server shutting down).
+        #[source]
+        error: BackendError,
+    },
     /// The database engine said no (its message unchanged).
     #[error(transparent)]
     Backend(#[from] BackendError),
@@ -164,19 +177,21 @@ pub enum StoreError {
 
 impl StoreError {
     /// `true` when the user pointed at the wrong file (exit code 2): every variant that names
-    /// the file or the test, and an engine error of kind [`BackendErrorKind::NotADatabase`] or
+    /// the file or the test but [`StoreError::Busy`] and [`StoreError::CommitUnknown`], and an
+    /// engine error of kind [`BackendErrorKind::NotADatabase`] or
     /// [`BackendErrorKind::Corrupt`]; other engine errors and file-system errors are not.
     pub fn is_bad_input(&self) -> bool {
         self.kind() == ErrorKind::BadInput
     }
 
     /// What the error means to a caller: [`ErrorKind::BadInput`] as
-    /// [`is_bad_input`](Self::is_bad_input) says; [`ErrorKind::Io`] for file-system errors and
-    /// engine errors of kind [`BackendErrorKind::Other`] (a full disk) and
-    /// [`StoreError::Busy`] (another process's lock: not the input's fault).
+    /// [`is_bad_input`](Self::is_bad_input) says; [`ErrorKind::Io`] for file-system errors,
+    /// engine errors of kind [`BackendErrorKind::Other`] (a full disk),
+    /// [`StoreError::Busy`] (another process's lock: not the input's fault) and
+    /// [`StoreError::CommitUnknown`] (a connection lost during `COMMIT`).
     pub fn kind(&self) -> ErrorKind {
         match self {
-            StoreError::Busy { .. } => ErrorKind::Io,
+            StoreError::Busy { .. } | StoreError::CommitUnknown { .. } => ErrorKind::Io,
             StoreError::Backend(e) => match e.kind() {
                 BackendErrorKind::NotADatabase | BackendErrorKind::Corrupt => ErrorKind::BadInput,
                 BackendErrorKind::Other => ErrorKind::Io,

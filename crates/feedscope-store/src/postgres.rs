@@ -25,6 +25,13 @@
 //! (`tests_one_reference`) forbids two references of an axis whatever happens. A deadlock or
 //! serialization failure is retried (the whole transaction) up to [`MAX_ATTEMPTS`] times.
 //!
+//! # A connection lost
+//! A connection that fails before `COMMIT` leaves nothing stored (the open transaction dies
+//! with its session): the operation's error is the engine's ([`StoreError::Backend`]). One
+//! that fails with `COMMIT` sent and unanswered (closed, reset, the server shutting down or
+//! crashing) leaves the outcome unknown: [`StoreError::CommitUnknown`]. An `ERROR` answer to
+//! `COMMIT` is a refusal (rolled back), as for any statement.
+//!
 //! # TLS
 //! Not supported yet: connections are plain TCP or a Unix socket (`NoTls`), fine on the
 //! loopback or a trusted LAN. A URL that asks for TLS (`sslmode=require`) is refused with
@@ -314,6 +321,27 @@ fn is_retryable(e: &StoreError) -> bool {
             })
 }
 
+/// The error of a failed `COMMIT`. An error the server answered with at severity `ERROR` (a
+/// serialization failure, a deferred constraint) means it rolled the transaction back: the
+/// server's refusal, as any other statement's. Anything else leaves the outcome unknown
+/// ([`StoreError::CommitUnknown`]): the connection closed or failed (a broken pipe, a reset)
+/// with `COMMIT` sent or about to be, or the server ended the session (`FATAL`, `PANIC`: a
+/// shutdown, a crash) while it may already have written the commit record. (Before `COMMIT`
+/// the same failures leave nothing stored: an open transaction dies with its session.)
+fn commit_error(e: postgres::Error, name: &str) -> StoreError {
+    let refused = e
+        .as_db_error()
+        .is_some_and(|db| db.parsed_severity() == Some(postgres::error::Severity::Error));
+    if refused {
+        e.into()
+    } else {
+        StoreError::CommitUnknown {
+            path: name.to_string(),
+            error: e.into(),
+        }
+    }
+}
+
 /// A connection URL (or `key=value` string) with its password replaced by `***`, for
 /// messages: `postgres://ann:secret@db/h` → `postgres://ann:***@db/h`; a `password=` query or
 /// key/value parameter likewise.
@@ -533,12 +561,13 @@ impl PgStore {
             self.stmts = Some(Statements::prepare(c)?);
         }
         let stmts = self.stmts.as_ref().expect("prepared above");
+        let name = &self.name;
         let mut attempt = 0;
         loop {
             attempt += 1;
             let mut tx = c.transaction()?;
             let out = f(&mut tx, stmts).and_then(|v| {
-                tx.commit()?;
+                tx.commit().map_err(|e| commit_error(e, name))?;
                 Ok(v)
             });
             match out {

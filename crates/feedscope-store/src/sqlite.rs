@@ -302,17 +302,21 @@ fn install_busy_handler(
                 f(&path, timeout);
             }
         }
-        // Short sleeps first (a queued writer usually gets the lock within milliseconds),
-        // then 50 ms: the delay between the lock's release and our retry stays small.
-        let step = Duration::from_millis(match count {
-            0..=4 => 2,
-            5..=9 => 10,
-            _ => 50,
-        });
-        std::thread::sleep(step.min(timeout - waited));
+        std::thread::sleep(retry_step(count).min(timeout - waited));
         true
     }))?;
     Ok(waited_ms)
+}
+
+/// The sleep before retry `count` (0-based) of one wait for a lock: short sleeps first (a
+/// queued writer usually gets the lock within milliseconds), then 50 ms, so that the delay
+/// between the lock's release and the retry stays small.
+fn retry_step(count: i32) -> Duration {
+    Duration::from_millis(match count {
+        0..=4 => 2,
+        5..=9 => 10,
+        _ => 50,
+    })
 }
 
 /// A feedscope database in one SQLite file.
@@ -425,15 +429,15 @@ impl SqliteStore {
             busy_hint: opts.busy_hint.clone(),
             waited_ms,
         };
-        s.setup().map_err(|e| s.busy(e))?;
+        s.setup(opts).map_err(|e| s.busy(e))?;
         Ok(s)
     }
 
-    fn setup(&mut self) -> Result<(), StoreError> {
+    fn setup(&mut self, opts: &OpenOptions) -> Result<(), StoreError> {
         // WAL: readers do not block the writer; NORMAL sync is safe against a killed
         // process (the WAL is replayed), only an OS crash can lose the last commits. On a file
         // already in WAL mode (every feedscope database but a new one) this takes no lock.
-        self.conn.pragma_update(None, "journal_mode", "WAL")?;
+        self.enter_wal(opts)?;
         self.conn.pragma_update(None, "synchronous", "NORMAL")?;
         self.conn.pragma_update(None, "foreign_keys", "ON")?;
         self.migrate()
@@ -484,6 +488,41 @@ impl SqliteStore {
         }
         tx.commit()?;
         Ok(())
+    }
+
+    /// `PRAGMA journal_mode = WAL`, waiting for another process's lock as the busy handler
+    /// would. SQLite does not call the busy handler here: the pragma holds a read lock while
+    /// it asks for the exclusive one, and a reader that waits for a writer could deadlock, so
+    /// SQLite answers `SQLITE_BUSY` at once when another connection holds the write lock of a
+    /// file still in rollback-journal mode (a new file whose schema another program is
+    /// creating). The same schedule, report and timeout as the busy handler apply; the time
+    /// waited is recorded for [`StoreError::Busy`].
+    fn enter_wal(&mut self, opts: &OpenOptions) -> Result<(), StoreError> {
+        let start = Instant::now();
+        let mut told = false;
+        let mut count = 0;
+        loop {
+            let e = match self.conn.pragma_update(None, "journal_mode", "WAL") {
+                Ok(()) => return Ok(()),
+                Err(e) => StoreError::from(e),
+            };
+            let waited = start.elapsed();
+            self.waited_ms.store(
+                u64::try_from(waited.as_millis()).unwrap_or(u64::MAX),
+                Ordering::Relaxed,
+            );
+            if !is_busy(&e) || waited >= opts.busy_timeout {
+                return Err(e);
+            }
+            if !told && waited >= QUIET_WAIT {
+                told = true;
+                if let Some(f) = &opts.on_wait {
+                    f(&self.path, opts.busy_timeout);
+                }
+            }
+            std::thread::sleep(retry_step(count).min(opts.busy_timeout - waited));
+            count = count.saturating_add(1);
+        }
     }
 
     /// An engine error that is another process's lock as [`StoreError::Busy`].

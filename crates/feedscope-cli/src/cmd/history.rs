@@ -15,7 +15,7 @@ use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use feedscope_store::time::{format_rfc3339, parse_rfc3339};
 use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, TestKind};
 
-use crate::store::{store_err, StoreSpec};
+use crate::store::{add_err, store_err, StoreSpec};
 use serde::Serialize;
 
 use super::BadInput;
@@ -422,8 +422,13 @@ fn add(spec: &StoreSpec, a: &AddArgs) -> Result<()> {
         Some(s) => s,
         None => spec.open()?,
     };
-    let outcome = store.add(&t).map_err(|e| store_err(e, spec))?;
-    super::series::announce_add(&*store, &t, outcome, a.time.is_none().then_some(&*a.trace))?;
+    let outcome = store.add(&t).map_err(|e| add_err(e, spec))?;
+    // Committed: counting the series (another query) failing now, e.g. on a connection lost
+    // just after the commit, must not make a stored test look like a failed add.
+    let time_from = a.time.is_none().then_some(&*a.trace);
+    if let Err(e) = super::series::announce_add(&*store, &t, outcome, time_from) {
+        eprintln!("warning: stored, but its series could not be counted: {e:#}");
+    }
     let (id, dup) = match outcome {
         AddOutcome::Added(id) => (id, false),
         AddOutcome::Duplicate(id) => (id, true),
@@ -478,7 +483,7 @@ pub fn analyse_and_store(
     meta: TestMeta,
 ) -> Result<(AddOutcome, NewTest)> {
     let t = analyse_for_store(trace, axis, kind, interval_mm, bytes, meta)?;
-    let outcome = store.add(&t).map_err(|e| store_err(e, spec))?;
+    let outcome = store.add(&t).map_err(|e| add_err(e, spec))?;
     Ok((outcome, t))
 }
 

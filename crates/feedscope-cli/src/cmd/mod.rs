@@ -103,12 +103,19 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
     exit_code_of(error_kind(err))
 }
 
-/// True when the error is only a closed stdout (e.g. `feedscope ... | head`).
-fn is_broken_pipe(err: &anyhow::Error) -> bool {
-    err.chain().any(|c| {
-        c.downcast_ref::<std::io::Error>()
-            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
-    })
+/// True when the error is only a closed stdout (e.g. `feedscope ... | head`), which ends a
+/// command quietly with exit code 0.
+///
+/// That is a broken pipe as the error itself, under nothing but `.context(…)` messages: what
+/// a write to stdout returns ([`crate::output::outln!`] and the other `writeln!`s on
+/// `std::io::stdout()` pass it up with `?`). A broken pipe further down a chain belongs to
+/// whatever wrapped it: the connection to a PostgreSQL server arrives as a
+/// [`feedscope_store::StoreError`] whose source is the pipe, and is a store failure (exit 1,
+/// with its message), never a quiet success. (anyhow's `downcast_ref` looks through context
+/// layers to the error they wrap, and only through them.)
+fn is_closed_stdout(err: &anyhow::Error) -> bool {
+    err.downcast_ref::<std::io::Error>()
+        .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
 }
 
 pub fn run(cli: Cli) -> std::process::ExitCode {
@@ -133,7 +140,7 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
-        Err(e) if is_broken_pipe(&e) => std::process::ExitCode::SUCCESS,
+        Err(e) if is_closed_stdout(&e) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             std::process::ExitCode::from(exit_code(&e))
@@ -148,6 +155,42 @@ mod tests {
     use feedscope_io::friction_csv::FrictionCsvError;
     use feedscope_io::stribeck_table::TableError;
     use std::io::{Error, ErrorKind as IoKind};
+
+    /// Only a broken pipe of stdout (the error itself, under contexts) is a quiet exit 0; the
+    /// same broken pipe from the store's connection is a store failure (exit 1), wrapped or
+    /// not in contexts, and so is a commit whose outcome is unknown.
+    #[test]
+    fn only_a_closed_stdout_is_a_quiet_success() {
+        use anyhow::Context as _;
+        use feedscope_store::{BackendError, BackendErrorKind, StoreError};
+        let pipe = || Error::from(IoKind::BrokenPipe);
+        let stdout: anyhow::Result<()> = Err(pipe()).context("writing the table");
+        let e = stdout.context("history list").unwrap_err();
+        assert!(is_closed_stdout(&e));
+        assert!(is_closed_stdout(&anyhow::Error::new(pipe())));
+        // As `postgres::Error` of a lost connection: its source is the OS error.
+        #[derive(Debug, thiserror::Error)]
+        #[error("error communicating with the server")]
+        struct Connection(#[source] Error);
+        let backend = || BackendError::new(BackendErrorKind::Other, Connection(pipe()));
+        let store = anyhow::Error::new(StoreError::Backend(backend()))
+            .context("PostgreSQL store postgres://u@h/db");
+        assert!(!is_closed_stdout(&store), "{store:#}");
+        assert!(store.chain().any(|c| c
+            .downcast_ref::<Error>()
+            .is_some_and(|e| e.kind() == IoKind::BrokenPipe)));
+        assert_eq!(exit_code(&store), 1);
+        let unknown = anyhow::Error::new(StoreError::CommitUnknown {
+            path: "postgres://u@h/db".into(),
+            error: backend(),
+        });
+        assert!(!is_closed_stdout(&unknown));
+        assert_eq!(exit_code(&unknown), 1);
+        // Another kind of I/O error of stdout is a failure too.
+        assert!(!is_closed_stdout(&anyhow::Error::new(Error::from(
+            IoKind::StorageFull
+        ))));
+    }
 
     fn code<E: std::error::Error + Send + Sync + 'static>(e: E) -> u8 {
         exit_code(&anyhow::Error::new(e))

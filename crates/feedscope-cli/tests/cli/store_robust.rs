@@ -295,6 +295,92 @@ fn a_writer_behind_a_lock_waits_then_fails_with_advice() {
     assert!(stderr(&o).contains("FEEDSCOPE_BUSY_TIMEOUT_S"));
 }
 
+/// Read `child`'s stderr up to the line that says it waits for the lock (`Ok` with what it
+/// said so far); `Err` with all it said when it ends (gave up or finished) without one.
+fn wait_for_waiting_line(child: &mut Child) -> Result<String, String> {
+    use std::io::BufRead;
+    let err = child.stderr.as_mut().expect("stderr piped");
+    let mut seen = String::new();
+    for line in std::io::BufReader::new(err).lines() {
+        let line = line.unwrap();
+        seen.push_str(&line);
+        seen.push('\n');
+        if line.contains("is busy (another process") {
+            return Ok(seen);
+        }
+    }
+    Err(seen)
+}
+
+/// A new, empty store file whose write lock another program holds (an open `BEGIN
+/// IMMEDIATE` on a file still in rollback-journal mode, as while it creates its schema):
+/// `history add` waits for it, saying so once, and stores the test when the lock is freed;
+/// held beyond the busy timeout, the add fails (exit 1) with the time it really waited. It
+/// used to give up at once, "after waiting 0.0 s": SQLite does not call the busy handler for
+/// the switch to WAL.
+#[test]
+fn a_new_file_locked_by_another_program_is_waited_for() {
+    // freed while the add waits: stored
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    axis_file(d);
+    let files = traces(d, 1);
+    let db = d.join("h.db");
+    let lock = Connection::open(&db).unwrap();
+    lock.execute_batch("BEGIN IMMEDIATE").unwrap();
+    assert_eq!(
+        std::fs::metadata(&db).unwrap().len(),
+        0,
+        "a new, empty file"
+    );
+    let mut c = add_cmd(d, &files[0]);
+    c.env("FEEDSCOPE_BUSY_TIMEOUT_S", "60");
+    let mut child = c.spawn().unwrap();
+    let said = match wait_for_waiting_line(&mut child) {
+        Ok(s) => s,
+        Err(s) => {
+            let status = child.wait().unwrap();
+            panic!("the add ended ({status}) without waiting for the lock: {s}");
+        }
+    };
+    assert!(said.contains("waiting up to 60 s"), "{said}");
+    lock.execute_batch("ROLLBACK").unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{said}{}", stderr(&o));
+    assert_eq!(sources(&db).len(), 1);
+    assert_sound(&db);
+    drop(lock);
+
+    // held beyond the timeout: fails, with the wait it really had
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    axis_file(d);
+    let files = traces(d, 1);
+    let db = d.join("h.db");
+    let lock = Connection::open(&db).unwrap();
+    lock.execute_batch("BEGIN IMMEDIATE").unwrap();
+    let mut c = add_cmd(d, &files[0]);
+    c.env("FEEDSCOPE_BUSY_TIMEOUT_S", "1.5");
+    let o = run(c);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.matches("is busy (another process").count(), 1, "{err}");
+    assert!(err.contains("holds its write lock"), "{err}");
+    // the timeout, not "0.0 s" (the wait ends on the first retry at or past 1.5 s)
+    let waited: f64 = err
+        .split("gave up after waiting ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("no waiting time: {err}"));
+    assert!(waited >= 1.5, "{err}");
+    lock.execute_batch("ROLLBACK").unwrap();
+    let tables: i64 = lock
+        .query_row("SELECT count(*) FROM sqlite_schema", [], |r| r.get(0))
+        .unwrap();
+    assert_eq!(tables, 0, "nothing was written");
+}
+
 /// Damage that the quick check on opening does not see is still the user's wrong file: exit
 /// code 2, the file named, and the file not modified.
 #[test]
