@@ -398,9 +398,13 @@ fn okuma_outputs_draw_every_stroke_and_present_no_withheld_profile() {
         .filter(|l| l.starts_with("warning: stroke "))
         .count();
     assert!(per_stroke <= 3, "{per_stroke} per-stroke warnings:\n{err}");
-    let first_warning = err.lines().position(|l| l.starts_with("warning:")).unwrap();
-    let last_verdict = err
-        .lines()
+    let lines: Vec<&str> = err.lines().collect();
+    let first_warning = lines
+        .iter()
+        .position(|l| l.starts_with("warning:"))
+        .unwrap();
+    let last_verdict = lines
+        .iter()
         .rposition(|l| l.starts_with("verdict:"))
         .unwrap();
     assert!(last_verdict < first_warning, "{err}");
