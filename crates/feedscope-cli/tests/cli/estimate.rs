@@ -394,10 +394,11 @@ fn wide_layout_and_bare_cr_work() {
     assert!(csv.starts_with(
         "stroke,direction,position_mm,time_s,velocity_mm_s,accel_mm_s2,torque_nm,friction_n"
     ));
-    // 100 N constant friction from torque, without k_e.
+    // 100 N constant friction from torque, without k_e (a constant effort reads as coarsely
+    // quantised: the stroke's one mean-level row, or its profile's rows, carry it).
     let f: f64 = csv
         .lines()
-        .nth(100)
+        .nth(1)
         .unwrap()
         .rsplit(',')
         .next()
@@ -518,7 +519,7 @@ fn effort_counted_against_the_position() {
 }
 
 /// `pairs` forward and backward strokes of 20 mm at 200 mm/min with 1 s dwells, 72 ms
-/// position and 71 ms current sampling (200 N of friction), after the header lines `facts`.
+/// position and 71 ms current sampling (200 N of friction with a 10 N ripple), after the header lines `facts`.
 fn many_strokes_trace(pairs: usize, facts: &str) -> String {
     let (len, v, dwell) = (20.0, 200.0 / 60.0, 1.0);
     let leg = len / v + dwell;
@@ -544,7 +545,10 @@ fn many_strokes_trace(pairs: usize, facts: &str) -> String {
     }
     let mut t = 0.03;
     while t < end {
-        let amps = at(t).1 * 200.0 / (2.0 * std::f64::consts::PI / 0.01) / 1.5;
+        // A 3-per-lead ripple of 10 N: a constant effort reads as coarsely quantised.
+        let (z, sign) = at(t);
+        let f = sign * (200.0 + 10.0 * (2.0 * std::f64::consts::PI * 3.0 * z / 10.0).sin());
+        let amps = f / (2.0 * std::f64::consts::PI / 0.01) / 1.5;
         rows.push((t, format!("{t:.6},current_a,{amps:.6}")));
         t += 0.071;
     }
