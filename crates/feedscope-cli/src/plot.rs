@@ -33,6 +33,18 @@ pub enum Style {
     Points,
     /// Solid line with a marker at every point (one per test in a trend).
     LineMarkers,
+    /// Thin solid line in palette colour `colour` (not the series' place): one of many series
+    /// of a kind drawn alike, e.g. every forward stroke; give the name to one of them only.
+    Thin {
+        /// Index into the palette.
+        colour: usize,
+    },
+    /// A level: a solid line in palette colour `colour` with a marker at its middle point, for
+    /// a value known only as a mean over a span (its two end points).
+    Level {
+        /// Index into the palette.
+        colour: usize,
+    },
 }
 
 /// One named series of (x, y) points.
@@ -55,7 +67,8 @@ pub struct LineChart<'a> {
     pub x_label: &'a str,
     /// Y-axis label with unit.
     pub y_label: &'a str,
-    /// Series drawn in order, colours from a fixed palette.
+    /// Series drawn in order, colours from a fixed palette; a series with an empty name has no
+    /// legend entry.
     pub series: Vec<Series>,
 }
 
@@ -180,6 +193,10 @@ pub fn line_chart_legend_below_svg(chart: &LineChart) -> Result<String> {
             let colour = PALETTE[k % PALETTE.len()];
             let x = 84 + (k as i32 % 2) * 440;
             let y = 6 + (k as i32 / 2) * ROW as i32 + 8;
+            let colour = match s.style {
+                Style::Thin { colour } | Style::Level { colour } => PALETTE[colour % PALETTE.len()],
+                _ => colour,
+            };
             let style = colour.stroke_width(2);
             let segments: Vec<(i32, i32)> = match s.style {
                 Style::Dashed => vec![(x, x + 9), (x + 15, x + 24)],
@@ -190,7 +207,10 @@ pub fn line_chart_legend_below_svg(chart: &LineChart) -> Result<String> {
                     .draw(&PathElement::new(vec![(a, y), (b, y)], style))
                     .map_err(plot_err)?;
             }
-            if matches!(s.style, Style::LineMarkers | Style::Points) {
+            if matches!(
+                s.style,
+                Style::LineMarkers | Style::Points | Style::Level { .. }
+            ) {
                 legend_area
                     .draw(&Circle::new((x + 12, y), 3, colour.filled()))
                     .map_err(plot_err)?;
@@ -252,7 +272,10 @@ where
         .draw()
         .map_err(plot_err)?;
     for (k, s) in chart.series.iter().enumerate() {
-        let colour = PALETTE[k % PALETTE.len()];
+        let colour = match s.style {
+            Style::Thin { colour } | Style::Level { colour } => PALETTE[colour % PALETTE.len()],
+            _ => PALETTE[k % PALETTE.len()],
+        };
         let pts = s
             .points
             .iter()
@@ -276,13 +299,37 @@ where
                 ctx.draw_series(LineSeries::new(pts, colour.stroke_width(2)))
                     .map_err(plot_err)?
             }
+            Style::Thin { .. } => ctx
+                .draw_series(LineSeries::new(pts, colour.mix(0.8).stroke_width(1)))
+                .map_err(plot_err)?,
+            Style::Level { .. } => {
+                let pts: Vec<(f64, f64)> = pts.collect();
+                if let (Some(a), Some(b)) = (pts.first(), pts.last()) {
+                    let mid = (0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1));
+                    ctx.draw_series(std::iter::once(Circle::new(mid, 3, colour.filled())))
+                        .map_err(plot_err)?;
+                }
+                ctx.draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                    .map_err(plot_err)?
+            }
         };
-        anno.label(s.name.as_str()).legend(move |(x, y)| {
-            PathElement::new(vec![(x, y), (x + 18, y)], legend_colour.stroke_width(3))
-        });
+        if s.name.is_empty() {
+            continue;
+        }
+        let anno = anno.label(s.name.as_str());
+        if matches!(s.style, Style::Level { .. }) {
+            anno.legend(move |(x, y)| {
+                EmptyElement::at((x, y))
+                    + PathElement::new(vec![(0, 0), (18, 0)], legend_colour.stroke_width(3))
+                    + Circle::new((9, 0), 3, legend_colour.filled())
+            });
+        } else {
+            anno.legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], legend_colour.stroke_width(3))
+            });
+        }
     }
-    if legend_inside && (chart.series.len() > 1 || chart.series.iter().any(|s| !s.name.is_empty()))
-    {
+    if legend_inside && chart.series.iter().any(|s| !s.name.is_empty()) {
         ctx.configure_series_labels()
             .label_font(("sans-serif", 13))
             .background_style(WHITE.mix(0.85))

@@ -11,7 +11,18 @@
 //!
 //! (`torque_nm` instead of `current_a` for a torque trace). Position in mm to 1 nm, time in s
 //! to 1 µs, velocity in mm/s to 0.1 µm/s, acceleration in mm/s² to 1 µm/s², effort to 6
-//! decimals, friction in N to 0.1 mN, signed as paper 000 Eq. 5. The JSON summary written
+//! decimals, friction in N to 0.1 mN, signed as paper 000 Eq. 5.
+//!
+//! A stroke whose data support only its mean level (its verdict, see `feedscope::verdict`) has
+//! no rows along the travel: its one row leaves position, time, velocity, acceleration and
+//! effort empty and carries its mean friction (N) ([`format_mean_level`]); its standard error,
+//! span and reasons are in the summary:
+//!
+//! ```text
+//! 3,backward,,,,,,-1113.2210
+//! ```
+//!
+//! [`parse`] checks such rows and leaves them out of the strokes it returns. The JSON summary written
 //! beside it (same name, extension `.json`) holds the per-stroke facts ([`StrokeSummary`]) and
 //! the `samples_per_lead` of the grid; [`read`] uses both when it is there.
 
@@ -83,6 +94,23 @@ pub fn format_stroke(s: &StrokeFriction) -> Vec<Vec<u8>> {
         .collect()
 }
 
+/// The one row of a stroke whose data support only its mean level: number, direction, five
+/// empty fields and the mean friction (N, to 0.1 mN) (module docs).
+pub fn format_mean_level(s: &StrokeSummary) -> Vec<u8> {
+    let mut b = format!("{},{},,,,,,", s.stroke, s.direction.as_str()).into_bytes();
+    push_fixed(&mut b, s.mean_friction_n, 4);
+    b.push(b'\n');
+    b
+}
+
+/// True when a stroke's verdict supports no more than its mean level: the friction CSV then
+/// holds its mean level only ([`format_mean_level`]).
+pub fn is_mean_level(s: &StrokeSummary) -> bool {
+    s.verdict
+        .as_ref()
+        .is_some_and(|v| v.support < feedscope::verdict::Support::Profile)
+}
+
 /// Write a whole friction CSV: the header, then every stroke's rows
 /// ([`format_stroke`]).
 ///
@@ -95,6 +123,10 @@ pub fn write<W: Write>(
 ) -> std::io::Result<()> {
     write_header(&mut w, effort)?;
     for s in strokes {
+        if is_mean_level(&s.summary) {
+            w.write_all(&format_mean_level(&s.summary))?;
+            continue;
+        }
         for part in format_stroke(s) {
             w.write_all(&part)?;
         }
@@ -268,6 +300,17 @@ pub enum FrictionCsvError {
         /// The file.
         source_name: String,
     },
+    /// The file holds only mean levels: strokes whose data support no friction profile.
+    #[error(
+        "{source_name}: only mean levels ({strokes} stroke(s) whose data support no friction \
+         profile), no friction along the travel"
+    )]
+    MeanLevelsOnly {
+        /// The file.
+        source_name: String,
+        /// Mean-level rows found.
+        strokes: usize,
+    },
 }
 
 impl FrictionCsvError {
@@ -401,7 +444,8 @@ pub fn read(path: &Path, lead_m: f64) -> Result<Vec<StrokeFriction>, FrictionCsv
 ///
 /// # Errors
 /// [`FrictionCsvError`] naming `source_name` and the line: a wrong field count, a field that is
-/// not a (finite) number, a bad stroke number or direction; no rows at all.
+/// not a (finite) number, a bad stroke number or direction; no rows at all, or only the mean
+/// levels of strokes without a profile (module docs), which are checked and left out.
 pub fn parse(
     text: &str,
     source_name: &str,
@@ -414,6 +458,7 @@ pub fn parse(
     let step = lead_m / m;
     let mut by_stroke: BTreeMap<usize, StrokeFriction> = BTreeMap::new();
     let name = || source_name.to_string();
+    let mut levels = 0usize;
     for (k, row) in text.lines().enumerate().skip(1) {
         let line = k + 1;
         if row.trim().is_empty() || row.starts_with('#') {
@@ -466,6 +511,12 @@ pub fn parse(
                 })
             }
         };
+        // A stroke's mean level (module docs): no row along the travel.
+        if f[2..7].iter().all(|x| x.trim().is_empty()) {
+            num(7, "friction_n")?;
+            levels += 1;
+            continue;
+        }
         let s = by_stroke.entry(stroke).or_insert_with(|| StrokeFriction {
             summary: summaries
                 .iter()
@@ -496,6 +547,12 @@ pub fn parse(
         s.accel_m_s2.push(num(5, "accel_mm_s2")? * 1e-3);
         s.effort.push(num(6, "effort")?);
         s.friction_n.push(num(7, "friction_n")?);
+    }
+    if by_stroke.is_empty() && levels > 0 {
+        return Err(FrictionCsvError::MeanLevelsOnly {
+            source_name: name(),
+            strokes: levels,
+        });
     }
     if by_stroke.is_empty() {
         return Err(FrictionCsvError::NoRows {
@@ -603,6 +660,47 @@ mod tests {
                 assert!((a - b).abs() <= 0.5e-4 + 1e-12, "{a} {b}");
             }
         }
+    }
+
+    /// A mean-level stroke is one row without a position, read back as no profile; a file of
+    /// mean levels only is refused saying so.
+    #[test]
+    fn mean_level_strokes_are_one_row_and_read_back_as_no_profile() {
+        let mut want = strokes();
+        want[1].summary.mean_friction_n = -250.123456;
+        want[1].summary.verdict = Some(feedscope::verdict::judge_stroke(
+            &feedscope::verdict::StrokeEvidence {
+                length_leads: 0.1,
+                max_order: 1.0,
+                floor_n: 1.0,
+                mean_n: -250.0,
+                process_load: true,
+            },
+        ));
+        assert!(is_mean_level(&want[1].summary) && !is_mean_level(&want[0].summary));
+        let mut csv = Vec::new();
+        write(&mut csv, EffortKind::CurrentA, &want).unwrap();
+        let text = String::from_utf8(csv).unwrap();
+        let rows: Vec<&str> = text.lines().filter(|l| l.starts_with("1,")).collect();
+        assert_eq!(rows, ["1,backward,,,,,,-250.1235"], "{text}");
+        assert_eq!(text.lines().count(), 1 + 50 + 1);
+        let got = parse(&text, "f.csv", 0.010, None, "f.json").unwrap();
+        assert_eq!(got.len(), 1);
+        assert_eq!(got[0].position_m, want[0].position_m);
+        let head = text.lines().next().unwrap();
+        let only = format!("{head}\n1,backward,,,,,,-250.1235\n");
+        let e = parse(&only, "f.csv", 0.010, None, "f.json").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "f.csv: only mean levels (1 stroke(s) whose data support no friction profile), \
+             no friction along the travel"
+        );
+        let bad = format!("{head}\n1,backward,,,,,,x\n");
+        let e = parse(&bad, "f.csv", 0.010, None, "f.json").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "f.csv:2: column `friction_n`: `x` is not a number"
+        );
     }
 
     #[test]

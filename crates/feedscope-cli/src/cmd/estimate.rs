@@ -220,12 +220,32 @@ pub struct PlotData {
     pub numbers: [Vec<usize>; 2],
     /// Whether each stroke is drawn as its mean level only (its data support no profile).
     pub mean_only: [Vec<bool>; 2],
+    /// Every how many of a new stroke's points is kept, per direction (0 or 1: every one):
+    /// doubled whenever a direction's points pass [`PLOT_POINTS_PER_DIRECTION`], so that the
+    /// plot of many strokes, and the memory it takes, stays bounded.
+    thin: [usize; 2],
     /// The friction's sign comes from the direction of motion (the effort is a magnitude).
     pub sign_from_direction: bool,
 }
 
 const PLOT_POINTS_PER_STROKE: usize = 4000;
-const PLOT_STROKES_PER_DIRECTION: usize = 6;
+/// Points of all strokes of one direction at most (see [`PlotData::thin`]).
+const PLOT_POINTS_PER_DIRECTION: usize = 100_000;
+/// Up to this many strokes of a direction are each drawn in a colour of their own and named
+/// in the legend; more are drawn thin in one colour per kind, with one legend entry per kind
+/// that counts them.
+const PLOT_NAMED_STROKES: usize = 6;
+
+/// Every `n`-th point and the last one.
+fn every_nth(points: Vec<(f64, f64)>, n: usize) -> Vec<(f64, f64)> {
+    let last = points.len().saturating_sub(1);
+    points
+        .into_iter()
+        .enumerate()
+        .filter(|(j, _)| j % n == 0 || *j == last)
+        .map(|(_, p)| p)
+        .collect()
+}
 
 impl PlotData {
     /// Friction vs position of one stroke, decimated for plotting ((mm, N) pairs).
@@ -234,6 +254,9 @@ impl PlotData {
     /// The same of one piece of a stroke's rows, decimated by the whole stroke's length (a
     /// stroke whose data support no profile is reduced to its mean level by [`Self::add`]).
     fn points(s: &StrokeFriction) -> Vec<(f64, f64)> {
+        if mean_only(&s.summary) {
+            return Vec::new();
+        }
         let stride = s.summary.points.div_ceil(PLOT_POINTS_PER_STROKE).max(1);
         s.position_m
             .iter()
@@ -244,7 +267,8 @@ impl PlotData {
     }
 
     fn add(&mut self, s: &StrokeSummary, mut points: Vec<(f64, f64)>) {
-        if mean_only(s) {
+        let flat = mean_only(s);
+        if flat {
             let m = s.mean_friction_n;
             points = vec![(s.start_mm, m), (s.end_mm, m)];
         }
@@ -254,15 +278,29 @@ impl PlotData {
         } else {
             &mut self.backward
         };
-        if dst.len() < PLOT_STROKES_PER_DIRECTION {
-            dst.push(points);
-            self.numbers[k].push(s.stroke);
-            self.mean_only[k].push(mean_only(s));
+        let thin = &mut self.thin[k];
+        if !flat && *thin > 1 {
+            points = every_nth(points, *thin);
+        }
+        dst.push(points);
+        self.numbers[k].push(s.stroke);
+        self.mean_only[k].push(flat);
+        // Every stroke is drawn: many of them thin out, all alike.
+        while dst.iter().map(Vec::len).sum::<usize>() > PLOT_POINTS_PER_DIRECTION
+            && dst.iter().any(|p| p.len() > 2)
+        {
+            *thin = (*thin).max(1) * 2;
+            for p in dst.iter_mut() {
+                *p = every_nth(std::mem::take(p), 2);
+            }
         }
     }
 
     /// Friction vs position: one panel per direction, with optional extra series (e.g. the
-    /// truth) per direction.
+    /// truth) per direction. Every stroke is drawn: a profile as a line, a stroke whose data
+    /// support only its mean level as a flat segment at that level with a marker at its middle.
+    /// Up to [`PLOT_NAMED_STROKES`] strokes a panel are named one by one; more are drawn thin,
+    /// in the direction's colour, and the legend counts them.
     pub fn svg(
         &self,
         title: &str,
@@ -270,42 +308,77 @@ impl PlotData {
         mut extra_backward: Vec<plot::Series>,
     ) -> Result<String> {
         let mut charts_series = Vec::new();
-        for (label, strokes, numbers, flat, extra) in [
-            (
-                "forward",
-                &self.forward,
-                &self.numbers[0],
-                &self.mean_only[0],
-                &mut extra_forward,
-            ),
-            (
-                "backward",
-                &self.backward,
-                &self.numbers[1],
-                &self.mean_only[1],
-                &mut extra_backward,
-            ),
-        ] {
+        for (d, (label, strokes, extra)) in [
+            ("forward", &self.forward, &mut extra_forward),
+            ("backward", &self.backward, &mut extra_backward),
+        ]
+        .into_iter()
+        .enumerate()
+        {
             if strokes.is_empty() {
                 continue;
             }
-            let mut series: Vec<plot::Series> = strokes
-                .iter()
-                .enumerate()
-                .map(|(k, pts)| plot::Series {
-                    // Numbered as in the console table and the CSV, not within the plot.
-                    name: match (strokes.len() > 1, flat.get(k).copied().unwrap_or(false)) {
-                        (_, true) => format!(
-                            "{label} stroke {}: mean level only (no profile supported)",
-                            numbers[k]
-                        ),
-                        (true, false) => format!("{label} stroke {}", numbers[k]),
-                        (false, false) => format!("{label} stroke {} (estimated)", numbers[k]),
-                    },
-                    points: pts.clone(),
-                    style: plot::Style::Line,
-                })
-                .collect();
+            let (numbers, flat) = (&self.numbers[d], &self.mean_only[d]);
+            let is_flat = |k: usize| flat.get(k).copied().unwrap_or(false);
+            let mut series: Vec<plot::Series> = if strokes.len() <= PLOT_NAMED_STROKES {
+                strokes
+                    .iter()
+                    .enumerate()
+                    .map(|(k, pts)| plot::Series {
+                        // Numbered as in the console table and the CSV, not within the plot.
+                        name: match (strokes.len() > 1, is_flat(k)) {
+                            (_, true) => format!(
+                                "{label} stroke {}: mean level only (no profile supported)",
+                                numbers[k]
+                            ),
+                            (true, false) => format!("{label} stroke {}", numbers[k]),
+                            (false, false) => {
+                                format!("{label} stroke {} (estimated)", numbers[k])
+                            }
+                        },
+                        points: pts.clone(),
+                        style: if is_flat(k) {
+                            plot::Style::Level { colour: k }
+                        } else {
+                            plot::Style::Line
+                        },
+                    })
+                    .collect()
+            } else {
+                let n_flat = (0..strokes.len()).filter(|&k| is_flat(k)).count();
+                let n_profile = strokes.len() - n_flat;
+                let (mut named_profile, mut named_flat) = (false, false);
+                strokes
+                    .iter()
+                    .enumerate()
+                    .map(|(k, pts)| {
+                        let (name, style) = if is_flat(k) {
+                            let name = (!std::mem::replace(&mut named_flat, true)).then(|| {
+                                format!(
+                                    "{label}: {n_flat} of {} strokes, mean level only (no \
+                                     profile supported)",
+                                    strokes.len()
+                                )
+                            });
+                            (name, plot::Style::Level { colour: d + 2 })
+                        } else {
+                            let name = (!std::mem::replace(&mut named_profile, true)).then(|| {
+                                format!(
+                                    "{label}: {n_profile} of {} strokes, friction along the \
+                                     travel",
+                                    strokes.len()
+                                )
+                            });
+                            (name, plot::Style::Thin { colour: d })
+                        };
+                        plot::Series {
+                            name: name.unwrap_or_default(),
+                            points: pts.clone(),
+                            style,
+                        }
+                    })
+                    .collect()
+            };
             series.append(extra);
             charts_series.push((label, series));
         }
@@ -349,6 +422,73 @@ type Formatted = (CsvRows, PlotPoints);
 /// What an estimation hands each stroke (or piece of one) to.
 type PieceSink<'a> = dyn FnMut(StrokePiece<Formatted>) -> Result<()> + 'a;
 
+/// What the CSV writer thread is handed.
+enum ToCsv {
+    /// Rows to write.
+    Rows(CsvRows),
+    /// A long stroke's pieces start here: the rows up to [`ToCsv::Keep`] or
+    /// [`ToCsv::Retract`] may be taken back.
+    Mark,
+    /// The marked stroke's rows stay.
+    Keep,
+    /// The marked stroke's data support only its mean level: its rows are taken back and
+    /// these written instead.
+    Retract(CsvRows),
+}
+
+/// The writer thread's state: where the marked stroke started (a regular file), or its rows
+/// held in memory (an output that cannot be cut back, such as a pipe).
+#[derive(Default)]
+struct CsvWriter {
+    mark: Option<u64>,
+    held: Option<CsvRows>,
+}
+
+impl CsvWriter {
+    fn take(&mut self, out: &mut AtomicFile, msg: ToCsv) -> std::io::Result<()> {
+        use std::io::{Seek, SeekFrom};
+        let w = out.writer();
+        match msg {
+            ToCsv::Rows(parts) => match &mut self.held {
+                Some(held) => held.extend(parts),
+                None => {
+                    for buf in parts {
+                        w.write_all(&buf)?;
+                    }
+                }
+            },
+            ToCsv::Mark => {
+                w.flush()?;
+                let f = w.get_mut();
+                if f.metadata()?.is_file() {
+                    self.mark = Some(f.stream_position()?);
+                } else {
+                    self.held = Some(Vec::new());
+                }
+            }
+            ToCsv::Keep => {
+                self.mark = None;
+                for buf in self.held.take().unwrap_or_default() {
+                    w.write_all(&buf)?;
+                }
+            }
+            ToCsv::Retract(parts) => {
+                self.held = None;
+                if let Some(at) = self.mark.take() {
+                    w.flush()?;
+                    let f = w.get_mut();
+                    f.set_len(at)?;
+                    f.seek(SeekFrom::Start(at))?;
+                }
+                for buf in parts {
+                    w.write_all(&buf)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// What the CSV writer made of the strokes handed to it.
 struct Written {
     csv: AtomicFile,
@@ -376,33 +516,69 @@ fn write_friction_csv<R>(
     let mut plot = PlotData::default();
     // A writer thread takes formatted strokes, so the copy into the file overlaps with the
     // estimation of the next batch; the bounded channel caps the memory in flight.
-    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Vec<u8>>>(2 * n_threads);
+    let (tx, rx) = std::sync::mpsc::sync_channel::<ToCsv>(2 * n_threads);
     let (estimated, out) = std::thread::scope(|scope| {
         let writer = scope.spawn(move || -> Result<AtomicFile> {
-            for parts in rx {
-                for buf in parts {
-                    out.writer()
-                        .write_all(&buf)
-                        .with_context(|| format!("writing {}", csv_path.display()))?;
-                }
+            let mut w = CsvWriter::default();
+            for msg in rx {
+                w.take(&mut out, msg)
+                    .with_context(|| format!("writing {}", csv_path.display()))?;
             }
             Ok(out)
         });
         // A long stroke comes in pieces (rows, then its summary): its points for the plot
         // gather here until the summary says how to draw it.
         let mut pts = Vec::new();
-        let map = |s: StrokeFriction| (friction_csv::format_stroke(&s), PlotData::points(&s));
+        // The rows of the stroke being handed out, held until its end or its next piece: a
+        // stroke in one piece whose data support only its mean level then never reaches the
+        // file, and the pieces of a long one are marked so that they can be taken back.
+        let mut held: Option<CsvRows> = None;
+        let mut pieced = false;
+        // Its formatted rows: none for a stroke whose final summary supports no profile (a
+        // stroke in one piece, or a long one's last piece).
+        let map = |s: StrokeFriction| {
+            let rows = if mean_only(&s.summary) {
+                Vec::new()
+            } else {
+                friction_csv::format_stroke(&s)
+            };
+            (rows, PlotData::points(&s))
+        };
         let mut sink = |piece: StrokePiece<Formatted>| -> Result<()> {
+            // A send fails only when the writer stopped on an error; join() reports it.
+            let send = |m: ToCsv| {
+                tx.send(m)
+                    .map_err(|_| anyhow::anyhow!("the CSV writer stopped"))
+            };
             match piece {
                 StrokePiece::Rows((rows, p)) => {
-                    // A send fails only when the writer stopped on an error; join() reports it.
-                    if tx.send(rows).is_err() {
-                        return Err(anyhow::anyhow!("the CSV writer stopped"));
+                    if let Some(before) = held.take() {
+                        if !pieced {
+                            send(ToCsv::Mark)?;
+                            pieced = true;
+                        }
+                        send(ToCsv::Rows(before))?;
                     }
+                    held = Some(rows);
                     pts.extend(p);
                 }
                 StrokePiece::End(summary) => {
                     pb.inc(summary.position_samples as u64);
+                    let rows = held.take().unwrap_or_default();
+                    if mean_only(&summary) {
+                        let level = vec![friction_csv::format_mean_level(&summary)];
+                        send(if pieced {
+                            ToCsv::Retract(level)
+                        } else {
+                            ToCsv::Rows(level)
+                        })?;
+                    } else {
+                        send(ToCsv::Rows(rows))?;
+                        if pieced {
+                            send(ToCsv::Keep)?;
+                        }
+                    }
+                    pieced = false;
                     plot.add(&summary, std::mem::take(&mut pts));
                     summaries.push(*summary);
                 }
@@ -785,11 +961,19 @@ pub fn print_table(summary: &Summary) -> Result<()> {
         outln!();
         outln!("moves left out (no friction estimated):");
         for m in left_out {
+            let feed = match (m.feed_mm_min, m.gap_s) {
+                (Some(f), None) => format!("{} mm/min", feed_text(f)),
+                (Some(f), Some(g)) => {
+                    format!("{} mm/min, spans a gap of {g:.1} s", feed_text(f))
+                }
+                (None, Some(g)) => format!("spans a gap of {g:.1} s: no feed"),
+                (None, None) => "feed unknown".to_string(),
+            };
             outln!(
-                "  {:<11}  {:<8}  {:>10.1} mm/min  {:>9.2} → {:>9.2} mm  t = {:.3}-{:.3} s{}",
+                "  {:<11}  {:<8}  {:>17}  {:>9.2} → {:>9.2} mm  t = {:.3} s to {:.3} s{}",
                 m.kind.as_str(),
                 m.direction.as_str(),
-                m.feed_mm_min,
+                feed,
                 m.start_mm,
                 m.end_mm,
                 m.start_time_s,
@@ -809,10 +993,8 @@ pub fn print_table(summary: &Summary) -> Result<()> {
     for (code, (count, first)) in verdict_reasons(&summary.strokes) {
         eprintln!("verdict: {count} stroke(s) limited by {code}; e.g. {first}");
     }
-    for s in &summary.strokes {
-        for w in &s.warnings {
-            eprintln!("warning: stroke {}: {w}", s.stroke);
-        }
+    for line in stroke_warnings(&summary.strokes) {
+        eprintln!("warning: {line}");
     }
     for w in &summary.skipped {
         eprintln!("warning: skipped {w}");
@@ -827,11 +1009,110 @@ pub fn print_table(summary: &Summary) -> Result<()> {
     Ok(())
 }
 
+/// A feed for people (mm/min): to 0.1 mm/min from 10 mm/min up, else to 3 significant
+/// digits, so that a slow move never reads "0.0".
+fn feed_text(f: f64) -> String {
+    let a = f.abs();
+    if a >= 10.0 || a == 0.0 || !a.is_finite() {
+        format!("{f:.1}")
+    } else if a >= 1e-6 {
+        let decimals = (2.0 - a.log10().floor()) as usize;
+        format!("{f:.decimals$}")
+    } else {
+        format!("{f:.2e}")
+    }
+}
+
+/// Warnings of a stroke about its friction profile (its spectrum, its noise against the
+/// variation along it): moot for a stroke whose data support only its mean level, where the
+/// profile is withheld anyway.
+const PROFILE_WARNINGS: [&str; 5] = [
+    "few-samples-per-lead",
+    "position-smoothed-below-order",
+    "noise-floor-high",
+    "feed-change-unresolved",
+    "position-not-monotone",
+];
+
+/// The strokes' warnings as lines for the terminal: one per stroke and warning, except that a
+/// warning about the profile on strokes whose profile is withheld (mean level only), and any
+/// warning repeated on more than [`WARNING_REPEATS_SHOWN`] strokes, is one line that counts
+/// the strokes, lists them and quotes the first. The JSON summary keeps every one.
+fn stroke_warnings(strokes: &[StrokeSummary]) -> Vec<String> {
+    let key = |s: &StrokeSummary, code: &'_ str| {
+        (
+            mean_only(s) && PROFILE_WARNINGS.contains(&code),
+            code.to_string(),
+        )
+    };
+    let mut by_code: std::collections::BTreeMap<(bool, String), Vec<&StrokeSummary>> =
+        std::collections::BTreeMap::new();
+    for s in strokes {
+        for w in &s.warnings {
+            by_code.entry(key(s, &w.code)).or_default().push(s);
+        }
+    }
+    let mut lines = Vec::new();
+    let mut collapsed = Vec::new();
+    for s in strokes {
+        for w in &s.warnings {
+            let k = key(s, &w.code);
+            let moot = k.0;
+            let group = &by_code[&k];
+            if !moot && group.len() <= WARNING_REPEATS_SHOWN {
+                lines.push(format!("stroke {}: {w}", s.stroke));
+            } else if std::ptr::eq(group[0], s) {
+                let numbers: Vec<usize> = group.iter().map(|g| g.stroke).collect();
+                let first = group[0]
+                    .warnings
+                    .iter()
+                    .find(|x| x.code == w.code)
+                    .map_or_else(String::new, |x| x.message.clone());
+                collapsed.push(format!(
+                    "{} stroke(s) ({}){}: {}; e.g. stroke {}: {first} (each in the JSON summary)",
+                    numbers.len(),
+                    number_list(&numbers),
+                    if moot {
+                        ", whose profile is withheld anyway (mean level only)"
+                    } else {
+                        ""
+                    },
+                    w.code,
+                    numbers[0],
+                ));
+            }
+        }
+    }
+    // The warnings that bear on what is reported come before the moot ones.
+    lines.extend(collapsed);
+    lines
+}
+
+/// Warnings repeated on more strokes than this are one line ([`stroke_warnings`]).
+const WARNING_REPEATS_SHOWN: usize = 3;
+
+/// Stroke numbers as ranges: `0-3, 5, 7-8`.
+fn number_list(n: &[usize]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut k = 0;
+    while k < n.len() {
+        let mut j = k;
+        while j + 1 < n.len() && n[j + 1] == n[j] + 1 {
+            j += 1;
+        }
+        parts.push(if j > k {
+            format!("{}-{}", n[k], n[j])
+        } else {
+            n[k].to_string()
+        });
+        k = j + 1;
+    }
+    parts.join(", ")
+}
+
 /// True when a stroke's data verdict supports no more than its mean level.
 fn mean_only(s: &StrokeSummary) -> bool {
-    s.verdict
-        .as_ref()
-        .is_some_and(|v| v.support < feedscope::verdict::Support::Profile)
+    friction_csv::is_mean_level(s)
 }
 
 /// The binding reasons of the strokes' verdicts, by code: how many strokes and the first

@@ -394,10 +394,11 @@ fn wide_layout_and_bare_cr_work() {
     assert!(csv.starts_with(
         "stroke,direction,position_mm,time_s,velocity_mm_s,accel_mm_s2,torque_nm,friction_n"
     ));
-    // 100 N constant friction from torque, without k_e.
+    // 100 N constant friction from torque, without k_e (a constant effort reads as coarsely
+    // quantised: the stroke's one mean-level row, or its profile's rows, carry it).
     let f: f64 = csv
         .lines()
-        .nth(100)
+        .nth(1)
         .unwrap()
         .rsplit(',')
         .next()
@@ -513,6 +514,104 @@ fn effort_counted_against_the_position() {
             } else {
                 assert_eq!(a, b, "column {k}: {lr} against {lt}");
             }
+        }
+    }
+}
+
+/// `pairs` forward and backward strokes of 20 mm at 200 mm/min with 1 s dwells, 72 ms
+/// position and 71 ms current sampling (200 N of friction with a 10 N ripple), after the header lines `facts`.
+fn many_strokes_trace(pairs: usize, facts: &str) -> String {
+    let (len, v, dwell) = (20.0, 200.0 / 60.0, 1.0);
+    let leg = len / v + dwell;
+    let end = 2.0 * pairs as f64 * leg + dwell;
+    // Position (mm) and velocity sign at t: dwell, move, dwell, move back ...
+    let at = |t: f64| -> (f64, f64) {
+        let k = (t / leg).floor();
+        let u = t - k * leg;
+        let back = k as usize % 2 == 1;
+        if t >= end - dwell || u < dwell {
+            (if back { len } else { 0.0 }, 0.0)
+        } else if back {
+            (len - v * (u - dwell), -1.0)
+        } else {
+            (v * (u - dwell), 1.0)
+        }
+    };
+    let mut rows: Vec<(f64, String)> = Vec::new();
+    let mut t = 0.0;
+    while t < end {
+        rows.push((t, format!("{t:.6},position_mm,{:.3}", at(t).0)));
+        t += 0.072;
+    }
+    let mut t = 0.03;
+    while t < end {
+        // A 3-per-lead ripple of 10 N: a constant effort reads as coarsely quantised.
+        let (z, sign) = at(t);
+        let f = sign * (200.0 + 10.0 * (2.0 * std::f64::consts::PI * 3.0 * z / 10.0).sin());
+        let amps = f / (2.0 * std::f64::consts::PI / 0.01) / 1.5;
+        rows.push((t, format!("{t:.6},current_a,{amps:.6}")));
+        t += 0.071;
+    }
+    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut s = format!("{facts}time_s,channel,value\n");
+    for (_, r) in rows {
+        s.push_str(&r);
+        s.push('\n');
+    }
+    s
+}
+
+/// Issue 34 item 9: every one of 8 strokes a direction is drawn and counted in the legend (not
+/// the first 6), profiles as lines and mean levels as levels; strokes whose data support only
+/// their mean level get one CSV row each, which `analyze` reads as no profile.
+#[test]
+fn every_stroke_is_plotted_and_mean_levels_are_one_csv_row() {
+    for (facts, kind) in [
+        ("", "friction along the travel"),
+        ("# fact process_load = true\n", "mean level only"),
+    ] {
+        let d = tempfile::tempdir().unwrap();
+        setup(d.path(), many_strokes_trace(8, facts).as_bytes());
+        let mut c = feedscope(d.path());
+        c.args([
+            "estimate",
+            "trace.csv",
+            "--axis",
+            "axis.toml",
+            "-o",
+            "f.csv",
+        ]);
+        let o = run(c);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.path().join("f.json")).unwrap())
+                .unwrap();
+        let strokes = json["strokes"].as_array().unwrap();
+        assert_eq!(strokes.len(), 16, "{facts}{}", stderr(&o));
+        let svg = std::fs::read_to_string(d.path().join("f.svg")).unwrap();
+        for dir in ["forward", "backward"] {
+            let entry = format!("{dir}: 8 of 8 strokes, {kind}");
+            assert!(svg.contains(&entry), "{entry}");
+        }
+        let csv = std::fs::read_to_string(d.path().join("f.csv")).unwrap();
+        let rows = csv.lines().count() - 1;
+        if facts.is_empty() {
+            assert!(rows > 16 * 100, "{rows}");
+            // Profiles are lines, without level markers.
+            assert_eq!(svg.matches("<circle").count(), 0);
+        } else {
+            assert_eq!(rows, 16, "{csv}");
+            for (row, s) in csv.lines().skip(1).zip(strokes) {
+                let want = format!("{},{},,,,,,", s["stroke"], s["direction"].as_str().unwrap());
+                assert!(row.starts_with(&want), "{row}");
+            }
+            // One marker per stroke and one per legend entry.
+            assert_eq!(svg.matches("<circle").count(), 16 + 2);
+            let mut c = feedscope(d.path());
+            c.args(["analyze", "f.csv", "--axis", "axis.toml", "--out", "a"]);
+            let o = run(c);
+            assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+            assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
         }
     }
 }

@@ -326,3 +326,126 @@ fn umich_runs_are_mean_level_and_an_unwired_axis_is_refused_at_import() {
     assert!(estimated > 0);
     store_is_empty(d);
 }
+
+/// Issue 34 items 9 and 10 on the Okuma Z1 log (27 strokes, every one mean-level): the plot
+/// draws every stroke and counts them in its legend; the friction CSV holds one mean-level row
+/// per stroke and no profile; the profile warnings of those strokes are one line each, after
+/// the verdict; the moves left out read as a feed with its digits (never "0.0 mm/min"), or as
+/// a gap with no feed, with times as `a s to b s`.
+#[test]
+fn okuma_outputs_draw_every_stroke_and_present_no_withheld_profile() {
+    let t = setup();
+    let d = t.path();
+    unpack(d, "okuma.txt");
+    let o = cmd(
+        d,
+        &[
+            "import",
+            "shdr",
+            "okuma.txt",
+            "--devices",
+            "okuma_Devices.xml",
+            "--axis",
+            "Z1",
+            "--torque-per-load-nm",
+            "22",
+            "-o",
+            "z1.csv",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = cmd(
+        d,
+        &["estimate", "z1.csv", "--axis", "axis.toml", "-o", "f.csv"],
+    );
+    let (out, err) = (stdout(&o), stderr(&o));
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    let json: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("f.json")).unwrap()).unwrap();
+    let strokes = json["strokes"].as_array().unwrap();
+    let n_dir = |dir: &str| strokes.iter().filter(|s| s["direction"] == dir).count();
+    let (nf, nb) = (n_dir("forward"), n_dir("backward"));
+    assert!(nf > 6 && nb > 6, "{nf} {nb}");
+
+    // The CSV: one row per stroke, its mean level, no position along the travel.
+    let csv = std::fs::read_to_string(d.join("f.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), strokes.len(), "{csv}");
+    for (row, s) in rows.iter().zip(strokes) {
+        let f: Vec<&str> = row.split(',').collect();
+        assert_eq!(f.len(), 8, "{row}");
+        assert_eq!(f[0], s["stroke"].to_string(), "{row}");
+        assert!(f[2..7].iter().all(|x| x.is_empty()), "{row}");
+        let mean = s["mean_friction_n"].as_f64().unwrap();
+        assert!(
+            (f[7].parse::<f64>().unwrap() - mean).abs() < 1e-4,
+            "{row} {mean}"
+        );
+    }
+
+    // The plot: every stroke, counted in the legend, each a level with its marker.
+    let svg = std::fs::read_to_string(d.join("f.svg")).unwrap();
+    for (dir, n) in [("forward", nf), ("backward", nb)] {
+        let entry = format!("{dir}: {n} of {n} strokes, mean level only");
+        assert!(svg.contains(&entry), "{entry}");
+    }
+    // One marker per stroke and one per legend entry.
+    assert_eq!(svg.matches("<circle").count(), strokes.len() + 2);
+
+    // Warnings: the verdict first; no per-stroke line only repeating a withheld profile.
+    let per_stroke = err
+        .lines()
+        .filter(|l| l.starts_with("warning: stroke "))
+        .count();
+    assert!(per_stroke <= 3, "{per_stroke} per-stroke warnings:\n{err}");
+    let lines: Vec<&str> = err.lines().collect();
+    let first_warning = lines
+        .iter()
+        .position(|l| l.starts_with("warning:"))
+        .unwrap();
+    let last_verdict = lines
+        .iter()
+        .rposition(|l| l.starts_with("verdict:"))
+        .unwrap();
+    assert!(last_verdict < first_warning, "{err}");
+    assert!(err.lines().count() < 20, "{err}");
+    assert!(err.contains("whose profile is withheld anyway"), "{err}");
+
+    // Moves left out.
+    let listed: Vec<&str> = out
+        .lines()
+        .skip_while(|l| !l.starts_with("moves left out"))
+        .skip(1)
+        .take_while(|l| !l.is_empty())
+        .collect();
+    assert!(!listed.is_empty(), "{out}");
+    for l in &listed {
+        assert!(!l.contains(" 0.0 mm/min"), "{l}");
+        assert!(l.contains(" s to ") && l.ends_with(" s"), "{l}");
+        assert!(!l.contains("--"), "{l}");
+    }
+    let moves = json["moves"].as_array().unwrap();
+    let mut gaps = 0;
+    for m in moves
+        .iter()
+        .filter(|m| m["strokes"].as_array().unwrap().is_empty())
+    {
+        let (t0, t1) = (
+            m["start_time_s"].as_f64().unwrap(),
+            m["end_time_s"].as_f64().unwrap(),
+        );
+        let travel = (m["end_mm"].as_f64().unwrap() - m["start_mm"].as_f64().unwrap()).abs();
+        match (m["feed_mm_min"].as_f64(), m["gap_s"].as_f64()) {
+            // No stroke: the feed is the travel over the duration.
+            (Some(f), None) => assert!((f - travel / (t1 - t0) * 60.0).abs() < 1e-6 * f, "{m}"),
+            (None, Some(g)) => {
+                gaps += 1;
+                assert!(g >= 1.0 && g <= t1 - t0, "{m}");
+            }
+            _ => panic!("{m}"),
+        }
+    }
+    // The log is pieced from 3 recordings; a move across a join says so.
+    assert!(gaps >= 1, "{out}");
+    assert!(out.contains("spans a gap of"), "{out}");
+}

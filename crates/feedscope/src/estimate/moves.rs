@@ -81,8 +81,15 @@ pub struct Move {
     pub start_mm: f64,
     /// Position at the end (mm).
     pub end_mm: f64,
-    /// Plateau speed of the move (mm/min; 0 when too few samples to tell).
-    pub feed_mm_min: f64,
+    /// Feed of the move (mm/min): the mean speed over its steady strokes, else its travel over
+    /// its duration. `None` for a move without a steady stroke that spans a gap in the
+    /// recording ([`Self::gap_s`]): a speed over a time the axis was not recorded is no feed.
+    pub feed_mm_min: Option<f64>,
+    /// The longest time between two position samples inside the move (s), when it is a gap in
+    /// the recording ([`GAP_FACTOR`] times the move's median sample interval and at least
+    /// [`MIN_GAP_S`]): recordings joined, or a logger that stopped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gap_s: Option<f64>,
     /// Numbers of the strokes estimated in it (see the strokes' `stroke` field).
     pub strokes: Vec<usize>,
     /// The NC program line that commanded it, when a program was given and matched.
@@ -171,6 +178,7 @@ pub(crate) fn top_mm_min(m: &MoveSpan) -> f64 {
 /// One move classified, with moves at or above `rapid_above` (mm/min) taken for rapids.
 pub(crate) fn classify_one(position: &Channel, m: &MoveSpan, rapid_above: Option<f64>) -> Move {
     let (t, z) = (&position.time_s, &position.value);
+    let gap = gap_in(&t[m.first..=m.last]);
     let kind = if rapid_above.is_some_and(|r| top_mm_min(m) >= r) {
         MoveKind::Rapid
     } else if m.strokes.is_empty() {
@@ -185,7 +193,8 @@ pub(crate) fn classify_one(position: &Channel, m: &MoveSpan, rapid_above: Option
         end_time_s: t[m.last],
         start_mm: z[m.first] * 1e3,
         end_mm: z[m.last] * 1e3,
-        feed_mm_min: steady_feed_mm_min(position, m),
+        feed_mm_min: steady_feed_mm_min(position, m, gap.is_some()),
+        gap_s: gap,
         strokes: Vec::new(),
         program_line: None,
         programmed_feed_mm_min: None,
@@ -197,9 +206,34 @@ pub(crate) fn rapid_above_rate(rapid_rate_mm_min: f64) -> f64 {
     RAPID_FRACTION * rapid_rate_mm_min
 }
 
-/// The feed of a move: the mean speed over its steady strokes (exact also when single chords
-/// are coarse), else its plateau speed (mm/min).
-fn steady_feed_mm_min(position: &Channel, m: &MoveSpan) -> f64 {
+/// A sample interval inside a move is a gap in the recording when it is at least this many
+/// times the move's median interval: a change-only logger's intervals scatter by a few times
+/// their median, not by twenty.
+pub const GAP_FACTOR: f64 = 20.0;
+/// ... and at least this long (s): a dropped sample or two of a fast logger is no gap.
+pub const MIN_GAP_S: f64 = 1.0;
+
+/// The longest interval of the sample times `t` (increasing) when it is a gap ([`GAP_FACTOR`],
+/// [`MIN_GAP_S`]) against the lower median of the others' intervals; `None` otherwise. With a
+/// single interval there is nothing to compare it with: no gap.
+fn gap_in(t: &[f64]) -> Option<f64> {
+    let mut dt: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    if dt.len() < 2 {
+        return None;
+    }
+    dt.sort_by(f64::total_cmp);
+    let longest = dt[dt.len() - 1];
+    // The lower median: with two intervals, the shorter one (the other is the candidate).
+    let median = dt[(dt.len() - 1) / 2];
+    (longest >= MIN_GAP_S && longest >= GAP_FACTOR * median).then_some(longest)
+}
+
+/// The feed of a move (mm/min): the mean speed over its steady strokes (exact also when single
+/// chords are coarse; a standstill, and so a gap, always ends a stroke), else its travel over
+/// its duration, else (no stroke and a gap inside, `gap`) none. The move's plateau speed is
+/// not used: it is 0 for a move with fewer samples than one chord needs, which made a 15 mm
+/// positioning move logged by a few change-only samples read "0.0 mm/min".
+fn steady_feed_mm_min(position: &Channel, m: &MoveSpan, gap: bool) -> Option<f64> {
     let (t, z) = (&position.time_s, &position.value);
     let (dist, dur) = m.strokes.iter().fold((0.0, 0.0), |(d, s), sp| {
         (
@@ -208,10 +242,11 @@ fn steady_feed_mm_min(position: &Channel, m: &MoveSpan) -> f64 {
         )
     });
     if dur > 0.0 {
-        feed_m_s_to_mm_min(dist / dur)
-    } else {
-        feed_m_s_to_mm_min(m.plateau_speed_m_s)
+        return Some(feed_m_s_to_mm_min(dist / dur));
     }
+    let span = t[m.last] - t[m.first];
+    // Time strictly increases, so a move of two or more knots has a positive duration.
+    (!gap && span > 0.0).then(|| feed_m_s_to_mm_min((z[m.last] - z[m.first]).abs() / span))
 }
 
 /// How far a measured end position may lie from the programmed one and still match (mm):
@@ -259,12 +294,12 @@ pub(crate) fn label_with_program(moves: &mut [Move], steps: &[ProgrammedMove]) -
         } else {
             MoveKind::Measuring
         };
-        if let (false, Some(f)) = (step.rapid, step.feed_mm_min) {
-            if m.kind == MoveKind::Measuring && (m.feed_mm_min / f - 1.0).abs() > 0.05 {
+        if let (false, Some(f), Some(feed)) = (step.rapid, step.feed_mm_min, m.feed_mm_min) {
+            if m.kind == MoveKind::Measuring && (feed / f - 1.0).abs() > 0.05 {
                 warnings.push(format!(
                     "the move ending at {:.3} mm ran at {:.1} mm/min, not the {:.1} mm/min that \
                      line {} programs (feed override?)",
-                    m.end_mm, m.feed_mm_min, f, step.line
+                    m.end_mm, feed, f, step.line
                 ));
             }
         }
@@ -298,4 +333,56 @@ pub(crate) fn label_with_program(moves: &mut [Move], steps: &[ProgrammedMove]) -
         ));
     }
     warnings
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn span(first: usize, last: usize) -> MoveSpan {
+        MoveSpan {
+            direction: Direction::Forward,
+            first,
+            last,
+            plateau_speed_m_s: 0.0,
+            top_speed_m_s: 0.0,
+            strokes: Vec::new(),
+        }
+    }
+
+    /// A 15 mm move in four change-only samples has too few for a chord (plateau 0): its feed
+    /// is its travel over its duration, not "0.0 mm/min".
+    #[test]
+    fn a_move_too_short_for_a_plateau_has_its_mean_speed() {
+        let p = Channel {
+            time_s: vec![0.0, 0.35, 0.7, 1.05],
+            value: vec![0.0, 0.005, 0.010, 0.015],
+        };
+        let m = classify_one(&p, &span(0, 3), None);
+        let feed = m.feed_mm_min.unwrap();
+        // 15 mm in 1.05 s: 857.14 mm/min, to rounding.
+        assert!((feed - 15.0 / 1.05 * 60.0).abs() < 1e-9, "{feed}");
+        assert_eq!(m.gap_s, None);
+    }
+
+    /// A move across a 1589 s gap between two recordings has no feed, and says so; a
+    /// hiccup of a fast logger, or a lone interval, is no gap.
+    #[test]
+    fn a_move_across_a_gap_has_no_feed() {
+        let p = Channel {
+            time_s: vec![0.0, 0.35, 0.7, 1589.7, 1590.05],
+            value: vec![0.0, 0.001, 0.002, 0.014, 0.015],
+        };
+        let m = classify_one(&p, &span(0, 4), None);
+        assert_eq!(m.feed_mm_min, None);
+        assert!((m.gap_s.unwrap() - 1589.0).abs() < 1e-9, "{m:?}");
+        // Two intervals, one of them 1589 s: still a gap.
+        let m = classify_one(&p, &span(1, 3), None);
+        assert!(m.gap_s.is_some(), "{m:?}");
+        assert_eq!(gap_in(&[0.0, 5.0]), None);
+        // 30 ms among 1 ms intervals: 30 × the median, but shorter than MIN_GAP_S.
+        assert_eq!(gap_in(&[0.0, 0.001, 0.002, 0.032, 0.033]), None);
+        // 0.7 s among 0.35 s change-only intervals: no gap.
+        assert_eq!(gap_in(&[0.0, 0.35, 1.05, 1.4]), None);
+    }
 }
