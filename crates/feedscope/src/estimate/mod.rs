@@ -546,9 +546,9 @@ pub fn max_plausible_feed_mm_min(axis: &AxisParams) -> (f64, &'static str) {
 /// [`max_plausible_feed_mm_min`].
 pub(crate) fn check_feed_plausible(m: &Move, axis: &AxisParams) -> Result<(), EstimateError> {
     let (limit_mm_min, why) = max_plausible_feed_mm_min(axis);
-    if m.feed_mm_min > limit_mm_min {
+    if let Some(feed_mm_min) = m.feed_mm_min.filter(|&f| f > limit_mm_min) {
         return Err(EstimateError::FeedImplausible {
-            feed_mm_min: m.feed_mm_min,
+            feed_mm_min,
             limit_mm_min,
             why,
             start_time_s: m.start_time_s,
