@@ -183,7 +183,15 @@ async def main():
                 program_written = True
             if string_due is not None and t >= string_due:
                 await asyncio.sleep(max(0.0, epoch + string_due / a.speed - time.time()))
+                # asyncua refuses a write whose variant type differs from the stored value's
+                # unless that value is None: the stored value is cleared in its address space
+                # (no notification goes out), so that the String is sent as a misbehaving
+                # server or gateway would send it.
+                held = server.iserver.aspace._nodes[nodes["X.ActPos"].nodeid].attributes[
+                    ua.AttributeIds.Value]
+                held.value = None
                 await write("X.ActPos", "E-STOP", epoch + string_due, ua.VariantType.String)
+                held.value = None  # and back to Doubles
                 print(f"string written at {string_due}", flush=True)
                 string_due = None
             await write(CHANNEL_NODES[c], v, epoch + t, ua.VariantType.Double)
