@@ -3,6 +3,7 @@
 
 Usage: mtconnect-test-agent.py --devices Devices.xml --log LOG.shdr [--buffer N] [--speed F]
                                [--start-on-sample] [--journal FILE]
+                               [--count-refusal clamp|cppagent|cppagent-legacy|package]
 
 Serves /probe, /current and /sample?from=&count= on 127.0.0.1 (a free port, printed as
 `PORT <n>` on stdout) with documents built by the PyPI package `mtconnect` (0.3.3), fed with
@@ -13,7 +14,20 @@ the observations of a recorded SHDR log:
 - --buffer N: the agent's buffer (observations); a small one makes OUT_OF_RANGE happen.
 - `/restart`: the agent restarts (a new instanceId, a new buffer from sequence 1; the feed
   goes on into it), as cppagent does when restarted.
-- `/status`: `instanceId firstSequence lastSequence nextSequence linesFed linesTotal`.
+- --count-refusal: what a /sample whose count exceeds the buffer gets. `clamp` (default): the
+  count is lowered to the buffer size and served. `cppagent`: refused as cppagent 2.x refuses
+  it (src/mtconnect/sink/rest_sink/rest_service.cpp, RestService::fetchSampleData's
+  `checkRange(printer, count, lowerCountLimit, upperCountLimit, "count", true)` with
+  upperCountLimit = bufferSize + 1; src/mtconnect/sink/rest_sink/error.hpp, OutOfRange::make;
+  src/mtconnect/printer/xml_printer.cpp, printErrors): HTTP 400, an MTConnectError whose
+  Header has bufferSize but no sequence numbers, and, schema 2.6 and later, an <OutOfRange
+  errorCode="OUT_OF_RANGE"> with ErrorMessage `'count' must be less than <bufferSize+1>` and
+  a QueryParameter name="count" (Value, Minimum, Maximum). `cppagent-legacy`: the same before
+  schema 2.6 (Error::makeLegacyError): <Error errorCode="OUT_OF_RANGE">'count' must be less
+  than <bufferSize+1></Error>. `package`: what the `mtconnect` package's own sample() says:
+  MTInvalidRange `Count must not be greater than <bufferSize>`, HTTP 400.
+- `/status`: `instanceId firstSequence lastSequence nextSequence linesFed linesTotal
+  sampleRequests countRefusals` (the /sample requests answered, and those refused for count).
 - --journal FILE: one line per observation put into the buffer:
   `instanceId sequence dataItemId timestamp value` (the oracle of the tests).
 Observation timestamps are the log's own text (several observations of a line share one).
@@ -90,6 +104,29 @@ class InvalidRequest(mt_error.MTError):
     name = "INVALID_REQUEST"
 
 
+def cppagent_count_error(agent, uri, count, legacy):
+    """cppagent 2.x's refusal of a count above the buffer (see --count-refusal)."""
+    size = agent.buffer.size()
+    text = "'count' must be less than {}".format(size + 1)
+    root = ET.Element("MTConnectError")
+    # cppagent's error header: instanceId, bufferSize..., no first/next/lastSequence.
+    root.append(mt_agent.MTConnect.get_header(agent))
+    errors = ET.SubElement(root, "Errors")
+    if legacy:
+        e = ET.SubElement(errors, "Error", errorCode="OUT_OF_RANGE")
+        e.text = text
+    else:
+        e = ET.SubElement(errors, "OutOfRange", errorCode="OUT_OF_RANGE")
+        ET.SubElement(e, "URI").text = uri
+        ET.SubElement(e, "Request").text = "MTConnectStreams"
+        ET.SubElement(e, "ErrorMessage").text = text
+        qp = ET.SubElement(e, "QueryParameter", name="count")
+        ET.SubElement(qp, "Value").text = str(count)
+        ET.SubElement(qp, "Minimum").text = str(-size)
+        ET.SubElement(qp, "Maximum").text = str(size)
+    return ET.tostring(root).decode()
+
+
 def _time_str(self):
     # mtconnect 0.3.3: timestamps are the time of the push in whole seconds; here every
     # observation carries the log's own timestamp text (set in Agent.push and Agent.__init__).
@@ -102,7 +139,9 @@ mt_storage.MTDataEntity.get_time_str = _time_str
 
 
 class Agent(mt_agent.MTConnect):
-    def __init__(self, devices, buffer, start_time):
+    def __init__(self, devices, buffer, start_time, count_refusal="clamp"):
+        self.count_refusal = count_refusal
+        self.refused_count = 0
         # mtconnect 0.3.3: item_dict and component_dict are class attributes that __init__
         # updates in place: a second agent (a restart) would share the first one's items.
         self.item_dict = {}
@@ -156,7 +195,7 @@ class Agent(mt_agent.MTConnect):
         r = self.current()
         return r.get_xml(), r.get_status()
 
-    def sample_doc(self, start, count):
+    def sample_doc(self, start, count, uri="/sample"):
         """/sample?from=start&count=count by MTConnect's rules.
 
         mtconnect 0.3.3: its sample() reads `from` as exclusive (it returns start+1 ..
@@ -176,8 +215,17 @@ class Agent(mt_agent.MTConnect):
                 "'from' must be between {} and {}".format(b.first_sequence, b.last_sequence + 1),
                 404,
             )
-        # A count above the buffer is clamped here, not refused (the package refuses it; a real
-        # agent may too, so a client's count should stay below the agent's bufferSize).
+        # A count above the buffer: clamped, or refused as --count-refusal says (cppagent checks
+        # `from` first, then `count`, as here).
+        if count > b.size():
+            mode = self.count_refusal
+            self.refused_count = int(mode != "clamp")
+            if mode in ("cppagent", "cppagent-legacy"):
+                self.header_next = None
+                return cppagent_count_error(self, uri, count, mode == "cppagent-legacy"), 400
+            if mode == "package":
+                return self.error(mt_error.MTInvalidRange,
+                                  "Count must not be greater than {}".format(b.size()), 400)
         count = min(count, b.size())
         end = min(start + count - 1, b.last_sequence)
         groups = {}
@@ -226,7 +274,9 @@ class Server:
         self.devices = devices_file(a.devices, tmpdir)
         self.lock = threading.Lock()
         self.lines = shdr_lines(a.log)
-        self.agent = Agent(self.devices, a.buffer, self.lines[0][0])
+        self.agent = Agent(self.devices, a.buffer, self.lines[0][0], a.count_refusal)
+        self.sample_requests = 0
+        self.count_refusals = 0
         self.fed = 0
         self.skipped = 0
         self.journal = open(a.journal, "w") if a.journal else None
@@ -298,15 +348,17 @@ class Server:
 
     def restart(self):
         with self.lock:
-            self.agent = Agent(self.devices, self.a.buffer, self.lines[max(self.fed - 1, 0)][0])
+            self.agent = Agent(self.devices, self.a.buffer, self.lines[max(self.fed - 1, 0)][0],
+                               self.a.count_refusal)
             return self.agent.instanceId
 
     def status(self):
         with self.lock:
             b = self.agent.buffer
-            return "{} {} {} {} {} {}".format(self.agent.instanceId, b.first_sequence,
-                                              b.last_sequence, b.last_sequence + 1, self.fed,
-                                              len(self.lines))
+            return "{} {} {} {} {} {} {} {}".format(self.agent.instanceId, b.first_sequence,
+                                                    b.last_sequence, b.last_sequence + 1,
+                                                    self.fed, len(self.lines),
+                                                    self.sample_requests, self.count_refusals)
 
 
 def make_handler(srv):
@@ -341,7 +393,10 @@ def make_handler(srv):
                 if u.path == "/sample":
                     srv.started.set()
                     with srv.lock:
-                        body, st = srv.agent.sample_doc(num("from"), num("count"))
+                        body, st = srv.agent.sample_doc(num("from"), num("count"), self.path)
+                        srv.sample_requests += 1
+                        srv.count_refusals += srv.agent.refused_count
+                        srv.agent.refused_count = 0
                     return self.reply(body, st)
                 if u.path == "/feed":
                     return self.reply("OK {}".format(srv.feed(num("lines") or 1)), xml=False)
@@ -368,6 +423,8 @@ def main():
     ap.add_argument("--speed", type=float, default=0.0)
     ap.add_argument("--start-on-sample", action="store_true")
     ap.add_argument("--journal")
+    ap.add_argument("--count-refusal", default="clamp",
+                    choices=["clamp", "cppagent", "cppagent-legacy", "package"])
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         srv = Server(a, tmp)

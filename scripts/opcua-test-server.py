@@ -20,6 +20,10 @@ Stopping and restarting: kill the process and start it again with the same --por
 --epoch (and --repeat); it skips the rows whose time has passed and carries on, as a control would after a
 server restart. After the last row it keeps serving until killed.
 
+--string-at T: at trace time T (of the whole, repeated run) the position node gets one String
+value ("E-STOP"; a wrongly typed value, as a misconfigured node or gateway delivers), then the
+trace goes on as Doubles.
+
 With FEEDSCOPE_TEST_SERVER_LOG set, asyncua logs at INFO level to stderr.
 
 On stdout, once listening:  `listening PORT epoch EPOCH rows N`
@@ -96,6 +100,8 @@ async def main():
                    help="offer only Basic256Sha256 SignAndEncrypt; write the server's and a client's "
                         "key (PEM) and certificate (DER) to DIR (client-key.pem, client-cert.der)")
     p.add_argument("--program", default="IDLE_STROKE.MPF", help="program name written at trace time 0")
+    p.add_argument("--string-at", type=float, default=None, metavar="T",
+                   help="write one String value on the position node at trace time T")
     a = p.parse_args()
 
     rows = read_trace(a.csv)
@@ -161,14 +167,33 @@ async def main():
                 Value=ua.Variant(value, vtype), SourceTimestamp=stamp(t), ServerTimestamp=stamp(wall)))
 
         program_written = False
+        string_due = a.string_at
+        serving_since = time.time()
         for t, c, v in rows:
             due = epoch + t / a.speed
-            if due < time.time():
-                continue  # passed while this server was down: lost, as on a real control
+            # Rows due before this server started passed while it was down: lost, as on a real
+            # control. A row that falls due while the previous writes were slow (a busy
+            # machine) is written late, not dropped: dropping those (due < now) lost a torque
+            # sample now and then under CPU load.
+            if due < serving_since:
+                continue
             await asyncio.sleep(max(0.0, due - time.time()))
             if not program_written:
                 await write("Channel.ProgName", a.program, epoch + t, ua.VariantType.String)
                 program_written = True
+            if string_due is not None and t >= string_due:
+                await asyncio.sleep(max(0.0, epoch + string_due / a.speed - time.time()))
+                # asyncua refuses a write whose variant type differs from the stored value's
+                # unless that value is None: the stored value is cleared in its address space
+                # (no notification goes out), so that the String is sent as a misbehaving
+                # server or gateway would send it.
+                held = server.iserver.aspace._nodes[nodes["X.ActPos"].nodeid].attributes[
+                    ua.AttributeIds.Value]
+                held.value = None
+                await write("X.ActPos", "E-STOP", epoch + string_due, ua.VariantType.String)
+                held.value = None  # and back to Doubles
+                print(f"string written at {string_due}", flush=True)
+                string_due = None
             await write(CHANNEL_NODES[c], v, epoch + t, ua.VariantType.Double)
             if c == "torque_nm":
                 await write("X.ActLoad", v / a.rated_torque_nm * 100.0, epoch + t, ua.VariantType.Double)

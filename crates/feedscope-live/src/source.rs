@@ -32,6 +32,13 @@ pub enum GapReason {
         /// Words for the log, e.g. `instanceId 1700000000 -> 1700000123`.
         detail: String,
     },
+    /// The connection was lost (the transport closed, or the server stopped answering): what
+    /// the control did from here until a [`GapReason::Reconnected`] is unknown. Reported when
+    /// the loss is detected, not when the server is back.
+    ConnectionLost {
+        /// What failed, in the transport's words.
+        detail: String,
+    },
     /// The connection dropped and was made again.
     Reconnected {
         /// What failed, in the transport's words.
@@ -42,6 +49,16 @@ pub enum GapReason {
     Unavailable {
         /// The channel.
         quantity: Quantity,
+    },
+    /// A channel delivered a value that is no number (e.g. a String on the position node): the
+    /// value is dropped and what surrounds it cannot be trusted.
+    BadValue {
+        /// The channel.
+        quantity: Quantity,
+        /// The node or data item, as configured.
+        node: String,
+        /// The value's type as the protocol names it (e.g. `String`).
+        value_type: String,
     },
     /// The control's timestamps stepped back (an adapter that restarted and replays its state,
     /// a clock reset): what came before and after cannot be joined into one trace.
@@ -57,7 +74,16 @@ impl std::fmt::Display for GapReason {
             Self::Skipped { lost: Some(n) } => write!(f, "{n} observations skipped"),
             Self::Skipped { lost: None } => write!(f, "observations skipped"),
             Self::Restart { detail } => write!(f, "the source restarted ({detail})"),
+            Self::ConnectionLost { detail } => write!(f, "connection lost ({detail})"),
             Self::Reconnected { detail } => write!(f, "reconnected ({detail})"),
+            Self::BadValue {
+                quantity,
+                node,
+                value_type,
+            } => write!(
+                f,
+                "node {node} ({quantity:?}) delivered a {value_type} value, not a number"
+            ),
             Self::Unavailable { quantity } => write!(f, "{quantity:?} unavailable"),
             Self::TimeStepBack { back_s } => {
                 write!(f, "control timestamps stepped back {back_s:.3} s")
@@ -162,4 +188,12 @@ pub trait Source {
     /// Typical interval between samples the source was asked for or observes (s), for the
     /// statement of resolvable orders; `None` until known.
     fn sample_interval_s(&self) -> Option<f64>;
+
+    /// The latest wall-clock instant up to which the source knows it has delivered every
+    /// change (the server answered since). A caller that lets the wall clock stand in for
+    /// control time while the stream is silent must not run it past this instant: a server
+    /// that stopped answering may still be found lost. `None` (the default): up to now.
+    fn confirmed_until(&self) -> Option<Instant> {
+        None
+    }
 }

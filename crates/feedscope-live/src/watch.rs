@@ -25,7 +25,7 @@ use feedscope::estimate::segment::{find_moves, MoveSpan, SegmentParams};
 use feedscope::plan::TestKind;
 use feedscope::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 
-use crate::source::{Event, Quantity};
+use crate::source::{Event, GapReason, Quantity};
 
 /// Settings of the [`Recognizer`].
 #[derive(Debug, Clone, PartialEq)]
@@ -229,8 +229,13 @@ impl Recognizer {
                 // An episode with a gap is thrown away at once: its data cannot be trusted.
                 self.episode.take().map(|ep| Outcome::Discarded {
                     start_time_s: ep.start_s,
-                    reason: ep.spoiled.unwrap_or_else(|| {
-                        format!("data gap during the motion ({reason}); the test is not stored")
+                    reason: ep.spoiled.unwrap_or_else(|| match reason {
+                        GapReason::ConnectionLost { .. } | GapReason::BadValue { .. } => {
+                            format!("{reason}; the test is not stored")
+                        }
+                        _ => {
+                            format!("data gap during the motion ({reason}); the test is not stored")
+                        }
                     }),
                 })
             }

@@ -15,7 +15,7 @@ use feedscope_live::mtconnect::shdr::{ShdrParams, ShdrSource};
 use feedscope_live::mtconnect::AxisSelection;
 use feedscope_live::opcua::{EffortUnit, OpcUaConfig, OpcUaSource};
 use feedscope_live::watch::{feed_for_order_m_s, Outcome, Recognizer, RecognizerParams};
-use feedscope_live::{Event, Source};
+use feedscope_live::{Event, GapReason, Source};
 use feedscope_store::time::format_rfc3339;
 use feedscope_store::{AddOutcome, TestKind};
 
@@ -32,7 +32,8 @@ use crate::store::StoreSpec;
 /// gap, or cut short by Ctrl-C, is discarded with a message, never stored.
 ///
 /// Exit codes: 0 stopped (Ctrl-C, or --once after the first stored test); 1 the source
-/// failed for good; 2 bad input (axis file, device model, items, flags).
+/// failed for good; 2 bad input (axis file, device model, items, flags; a value that is no
+/// number with --stop-on-bad-value).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(subcommand)]
@@ -152,6 +153,10 @@ pub struct WatchArgs {
     /// Also say which feed resolves this screw order at the observed sample interval.
     #[arg(long)]
     pub want_order: Option<f64>,
+    /// Stop (exit 2) when the position or effort node delivers a value that is no number
+    /// (e.g. a String) [default: discard the test around it, say so, and go on watching].
+    #[arg(long)]
+    pub stop_on_bad_value: bool,
 }
 
 fn selection(i: &ItemArgs) -> AxisSelection {
@@ -297,6 +302,7 @@ fn watch(
     );
     let lead_m = axis.lead_m();
     let mut connected = true;
+    let mut bad_value: Option<String> = None;
     let mut last_event = Instant::now();
     let mut stored = 0usize;
     loop {
@@ -319,19 +325,53 @@ fn watch(
                         connected = *c;
                         eprintln!("{message}");
                     }
-                    Event::Gap { reason, .. } => eprintln!("gap: {reason}"),
+                    Event::Gap { reason, .. } => {
+                        eprintln!("gap: {reason}");
+                        match reason {
+                            GapReason::ConnectionLost { .. } => connected = false,
+                            GapReason::Reconnected { .. } => connected = true,
+                            GapReason::BadValue { .. } if w.stop_on_bad_value => {
+                                bad_value = Some(reason.to_string());
+                            }
+                            _ => {}
+                        }
+                    }
                     _ => {}
                 }
                 rec.push(&ev)
             }
             // Control time goes on while the axis stands still and a change-only stream says
             // nothing: the wall clock since the last event stands in for it, unless the source
-            // is disconnected (the data of that time may still come).
-            None if connected => rec
-                .now_s()
-                .and_then(|t| rec.tick(t + last_event.elapsed().as_secs_f64())),
+            // is disconnected (the data of that time may still come), and only as far as the
+            // source vouches that nothing is missing (a server that went silent may yet be
+            // found lost).
+            None if connected => {
+                let now = Instant::now();
+                let upto = src
+                    .confirmed_until()
+                    .map_or(now, |c| c.min(now))
+                    .max(last_event);
+                rec.now_s()
+                    .and_then(|t| rec.tick(t + (upto - last_event).as_secs_f64()))
+            }
             None => None,
         };
+        if let Some(why) = bad_value.take() {
+            if let Some(Outcome::Discarded {
+                start_time_s,
+                reason,
+            }) = &outcome
+            {
+                eprintln!(
+                    "motion at {} discarded: {reason}",
+                    format_rfc3339(*start_time_s)
+                );
+            }
+            return Err(BadInput(format!(
+                "{why} (--stop-on-bad-value); {stored} test(s) stored"
+            ))
+            .into());
+        }
         let Some(outcome) = outcome else { continue };
         match outcome {
             Outcome::NotATest {

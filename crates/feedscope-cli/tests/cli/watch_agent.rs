@@ -495,3 +495,121 @@ fn watch_mtconnect_stores_the_twin_test() {
     );
     assert_stored_as_history_add(d.path(), &tw, "w.db");
 }
+
+/// `/sample` requests the agent answered and those it refused for their count.
+fn sample_requests(ag: &Agent) -> (u64, u64) {
+    let b = ag.get("/status");
+    let f: Vec<&str> = b.split_whitespace().collect();
+    (f[6].parse().unwrap(), f[7].parse().unwrap())
+}
+
+/// A count above the agent's buffer (1000 asked, 256 kept), refused as cppagent 2.x refuses it
+/// (`OUT_OF_RANGE` `'count' must be less than 257`, schema 2.6 and legacy forms) and as the
+/// `mtconnect` package does (`Count must not be greater than 256`), with the twin fed at 20×:
+/// one refusal, one notice naming the new count, no gap, every observation of the journal
+/// read, and the request rate bounded by the poll interval (one `/sample` per poll, plus one
+/// per full answer).
+#[test]
+#[ignore = "needs the live test servers: scripts/live-tests.sh"]
+fn watch_agent_lowers_a_count_the_agent_refuses() {
+    let d = tempfile::tempdir().unwrap();
+    let tw = twin(d.path());
+    for mode in ["cppagent", "cppagent-legacy", "package"] {
+        let jpath = d.path().join(format!("journal-{mode}.txt"));
+        let mut ag = agent(
+            &twin_devices(),
+            &tw.log,
+            &jpath,
+            &[
+                "--buffer",
+                "256",
+                "--count-refusal",
+                mode,
+                "--speed",
+                "20",
+                "--start-on-sample",
+            ],
+        );
+        let p = params(ag.url(), 1000);
+        let poll = p.poll;
+        let mut src = AgentSource::connect(p, &selection("X", TWIN_TORQUE_PER_LOAD_NM)).unwrap();
+        let t0 = Instant::now();
+        let mut events = Vec::new();
+        let mut line = String::new();
+        std::thread::scope(|s| {
+            let h = s.spawn(|| {
+                let _ = ag.out.read_line(&mut line);
+            });
+            while !h.is_finished() {
+                assert!(
+                    t0.elapsed() < Duration::from_secs(60),
+                    "{mode}: feed too slow"
+                );
+                if let Some(e) = src
+                    .next_event(Instant::now() + Duration::from_millis(100))
+                    .unwrap()
+                {
+                    events.push(e);
+                }
+            }
+        });
+        assert!(line.starts_with("DONE"), "{line}");
+        events.extend(drain(
+            &mut src,
+            Duration::from_millis(500),
+            Duration::from_secs(30),
+        ));
+        let elapsed_s = t0.elapsed().as_secs_f64();
+        let notices: Vec<&String> = events
+            .iter()
+            .filter_map(|e| match e {
+                Event::Notice { message, .. } => Some(message),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(notices.len(), 1, "{mode}: {notices:?}");
+        assert!(
+            notices[0].contains("refuses count=1000") && notices[0].contains("asking for 256"),
+            "{mode}: {}",
+            notices[0]
+        );
+        assert!(
+            !events.iter().any(|e| matches!(
+                e,
+                Event::Gap {
+                    reason: GapReason::Skipped { .. },
+                    ..
+                }
+            )),
+            "{mode}: no observation skipped"
+        );
+        assert_eq!(src.count(), 256, "{mode}");
+        let (inst, ..) = ag.status();
+        let j: Vec<Journal> = journal(&jpath)
+            .into_iter()
+            .filter(|o| o.instance == inst)
+            .collect();
+        let a = src.axis().clone();
+        let want = expected(&j, &a.position.1, &a.load.1, a.torque_per_percent_nm);
+        assert_eq!(samples_and_unavailable(&events), want, "{mode}");
+        assert_eq!(src.stats.observations, j.len() as u64, "{mode}");
+        let (requests, refused) = sample_requests(&ag);
+        assert_eq!(refused, 1, "{mode}: one refusal, then the lower count");
+        assert_eq!(src.stats.count_refusals, 1, "{mode}");
+        assert_eq!(requests, src.stats.requests, "{mode}");
+        // The client asks again at once only when an answer was full (count observations):
+        // at most one request per poll interval plus one per full answer.
+        let bound = elapsed_s / poll.as_secs_f64() + (j.len() as f64 / 256.0) + 2.0;
+        assert!(
+            (requests as f64) <= bound,
+            "{mode}: {requests} requests in {elapsed_s:.1} s (bound {bound:.0})"
+        );
+        eprintln!(
+            "count refused ({mode}): {requests} /sample requests in {elapsed_s:.1} s \
+             ({:.1}/s, poll {} ms), {} observations, all read",
+            requests as f64 / elapsed_s,
+            poll.as_millis(),
+            j.len()
+        );
+    }
+}

@@ -8,6 +8,12 @@
 //!   observations are handled in sequence order (several may share a timestamp).
 //! - `OUT_OF_RANGE` (`from` has left the agent's buffer): a [`GapReason::Skipped`] with the
 //!   number lost, and the client goes on from the buffer's `firstSequence`.
+//! - A refused `count` (cppagent 2.x: `OUT_OF_RANGE` `'count' must be less than 257`, with a
+//!   `QueryParameter name="count"` and its `Maximum` from schema 2.6; the PyPI `mtconnect`
+//!   package: `Count must not be greater than 256`): told apart from the `from` case by the
+//!   parameter it names, not by the code. The client lowers its count to the limit the error
+//!   gives (else the header's `bufferSize`, else half), says so once in an [`Event::Notice`],
+//!   waits one poll interval and reads on from the same `from`: nothing is lost, no gap.
 //! - A new `instanceId` (the agent restarted, its sequence numbers start again): a
 //!   [`GapReason::Restart`], and the client goes on from the new buffer's `firstSequence`.
 //! - Timestamps of the axis's items stepping back more than [`SEGMENT_BACKSTEP_S`] (an
@@ -67,6 +73,61 @@ pub struct Header {
     pub next_sequence: Option<u64>,
     /// `lastSequence`.
     pub last_sequence: Option<u64>,
+    /// `bufferSize` (observations the agent keeps).
+    pub buffer_size: Option<u64>,
+}
+
+/// One error of an MTConnectError document, in the legacy form (`<Error errorCode="…">text`)
+/// or the schema 2.6 form (`<OutOfRange errorCode="…">` with `ErrorMessage` and
+/// `QueryParameter`).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct AgentError {
+    /// `errorCode`, e.g. `OUT_OF_RANGE`.
+    pub code: String,
+    /// The error's text (the element's own text, or its `ErrorMessage`).
+    pub text: String,
+    /// `QueryParameter/@name`, when given (schema 2.6+).
+    pub parameter: Option<String>,
+    /// `QueryParameter/Maximum`, when given (schema 2.6+).
+    pub maximum: Option<i64>,
+}
+
+impl AgentError {
+    /// When this error refuses the `count` of a request: the largest count it allows, if it
+    /// says (`QueryParameter/Maximum`; cppagent's `'count' must be less than N` gives N − 1;
+    /// the `mtconnect` package's `Count must not be greater than N` gives N). `None` when the
+    /// error is about something else (e.g. `'from' must be greater than 499`).
+    pub fn refused_count(&self) -> Option<Option<u64>> {
+        let text = self
+            .text
+            .trim()
+            .trim_start_matches(['\'', '"'])
+            .to_lowercase();
+        let about_count = match &self.parameter {
+            Some(p) => p == "count",
+            None => text.starts_with("count"),
+        };
+        if !about_count {
+            return None;
+        }
+        let number_after = |key: &str| -> Option<i64> {
+            let rest = &text[text.find(key)? + key.len()..];
+            let digits: String = rest
+                .trim_start()
+                .chars()
+                .take_while(|c| c.is_ascii_digit() || *c == '-')
+                .collect();
+            digits.parse().ok()
+        };
+        let limit = self
+            .maximum
+            .or_else(|| {
+                number_after("not be greater than").or(number_after("less than").map(|n| n - 1))
+            })
+            .filter(|&n| n >= 1)
+            .map(|n| n as u64);
+        Some(limit)
+    }
 }
 
 /// One observation of a streams document.
@@ -89,8 +150,8 @@ pub struct Observation {
 pub enum Streams {
     /// `MTConnectStreams`: the header and the observations of the device, in sequence order.
     Data(Header, Vec<Observation>),
-    /// `MTConnectError`: the header (if any) and the error codes with their text.
-    Error(Option<Header>, Vec<(String, String)>),
+    /// `MTConnectError`: the header (if any) and the errors.
+    Error(Option<Header>, Vec<AgentError>),
 }
 
 fn attr_u64(n: roxmltree::Node<'_, '_>, a: &str) -> Option<u64> {
@@ -113,17 +174,49 @@ pub fn parse_streams(xml: &str, device: Option<&str>) -> Result<Streams, String>
             first_sequence: attr_u64(h, "firstSequence"),
             next_sequence: attr_u64(h, "nextSequence"),
             last_sequence: attr_u64(h, "lastSequence"),
+            buffer_size: attr_u64(h, "bufferSize"),
         });
     match root.tag_name().name() {
         "MTConnectError" => {
+            let child_text = |n: roxmltree::Node<'_, '_>, tag: &str| {
+                n.descendants()
+                    .find(|c| c.is_element() && c.tag_name().name() == tag)
+                    .and_then(|c| c.text())
+                    .map(|t| t.trim().to_string())
+            };
+            // Every element with an errorCode under <Errors>: `Error` (legacy) or the schema
+            // 2.6 elements (`OutOfRange`, `InvalidParameterValue`, ...).
             let errs = root
                 .descendants()
-                .filter(|n| n.is_element() && n.tag_name().name() == "Error")
+                .filter(|n| {
+                    n.is_element()
+                        && n.attribute("errorCode").is_some()
+                        && n.parent_element()
+                            .is_some_and(|p| p.tag_name().name() == "Errors")
+                })
                 .map(|n| {
-                    (
-                        n.attribute("errorCode").unwrap_or("").to_string(),
-                        n.text().unwrap_or("").trim().to_string(),
-                    )
+                    let own = n
+                        .children()
+                        .filter(|c| c.is_text())
+                        .filter_map(|c| c.text())
+                        .collect::<String>()
+                        .trim()
+                        .to_string();
+                    let qp = n
+                        .children()
+                        .find(|c| c.is_element() && c.tag_name().name() == "QueryParameter");
+                    AgentError {
+                        code: n.attribute("errorCode").unwrap_or("").to_string(),
+                        text: if own.is_empty() {
+                            child_text(n, "ErrorMessage").unwrap_or_default()
+                        } else {
+                            own
+                        },
+                        parameter: qp.and_then(|q| q.attribute("name")).map(str::to_string),
+                        maximum: qp
+                            .and_then(|q| child_text(q, "Maximum"))
+                            .and_then(|m| m.parse().ok()),
+                    }
                 })
                 .collect();
             Ok(Streams::Error(header, errs))
@@ -192,8 +285,10 @@ pub struct AgentStats {
     pub lost: u64,
     /// Agent restarts seen.
     pub restarts: u64,
-    /// Failed requests (HTTP errors, timeouts).
+    /// Failed requests (HTTP errors, timeouts, errors other than the ones handled).
     pub failures: u64,
+    /// `/sample` requests whose `count` the agent refused (the count was lowered each time).
+    pub count_refusals: u64,
     /// Samples dropped for being earlier than their channel's previous sample.
     pub reordered: u64,
     /// Backward time steps of more than [`SEGMENT_BACKSTEP_S`] reported as gaps.
@@ -216,6 +311,8 @@ pub struct AgentSource {
     last_load_s: Option<f64>,
     interval: IntervalEstimate,
     failing: bool,
+    /// Observations asked per `/sample`: [`AgentParams::count`] until the agent refuses it.
+    count: u64,
     /// Counters.
     pub stats: AgentStats,
 }
@@ -249,6 +346,7 @@ impl AgentSource {
         let dev = &model.devices[device];
         let device_label = dev.name.clone().unwrap_or_else(|| dev.id.clone());
         let backoff = Backoff::new(Duration::from_millis(500), params.max_backoff);
+        let count = params.count.max(1);
         let mut s = Self {
             params,
             http,
@@ -264,6 +362,7 @@ impl AgentSource {
             last_load_s: None,
             interval: IntervalEstimate::default(),
             failing: false,
+            count,
             stats: AgentStats::default(),
         };
         let h = s.current().map_err(|detail| LiveError::Connect {
@@ -276,6 +375,12 @@ impl AgentSource {
             detail: "/current: the Header has no nextSequence".into(),
         })?;
         Ok(s)
+    }
+
+    /// Observations asked per `/sample` now: [`AgentParams::count`], or less once the agent
+    /// refused that.
+    pub fn count(&self) -> u64 {
+        self.count
     }
 
     /// The items followed.
@@ -309,7 +414,7 @@ impl AgentSource {
             "{}/sample?from={}&count={}",
             self.base(),
             self.next_sequence,
-            self.params.count
+            self.count
         );
         let (status, body) = get(&self.http, &url)?;
         let parsed = parse_streams(&body, Some(&self.device_label))
@@ -317,17 +422,32 @@ impl AgentSource {
         self.stats.requests += 1;
         match parsed {
             Streams::Error(h, errs) => {
-                if errs.iter().any(|(c, _)| c == "OUT_OF_RANGE") {
-                    self.stats.out_of_range += 1;
+                // A refused count first: cppagent says OUT_OF_RANGE for it too, and reading it
+                // as "`from` left the buffer" re-asked at once, forever.
+                if let Some(limit) = errs.iter().find_map(AgentError::refused_count) {
+                    return self.lower_count(limit, h.as_ref(), &errs);
+                }
+                if errs.iter().any(|e| e.code == "OUT_OF_RANGE") {
                     let h = match h.filter(|h| h.first_sequence.is_some()) {
                         Some(h) => h,
                         None => self.current()?,
                     };
                     if self.restarted(&h) {
+                        self.stats.out_of_range += 1;
                         return Ok(());
                     }
                     let first = h.first_sequence.unwrap_or(self.next_sequence);
-                    let lost = first.saturating_sub(self.next_sequence);
+                    // Only `from` below the buffer is a loss; anything else (the agent's text
+                    // and this client's view disagree) is a failure, retried with back-off.
+                    if first <= self.next_sequence {
+                        return Err(format!(
+                            "HTTP {status}: {} (from={}, the agent's firstSequence {first})",
+                            describe_errors(&errs),
+                            self.next_sequence
+                        ));
+                    }
+                    self.stats.out_of_range += 1;
+                    let lost = first - self.next_sequence;
                     self.stats.lost += lost;
                     self.pending.push_back(Event::Gap {
                         time_s: self.last_time_s,
@@ -336,13 +456,13 @@ impl AgentSource {
                     self.resync(&h);
                     return Ok(());
                 }
-                Err(format!("HTTP {status}: {errs:?}"))
+                Err(format!("HTTP {status}: {}", describe_errors(&errs)))
             }
             Streams::Data(h, obs) => {
                 if self.restarted(&h) {
                     return Ok(());
                 }
-                let full = obs.len() as u64 >= self.params.count;
+                let full = obs.len() as u64 >= self.count;
                 for o in obs {
                     if o.sequence < self.next_sequence {
                         self.stats.duplicates += 1;
@@ -364,6 +484,41 @@ impl AgentSource {
                 Ok(())
             }
         }
+    }
+
+    /// The agent refused the count: ask for `limit` (else the header's `bufferSize`, else
+    /// half) from the same `from` after one poll interval, and say so.
+    fn lower_count(
+        &mut self,
+        limit: Option<u64>,
+        h: Option<&Header>,
+        errs: &[AgentError],
+    ) -> Result<(), String> {
+        self.stats.count_refusals += 1;
+        let old = self.count;
+        let new = limit
+            .or_else(|| h.and_then(|h| h.buffer_size))
+            .unwrap_or(old / 2)
+            .min(old.saturating_sub(1));
+        if new == 0 {
+            return Err(format!(
+                "the agent refuses count={old}: {}",
+                describe_errors(errs)
+            ));
+        }
+        self.count = new;
+        self.pending.push_back(Event::Notice {
+            message: format!(
+                "agent {} refuses count={old} ({}); asking for {new} observations per /sample \
+                 from now on (sequence {} on, nothing lost)",
+                self.base(),
+                describe_errors(errs),
+                self.next_sequence
+            ),
+            connected: true,
+        });
+        self.next_poll = Instant::now() + self.params.poll;
+        Ok(())
     }
 
     /// True (and a gap queued, the client resynchronised) when the instance changed.
@@ -455,6 +610,17 @@ impl AgentSource {
             value,
         });
     }
+}
+
+/// `CODE 'text'; …` for the log.
+fn describe_errors(errs: &[AgentError]) -> String {
+    if errs.is_empty() {
+        return "an MTConnectError without errors".into();
+    }
+    errs.iter()
+        .map(|e| format!("{} {:?}", e.code, e.text))
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// GET a URL: status and body, or the transport's words.
@@ -595,7 +761,57 @@ mod tests {
             panic!()
         };
         assert_eq!(h.first_sequence, Some(500));
-        assert_eq!(e[0].0, "OUT_OF_RANGE");
+        assert_eq!(e[0].code, "OUT_OF_RANGE");
+        assert_eq!(
+            e[0].refused_count(),
+            None,
+            "a `from` refusal is no count refusal"
+        );
         assert!(parse_streams("<html/>", None).is_err());
+    }
+
+    fn errors(xml: &str) -> (Option<Header>, Vec<AgentError>) {
+        match parse_streams(xml, None).unwrap() {
+            Streams::Error(h, e) => (h, e),
+            Streams::Data(..) => panic!("not an error document"),
+        }
+    }
+
+    /// The count refusals of cppagent 2.x (src/mtconnect/sink/rest_sink/rest_service.cpp,
+    /// `checkRange(…, "count", true)`; the legacy `<Error>` before schema 2.6, `<OutOfRange>`
+    /// with a `QueryParameter` from 2.6, its header without sequence numbers) and of the PyPI
+    /// `mtconnect` package; each gives the largest count allowed.
+    #[test]
+    fn count_refusals_give_the_limit() {
+        let legacy = r#"<MTConnectError xmlns="urn:mtconnect.org:MTConnectError:2.5">
+  <Header creationTime="2026-01-01T00:00:00Z" sender="a" instanceId="1700" version="2.5.0.0" bufferSize="256"/>
+  <Errors><Error errorCode="OUT_OF_RANGE">'count' must be less than 257</Error></Errors></MTConnectError>"#;
+        let (h, e) = errors(legacy);
+        assert_eq!(h.as_ref().and_then(|h| h.buffer_size), Some(256));
+        assert_eq!(h.and_then(|h| h.first_sequence), None);
+        assert_eq!(e[0].refused_count(), Some(Some(256)));
+        let v26 = r#"<MTConnectError xmlns="urn:mtconnect.org:MTConnectError:2.6">
+  <Header instanceId="1700" bufferSize="256"/>
+  <Errors><OutOfRange errorCode="OUT_OF_RANGE"><URI>/sample?count=1000</URI><Request>MTConnectStreams</Request>
+    <ErrorMessage>'count' must be less than 257</ErrorMessage>
+    <QueryParameter name="count"><Value>1000</Value><Minimum>-256</Minimum><Maximum>256</Maximum></QueryParameter>
+  </OutOfRange></Errors></MTConnectError>"#;
+        let (_, e) = errors(v26);
+        assert_eq!(e[0].text, "'count' must be less than 257");
+        assert_eq!(
+            (e[0].parameter.as_deref(), e[0].maximum),
+            (Some("count"), Some(256))
+        );
+        assert_eq!(e[0].refused_count(), Some(Some(256)));
+        let from26 = r#"<MTConnectError><Errors><OutOfRange errorCode="OUT_OF_RANGE">
+    <ErrorMessage>'from' must be greater than 499</ErrorMessage>
+    <QueryParameter name="from"><Value>3</Value><Minimum>500</Minimum><Maximum>900</Maximum></QueryParameter>
+  </OutOfRange></Errors></MTConnectError>"#;
+        assert_eq!(errors(from26).1[0].refused_count(), None);
+        let package = r#"<MTConnectError><Header instanceId="1"/><Errors>
+  <Error errorCode="MTInvalidRange">Count must not be greater than 64</Error></Errors></MTConnectError>"#;
+        assert_eq!(errors(package).1[0].refused_count(), Some(Some(64)));
+        let bare = r#"<MTConnectError><Errors><Error errorCode="OUT_OF_RANGE">'count' is too large</Error></Errors></MTConnectError>"#;
+        assert_eq!(errors(bare).1[0].refused_count(), Some(None));
     }
 }

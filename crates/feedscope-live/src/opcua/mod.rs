@@ -4,9 +4,13 @@
 //! How it works: [`OpcUaSource::connect`] starts a thread running a single-threaded tokio
 //! runtime. That thread connects, creates one subscription with a monitored item per node,
 //! and turns every data change into an [`Event`] on a channel that the synchronous
-//! [`Source::next_event`] reads. `async-opcua`'s session event loop reconnects by itself with
-//! exponential back-off (capped at `connection.retry_max_ms`) and recreates the subscription
-//! on a new session; each reconnection is reported as [`GapReason::Reconnected`].
+//! [`Source::next_event`] reads. A loss is reported when it is detected, as
+//! [`GapReason::ConnectionLost`]: at once when the transport closes, after [`SILENCE_LOSS_S`]
+//! without any answer otherwise (the session reads the server state every [`KEEP_ALIVE_S`]).
+//! `async-opcua`'s session event loop reconnects by itself with exponential back-off (capped
+//! at `connection.retry_max_ms`) and recreates the subscription on a new session; failed
+//! attempts are [`Event::Notice`]s (at most one per [`RETRY_NOTICE_S`]) and the reconnection
+//! a [`GapReason::Reconnected`].
 //!
 //! Timing: each sample carries the value's SourceTimestamp (the control's time of the value),
 //! else its ServerTimestamp, else the client's clock; the two channels keep their own times.
@@ -14,7 +18,9 @@
 //! current value when a subscription is (re)created, and that value has been delivered.
 //!
 //! Values: numeric variants of any width are taken as `f64` and scaled to SI (m, A, N·m). A
-//! bad status gives `Event::Gap { reason: Unavailable }`; an uncertain status is a sample.
+//! bad status gives `Event::Gap { reason: Unavailable }`; an uncertain status is a sample; a
+//! value that is no number (a String on the position node) gives
+//! `Event::Gap { reason: BadValue }` naming the node and the type, and the stream goes on.
 //!
 //! ```no_run
 //! use std::time::{Duration, Instant};
@@ -36,6 +42,7 @@ use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use futures_core::Stream;
+use opcua::client::transport::TransportPollResult;
 use opcua::client::{
     ClientBuilder, DataChangeCallback, IdentityToken, MonitoredItem, Password, Session,
     SessionConnectMode, SessionPollResult,
@@ -43,7 +50,7 @@ use opcua::client::{
 use opcua::types::{
     DataChangeFilter, DataChangeTrigger, DataValue, DateTime, ExtensionObject, MessageSecurityMode,
     MonitoredItemCreateRequest, MonitoringMode, MonitoringParameters, NodeId, ReadValueId,
-    StatusCode, TimestampsToReturn, Variant,
+    StatusCode, TimestampsToReturn, Variant, VariantTypeId,
 };
 
 pub use config::{
@@ -102,6 +109,10 @@ pub struct OpcUaSource {
     /// Events that arrived while `connect` waited for the subscription.
     pending: VecDeque<Event>,
     intervals: Arc<Mutex<Intervals>>,
+    /// When the server last answered (for [`Source::confirmed_until`]).
+    liveness: Arc<Mutex<Liveness>>,
+    /// The publishing interval: changes of a moment reach the client up to this much later.
+    publishing: Duration,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     thread: Option<std::thread::JoinHandle<()>>,
     failed: bool,
@@ -142,6 +153,10 @@ impl OpcUaSource {
         let (stop_tx, stop_rx) = tokio::sync::oneshot::channel();
         let intervals = Arc::new(Mutex::new(Intervals::default()));
         let shared = intervals.clone();
+        let liveness = Arc::new(Mutex::new(Liveness::default()));
+        let live = liveness.clone();
+        let publishing =
+            Duration::from_secs_f64(config.subscription.publishing_interval_ms.max(0.0) / 1000.0);
         let thread = std::thread::Builder::new()
             .name("feedscope-opcua".into())
             .spawn(move || {
@@ -158,7 +173,7 @@ impl OpcUaSource {
                         return;
                     }
                 };
-                rt.block_on(run(config, tx, stop_rx, shared));
+                rt.block_on(run(config, tx, stop_rx, shared, live));
             })
             .map_err(|e| LiveError::Connect {
                 endpoint: endpoint.clone(),
@@ -170,6 +185,8 @@ impl OpcUaSource {
             describe,
             rx,
             intervals,
+            liveness,
+            publishing,
             stop: Some(stop_tx),
             thread: Some(thread),
             failed: false,
@@ -231,6 +248,14 @@ impl Source for OpcUaSource {
         }
     }
 
+    /// The last answer of the server less one publishing interval (a change made before a
+    /// keep-alive answer may come with the next publish); while the link is lost, the instant
+    /// it was last heard.
+    fn confirmed_until(&self) -> Option<Instant> {
+        let heard = self.liveness.lock().expect("not poisoned").heard?;
+        Some(heard.checked_sub(self.publishing).unwrap_or(heard))
+    }
+
     /// The median interval between the last position samples (control time), once eight have
     /// been seen; before that the sampling interval the server revised the request to.
     fn sample_interval_s(&self) -> Option<f64> {
@@ -267,6 +292,15 @@ fn config_nodes(config: &OpcUaConfig) -> Vec<(&'static str, &str)> {
     v
 }
 
+/// The type of a value in OPC UA's words (`String`, `Boolean`, `Double[]`, `Empty`).
+fn variant_type(v: &Variant) -> String {
+    match v.type_id() {
+        VariantTypeId::Empty => "Empty".into(),
+        VariantTypeId::Scalar(t) => format!("{t:?}"),
+        VariantTypeId::Array(t, _) => format!("{t:?}[]"),
+    }
+}
+
 /// OPC UA time to s since the Unix epoch.
 fn unix_s(t: &DateTime) -> f64 {
     (t.ticks() - UNIX_EPOCH_TICKS) as f64 * 1e-7
@@ -282,7 +316,6 @@ fn now_unix_s() -> f64 {
 /// Turns data changes into events; lives in the subscription callback.
 struct Converter {
     tx: mpsc::Sender<Msg>,
-    endpoint: String,
     position: (String, f64),
     effort: (String, f64, Quantity),
     program: Option<String>,
@@ -342,12 +375,17 @@ impl Converter {
                     value: x * scale,
                 },
                 None => {
-                    let _ = self.tx.send(Msg::Error(LiveError::Protocol {
-                        endpoint: self.endpoint.clone(),
-                        detail: format!(
-                            "node {node}: value {v:?} is not a number (is the node id right?)"
-                        ),
-                    }));
+                    // A value of the wrong type (a String on the position node): this value
+                    // is no sample and the episode around it cannot be trusted; the stream
+                    // goes on (the caller decides whether to stop).
+                    self.send(Event::Gap {
+                        time_s: Some(time_s),
+                        reason: GapReason::BadValue {
+                            quantity,
+                            node: node.clone(),
+                            value_type: variant_type(v),
+                        },
+                    });
                     return;
                 }
             },
@@ -382,6 +420,7 @@ async fn run(
     tx: mpsc::Sender<Msg>,
     mut stop: tokio::sync::oneshot::Receiver<()>,
     intervals: Arc<Mutex<Intervals>>,
+    liveness: Arc<Mutex<Liveness>>,
 ) {
     let endpoint = config.endpoint.clone();
     let connect_err = |detail: String| LiveError::Connect {
@@ -401,6 +440,11 @@ async fn run(
             .session_retry_limit(retry_limit)
             .session_retry_initial(Duration::from_millis(conn.retry_initial_ms))
             .session_retry_max(Duration::from_millis(conn.retry_max_ms))
+            // Traffic at least every second, so that silence means loss (SILENCE_LOSS_S); a
+            // stuck server's session is closed and made again after two failed reads.
+            .keep_alive_interval(Duration::from_secs_f64(KEEP_ALIVE_S))
+            .max_failed_keep_alive_count(2)
+            .request_timeout(Duration::from_secs(10))
             .min_publish_interval(Duration::from_millis(
                 (config.subscription.publishing_interval_ms as u64).clamp(1, 100),
             ));
@@ -502,6 +546,7 @@ async fn run(
         state_tx,
         conn.attempts,
         last_event_s.clone(),
+        liveness,
         endpoint.clone(),
     ));
     // Wait for the session (or for the event loop to give up).
@@ -523,7 +568,6 @@ async fn run(
 
     let converter = Converter {
         tx: tx.clone(),
-        endpoint: endpoint.clone(),
         position: (config.position.node.clone(), config.position.unit.to_m()),
         effort: (
             config.effort.node.clone(),
@@ -568,8 +612,32 @@ enum LinkState {
     Failed(String),
 }
 
+/// Silence after which a connected session counts as lost (s): the client reads the server's
+/// state every [`KEEP_ALIVE_S`], so a server that answers nothing for this long is gone or
+/// stuck, even while the TCP connection stays open.
+pub const SILENCE_LOSS_S: f64 = 3.0;
+
+/// Interval of the session keep-alive (a read of the server state), s.
+pub const KEEP_ALIVE_S: f64 = 1.0;
+
+/// While no connection can be made: the first failure is reported at once, then at most one
+/// message per this many seconds.
+pub const RETRY_NOTICE_S: f64 = 10.0;
+
+/// What the session loop shares with [`OpcUaSource`]: when the server last answered.
+#[derive(Debug, Default)]
+struct Liveness {
+    /// Wall clock of the last message from the server while the link was not lost (frozen
+    /// while it is).
+    heard: Option<Instant>,
+}
+
 /// Polls the session event loop: it connects, keeps the session alive, publishes, and
-/// reconnects; connection losses become [`GapReason::Reconnected`] once made good again.
+/// reconnects. A loss is reported when it is detected: [`GapReason::ConnectionLost`] when the
+/// transport closes or the server has said nothing for [`SILENCE_LOSS_S`]; failed reconnects
+/// as [`Event::Notice`] (the first at once, then every [`RETRY_NOTICE_S`]); the reconnection
+/// as [`GapReason::Reconnected`].
+#[allow(clippy::too_many_arguments)]
 async fn drive_session(
     stream: impl Stream<Item = Result<SessionPollResult, StatusCode>>,
     session: Arc<Session>,
@@ -577,15 +645,62 @@ async fn drive_session(
     state: tokio::sync::watch::Sender<LinkState>,
     first_attempts: u32,
     last_event_s: Arc<Mutex<Option<f64>>>,
+    liveness: Arc<Mutex<Liveness>>,
     endpoint: String,
 ) {
     let mut stream = std::pin::pin!(stream);
     let mut connected_once = false;
     let mut failures = 0u32;
-    let mut lost: Option<StatusCode> = None;
-    while let Some(item) = std::future::poll_fn(|cx| stream.as_mut().poll_next(cx)).await {
+    // Since when and why the link is lost (reported), whether only by silence (the transport
+    // still open), and when the last retry notice went out.
+    let mut lost: Option<(Instant, String, bool)> = None;
+    let mut last_notice: Option<Instant> = None;
+    let mut heard = Instant::now();
+    let mut watchdog = tokio::time::interval(Duration::from_millis(250));
+    let send = |e: Event| {
+        let _ = tx.send(Msg::Event(e));
+    };
+    let report_loss = |detail: String| {
+        send(Event::Gap {
+            time_s: *last_event_s.lock().expect("not poisoned"),
+            reason: GapReason::ConnectionLost { detail },
+        });
+    };
+    loop {
+        let item = tokio::select! {
+            item = std::future::poll_fn(|cx| stream.as_mut().poll_next(cx)) => item,
+            _ = watchdog.tick() => {
+                let silent = heard.elapsed().as_secs_f64();
+                if connected_once && lost.is_none() && silent >= SILENCE_LOSS_S {
+                    let detail = format!("no answer from {endpoint} for {silent:.1} s");
+                    report_loss(detail.clone());
+                    lost = Some((Instant::now(), detail, true));
+                }
+                continue;
+            }
+        };
+        let Some(item) = item else { break };
         match item {
+            Ok(SessionPollResult::Transport(TransportPollResult::IncomingMessage)) => {
+                heard = Instant::now();
+                // A server that was silent on an open connection answers again: the episode
+                // was discarded at the loss; the stream goes on.
+                if let Some((since, _, true)) = &lost {
+                    send(Event::Notice {
+                        message: format!(
+                            "{endpoint} answers again after {:.1} s of silence",
+                            since.elapsed().as_secs_f64()
+                        ),
+                        connected: true,
+                    });
+                    lost = None;
+                }
+                if lost.is_none() {
+                    liveness.lock().expect("not poisoned").heard = Some(heard);
+                }
+            }
             Ok(SessionPollResult::Reconnected(mode)) => {
+                heard = Instant::now();
                 if !connected_once {
                     connected_once = true;
                     let _ = state.send(LinkState::Connected);
@@ -595,13 +710,14 @@ async fn drive_session(
                     // was built, so without this nothing is published on the new session.
                     session.trigger_publish_now();
                 }
-                if let Some(code) = lost.take() {
-                    let _ = tx.send(Msg::Event(Event::Gap {
+                if let Some((since, why, _)) = lost.take() {
+                    send(Event::Gap {
                         time_s: *last_event_s.lock().expect("not poisoned"),
                         reason: GapReason::Reconnected {
                             detail: format!(
-                                "connection lost ({code}); reconnected after {failures} failed \
-                                 attempts, {}",
+                                "connection lost ({why}); reconnected after {:.1} s and {failures} \
+                                 failed attempts, {}",
+                                since.elapsed().as_secs_f64(),
                                 match mode {
                                     SessionConnectMode::NewSession(_) =>
                                         "new session, subscription made again",
@@ -610,12 +726,21 @@ async fn drive_session(
                                 }
                             ),
                         },
-                    }));
+                    });
                 }
+                liveness.lock().expect("not poisoned").heard = Some(heard);
                 failures = 0;
+                last_notice = None;
             }
             Ok(SessionPollResult::ConnectionLost(code)) => {
-                lost = Some(code);
+                match &mut lost {
+                    None => {
+                        report_loss(code.to_string());
+                        lost = Some((Instant::now(), code.to_string(), false));
+                    }
+                    // Found silent before; now the transport is gone too.
+                    Some(l) => l.2 = false,
+                }
             }
             Ok(SessionPollResult::ReconnectFailed(code)) => {
                 failures += 1;
@@ -624,6 +749,18 @@ async fn drive_session(
                         "{code} (after {failures} attempts)"
                     )));
                     return;
+                }
+                let due = last_notice.is_none_or(|t| t.elapsed().as_secs_f64() >= RETRY_NOTICE_S);
+                if connected_once && due {
+                    let since = lost.as_ref().map_or(0.0, |l| l.0.elapsed().as_secs_f64());
+                    send(Event::Notice {
+                        message: format!(
+                            "no connection to {endpoint} for {since:.0} s ({failures} failed \
+                             attempt(s), last {code}); retrying"
+                        ),
+                        connected: false,
+                    });
+                    last_notice = Some(Instant::now());
                 }
             }
             Ok(_) => {}
