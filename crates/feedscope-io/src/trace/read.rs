@@ -414,8 +414,9 @@ pub struct DroppedEffort {
 const SHOWN_DROPPED: usize = 5;
 
 impl ReadReport {
-    /// What the read warns about, in one line for people: [`ReadReport::glitch_warning`] and a
-    /// last line without a line end. `None` for a clean read.
+    /// What the read warns about, in one line for people: [`ReadReport::glitch_warning`],
+    /// [`ReadReport::effort_glitch_warning`] and a last line without a line end. `None` for a
+    /// clean read.
     pub fn warning(&self) -> Option<String> {
         let cut = self.unterminated_last_line.map(|l| {
             format!(
