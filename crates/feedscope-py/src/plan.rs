@@ -1,7 +1,8 @@
 //! `feedscope.plan`: NC programs (G-code) for the friction tests, as `feedscope plan`.
 use feedscope::plan::gcode::{write_gcode, Dialect, FanucMachine, GcodeOptions};
 use feedscope::plan::{
-    strokes_program, triangle_program, Limits, StrokeTestParams, TestProgram, TriangleParams,
+    identifiability_warning, strokes_program, triangle_program, Limits, StrokeTestParams,
+    TestProgram, TriangleParams,
 };
 use feedscope::sim::RampShape;
 use pyo3::exceptions::PyValueError;
@@ -50,6 +51,12 @@ impl Plan {
     #[getter]
     fn notes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         to_py(py, &self.summary["notes"])
+    }
+    /// What to know before running the test: for a triangular wave, that the twin sampled at
+    /// `sample_interval_ms` cannot identify it (and the rate from which it can).
+    #[getter]
+    fn warnings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.summary["warnings"])
     }
     /// The summary as the binary's `plan ... --format json` prints it, without `output`.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
@@ -202,6 +209,9 @@ fn finish(prog: TestProgram, c: &Common) -> PyResult<Plan> {
         "ramp": prog.ramp,
         "jerk_mm_s3": prog.jerk_mm_s3,
         "notes": prog.notes,
+        "warnings": identifiability_warning(&prog, c.opts.sample_interval_s)
+            .into_iter()
+            .collect::<Vec<_>>(),
         "moves": prog.moves,
     });
     Ok(Plan { text, summary })

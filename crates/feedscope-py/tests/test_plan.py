@@ -85,3 +85,13 @@ def test_ramp_changes_the_run_time_and_bad_ramps_are_refused():
                                 jerk_mm_s3=1000.0)
     with pytest.raises(feedscope.BadInputError, match="jerk_mm_s3"):
         feedscope.plan_strokes(10, 60, [3000], jerk_mm_s3=-1.0)
+
+
+def test_triangle_too_fast_for_the_polling_warns_as_cli(tmp_path):
+    _, summary = cli_plan(tmp_path, "triangle", "--from", "120", "--to", "200",
+                          "--feed-max", "3000", "--sample-interval-ms", "72")
+    p = feedscope.plan_triangle(from_mm=120, to_mm=200, feed_max_mm_min=3000,
+                                sample_interval_ms=72)
+    assert len(p.warnings) == 1 and "cannot be identified" in p.warnings[0]
+    assert p.warnings == summary["warnings"]
+    assert p.to_dict() == summary

@@ -142,15 +142,54 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) if is_closed_stdout(&e) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_text(&e));
             std::process::ExitCode::from(exit_code(&e))
         }
     }
 }
 
+/// The error and its causes joined by ": ", as anyhow's `{:#}`, but a cause whose text the
+/// message above it already quotes is left out: an error type that prints its source in its
+/// own message (`#[error("identification failed: {0}")]` with `#[from]`) would otherwise
+/// say everything twice.
+fn error_text(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    let mut above = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if !above.is_empty() && above.contains(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+        above = text;
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A cause that the message above already quotes is printed once; other causes are
+    /// joined as anyhow's `{:#}` joins them.
+    #[test]
+    fn a_cause_quoted_by_its_error_is_printed_once() {
+        let ident = feedscope::ident::IdentError::NotIdentifiable {
+            reason: "no motion reversal".to_string(),
+        };
+        let e = anyhow::Error::new(feedscope::study::StudyError::Identify(ident))
+            .context("analysing t.csv");
+        assert_eq!(
+            error_text(&e),
+            "analysing t.csv: identification failed: not identifiable: no motion reversal"
+        );
+        let io = std::io::Error::new(IoKind::NotFound, "no such file");
+        let e = anyhow::Error::new(io).context("reading a.csv");
+        assert_eq!(error_text(&e), format!("{e:#}"));
+    }
     use feedscope_io::axis::AxisFileError;
     use feedscope_io::friction_csv::FrictionCsvError;
     use feedscope_io::stribeck_table::TableError;

@@ -6,8 +6,8 @@ use anyhow::{Context, Result};
 use clap::{Subcommand, ValueEnum};
 use feedscope::plan::gcode::{write_gcode, Dialect, FanucMachine, GcodeOptions};
 use feedscope::plan::{
-    strokes_program, triangle_program, Limits, Move, StrokeTestParams, TestKind, TestProgram,
-    TriangleParams,
+    identifiability_warning, strokes_program, triangle_program, Limits, Move, StrokeTestParams,
+    TestKind, TestProgram, TriangleParams,
 };
 use feedscope::sim::{RampShape, DEFAULT_JERK_MM_S3};
 use feedscope::units::s_to_min;
@@ -15,6 +15,9 @@ use serde::Serialize;
 
 use super::estimate::Format;
 use super::BadInput;
+
+/// Sampling interval assumed when none is given (ms): an MTConnect agent's polling.
+const DEFAULT_SAMPLE_INTERVAL_MS: f64 = 72.0;
 
 /// Write the NC program (G-code) of a friction test, with its run time and sample counts.
 ///
@@ -110,9 +113,11 @@ pub struct Common {
     /// jerk-limited [default: 20000].
     #[arg(long)]
     pub jerk_mm_s3: Option<f64>,
-    /// Sampling interval of the acquisition (ms), for the sample counts.
-    #[arg(long, default_value_t = 72.0, conflicts_with = "sample_rate_hz")]
-    pub sample_interval_ms: f64,
+    /// Sampling interval of the acquisition (ms), for the sample counts and, for the
+    /// triangular wave, the check that the test can be identified at it [default: 72, the
+    /// polling of an MTConnect agent].
+    #[arg(long, conflicts_with = "sample_rate_hz")]
+    pub sample_interval_ms: Option<f64>,
     /// Sampling rate of the acquisition (Hz), instead of --sample-interval-ms.
     #[arg(long)]
     pub sample_rate_hz: Option<f64>,
@@ -193,6 +198,8 @@ struct Summary {
     ramp: RampShape,
     jerk_mm_s3: Option<f64>,
     notes: Vec<String>,
+    /// What the user must know before running the test (printed on stderr too).
+    warnings: Vec<String>,
     moves: Vec<Move>,
 }
 
@@ -214,7 +221,13 @@ fn options(c: &Common) -> Result<GcodeOptions> {
     let interval_s = match c.sample_rate_hz {
         Some(r) if r.is_finite() && r > 0.0 => 1.0 / r,
         Some(r) => return Err(BadInput(format!("--sample-rate-hz {r}: must be > 0")).into()),
-        None => c.sample_interval_ms * 1e-3,
+        None => match c.sample_interval_ms {
+            Some(ms) if ms.is_finite() && ms > 0.0 => ms * 1e-3,
+            Some(ms) => {
+                return Err(BadInput(format!("--sample-interval-ms {ms}: must be > 0")).into())
+            }
+            None => DEFAULT_SAMPLE_INTERVAL_MS * 1e-3,
+        },
     };
     Ok(GcodeOptions {
         dialect: match c.dialect {
@@ -299,6 +312,18 @@ pub fn run(args: Args) -> Result<()> {
         limits(common)?.check_feed(f).map_err(bad)?;
     }
     let text = write_gcode(&prog, &opts).map_err(bad)?;
+    let mut warnings = Vec::new();
+    if let Some(w) = identifiability_warning(&prog, opts.sample_interval_s) {
+        let assumed = common.sample_interval_ms.is_none() && common.sample_rate_hz.is_none();
+        warnings.push(if assumed {
+            format!(
+                "{w} (no --sample-interval-ms or --sample-rate-hz was given: \
+                 {DEFAULT_SAMPLE_INTERVAL_MS} ms polling was assumed)"
+            )
+        } else {
+            w
+        });
+    }
     crate::output::write_atomic(&common.output, text.as_bytes())
         .with_context(|| format!("writing {}", common.output.display()))?;
     let summary = Summary {
@@ -315,8 +340,12 @@ pub fn run(args: Args) -> Result<()> {
         ramp: prog.ramp,
         jerk_mm_s3: prog.jerk_mm_s3,
         notes: prog.notes.clone(),
+        warnings,
         moves: prog.moves.clone(),
     };
+    for w in &summary.warnings {
+        eprintln!("warning: {w}");
+    }
     let mut w = std::io::stdout().lock();
     match common.format {
         Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&summary)?)?,

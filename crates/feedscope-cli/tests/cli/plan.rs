@@ -206,3 +206,87 @@ fn approach_feed_is_used_and_limited() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("feed limit"), "{}", stderr(&o));
 }
+
+/// A triangular-wave test planned for an acquisition too slow for its ramps is written with a
+/// warning, and the warning is right: the planned program run on the twin (another machine
+/// than the check's default drive: 16 mm lead, 600 kg, X axis of a mill) at 72 ms polling is
+/// refused by `identify`; planned and sampled at 500 Hz it identifies, without a warning.
+#[test]
+fn triangle_warns_when_the_acquisition_cannot_identify_it() {
+    let d = tempfile::tempdir().unwrap();
+    let dir = d.path();
+    let args = |rate: Option<&'static str>| {
+        let mut a = vec![
+            "triangle",
+            "--from",
+            "40",
+            "--to",
+            "160",
+            "--feed-max",
+            "6000",
+            "--fanuc-machine",
+            "mill",
+            "--axis-letter",
+            "X",
+            "--accel-mm-s2",
+            "1500",
+            "--jerk-mm-s3",
+            "30000",
+            "--format",
+            "json",
+            "-o",
+            "test.nc",
+        ];
+        if let Some(r) = rate {
+            a.extend(["--sample-rate-hz", r]);
+        }
+        a
+    };
+    let simulate_and_identify = |sampling: &str| {
+        let cfg = format!(
+            "seed = 11\n[axis]\nlead_mm = 16.0\ntable_mass_kg = 600.0\ninertia_kgm2 = 0.0025\n\
+             damping_nms_per_rad = 0.0015\ntorque_constant_nm_per_a = 1.1\n\
+             rapid_rate_mm_min = 24000.0\n[motion]\nstart_mm = 100.0\n\
+             acceleration_mm_s2 = 1500.0\njerk_mm_s3 = 30000.0\nprogram_axis = \"X\"\n\
+             program_file = \"test.nc\"\n[sampling]\n{sampling}\n[truth]\ninterval_ms = 100.0\n"
+        );
+        std::fs::write(dir.join("sim.toml"), cfg).unwrap();
+        let mut c = feedscope(dir);
+        c.args(["simulate", "--config", "sim.toml", "--out", "s"]);
+        let o = run(c);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let mut c = feedscope(dir);
+        c.args([
+            "identify",
+            "s/trace.csv",
+            "--axis",
+            "s/axis.toml",
+            "-o",
+            "id",
+        ]);
+        run(c)
+    };
+
+    let o = plan(dir, &args(None));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("at 72.000 ms per sample (13.9 Hz) this test cannot be identified")
+            && err.contains("72 ms polling was assumed")
+            && err.contains("identifies J from about"),
+        "{err}"
+    );
+    let json: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(json["warnings"].as_array().unwrap().len(), 1, "{json:#}");
+    let o = simulate_and_identify("mode = \"asynchronous\"");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("not identifiable"), "{}", stderr(&o));
+
+    let o = plan(dir, &args(Some("500")));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert!(json["warnings"].as_array().unwrap().is_empty(), "{json:#}");
+    let o = simulate_and_identify("mode = \"synchronous\"\nsynchronous_rate_hz = 500.0");
+    assert!(o.status.success(), "{}", stderr(&o));
+}

@@ -347,6 +347,30 @@ fn round_trip_at_paper_002_sampling_rate() {
     check(&id, &c, "83 Hz");
 }
 
+/// A recording pieced together from two runs 600 s apart is sampled at its median interval,
+/// not at the mean over its span (which counts the gap): the kernel, the guard and the rate
+/// the refusals quote are those of 83 Hz.
+#[test]
+fn a_gap_between_recordings_leaves_the_sampling_interval_alone() {
+    let mut c = cfg(DynamicsMode::Servo);
+    c.sampling.synchronous_rate_hz = 83.33;
+    let mut out = simulate_profile(&c, &triangle(), &mut |_| {}).unwrap();
+    let half = out.trace.position_m.time_s[out.trace.position_m.len() / 2];
+    for ch in [&mut out.trace.position_m, &mut out.trace.effort] {
+        for t in ch.time_s.iter_mut().filter(|t| **t > half) {
+            *t += 600.0;
+        }
+    }
+    let id = identify(&out.trace, &c.axis, &IdentParams::default()).unwrap();
+    assert!(
+        (id.sample_interval_s * 83.33 - 1.0).abs() < 1e-3,
+        "{}",
+        id.sample_interval_s
+    );
+    assert_eq!(id.kernel_samples, 1);
+    assert!((id.reversal_guard_s - 3.0 / 83.33).abs() < 1e-4);
+}
+
 proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
     /// Exact data from random parameters (speeds log-spaced over 1-10 000 mm/min, both

@@ -80,7 +80,15 @@ pub fn identify(
             ),
         });
     }
-    let h = (tp[n - 1] - tp[0]) / (n - 1) as f64;
+    // The median interval, not the mean over the span: a recording with gaps (pieces of
+    // several runs) would otherwise get a kernel and a guard of too few samples, and its
+    // refusals would quote a rate it was never sampled at.
+    let h = crate::trace::glitch::median_step(tp);
+    if !(h.is_finite() && h > 0.0) {
+        return Err(IdentError::NotIdentifiable {
+            reason: format!("the position times do not increase (median interval {h} s)"),
+        });
+    }
     let kernel_s = params.kernel_half_width_s.unwrap_or(DEFAULT_KERNEL_S);
     let m = ((kernel_s / h).round() as usize).clamp(1, (n - 1) / 4);
     let guard = params.reversal_guard_s.unwrap_or(3.0 * m as f64 * h);

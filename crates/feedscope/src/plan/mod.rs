@@ -44,7 +44,10 @@
 //! Paper 000 Section 2 (idle test over 0-410 mm with 1 s dwell; run time known before
 //! acquisition so that enough samples are requested); paper 002 Eq. 8 and Fig. 3.
 
+pub mod check;
 pub mod gcode;
+
+pub use check::{identifiability, identifiability_warning, Identifiability};
 
 use serde::{Deserialize, Serialize};
 

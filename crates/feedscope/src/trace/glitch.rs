@@ -259,9 +259,13 @@ pub fn screen_position(position_m: &Channel, params: &GlitchParams) -> Result<Sc
     })
 }
 
-/// Median of the steps between consecutive times (of at most [`MEDIAN_STEPS`] of them, at a
-/// fixed stride). Needs at least two times.
-fn median_step(t: &[f64]) -> f64 {
+/// Median of the steps between consecutive times `t` (s) (of at most [`MEDIAN_STEPS`] of
+/// them, at a fixed stride): the sampling interval a recording with gaps and bursts really
+/// has, where the mean over its span counts the gaps. NaN for fewer than two times.
+pub fn median_step(t: &[f64]) -> f64 {
+    if t.len() < 2 {
+        return f64::NAN;
+    }
     let steps = t.len() - 1;
     let stride = steps.div_ceil(MEDIAN_STEPS).max(1);
     let mut d: Vec<f64> = (0..steps)
