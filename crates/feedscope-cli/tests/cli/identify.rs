@@ -214,6 +214,27 @@ fn one_speed_trace_is_not_identifiable() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("not identifiable"), "{}", stderr(&o));
     assert!(!d.path().join("ident.json").exists());
+    // `history add` says it once too (its error quoted the refusal and then chained it)
+    let mut c = feedscope(d.path());
+    c.args([
+        "history",
+        "add",
+        "one.csv",
+        "--axis",
+        "axis.toml",
+        "--kind",
+        "triangle",
+        "--store",
+        "h.db",
+    ]);
+    let o = run(c);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o).matches("not identifiable").count(),
+        1,
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// Forward only, several feeds: no reversal; exit 2.
