@@ -102,8 +102,25 @@ const PALETTE: [RGBColor; 8] = [
     RGBColor(23, 190, 207),
 ];
 
+// Font sizes are given in pt; the SVG gets px at 0.81 of them (15 → 12.1 px): no text is
+// smaller than 14 (11.3 px), the size of a plot label on a printed page.
 const WIDTH: u32 = 960;
 const HEIGHT: u32 = 540;
+
+/// Canvas of a chart shown in a grid of two columns (the report's heat maps and trends), in
+/// px: drawn at about the width it is shown at, so that its 12-16 px labels stay that size on
+/// screen (a 960 px chart shrunk into a 560 px cell shows them at 7-9 px).
+pub const TILE: (u32, u32) = (560, 400);
+
+/// Title size (px) on a canvas `width` px wide: `full` on full-width charts, 17 on tiles,
+/// where a long title at full size would run past the edge.
+fn caption_px(width: u32, full: u32) -> u32 {
+    if width < 800 {
+        17
+    } else {
+        full
+    }
+}
 
 /// Largest magnitude drawn: beyond it the axis arithmetic (margins, tick steps) overflows,
 /// and the plotting library's tick search then never ends.
@@ -178,21 +195,34 @@ pub fn stacked_svg(charts: &[LineChart]) -> Result<String> {
 /// # Errors
 /// When no series holds a finite point, or plotters fails.
 pub fn line_chart_legend_below_svg(chart: &LineChart) -> Result<String> {
+    line_chart_legend_below_svg_sized(chart, (WIDTH, HEIGHT))
+}
+
+/// [`line_chart_legend_below_svg`] on a plot of `size` (width, height in px); the legend
+/// below adds to the height, in one column on canvases narrower than 800 px.
+///
+/// # Errors
+/// As [`line_chart_legend_below_svg`].
+pub fn line_chart_legend_below_svg_sized(chart: &LineChart, size: (u32, u32)) -> Result<String> {
     register_font();
     const ROW: u32 = 22;
-    let rows = chart.series.len().div_ceil(2) as u32;
+    let (width, height) = size;
+    let columns = if width >= 800 { 2 } else { 1 };
+    let rows = chart.series.len().div_ceil(columns) as u32;
     let legend_height = 12 + ROW * rows;
     let mut svg = String::new();
     {
         let root =
-            SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_height)).into_drawing_area();
+            SVGBackend::with_string(&mut svg, (width, height + legend_height)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_err)?;
-        let (plot_area, legend_area) = root.split_vertically(HEIGHT);
+        let (plot_area, legend_area) = root.split_vertically(height);
         draw_line_chart(chart, &plot_area, false)?;
+        let column_width = (width as i32 - 80) / 2;
         for (k, s) in chart.series.iter().enumerate() {
             let colour = PALETTE[k % PALETTE.len()];
-            let x = 84 + (k as i32 % 2) * 440;
-            let y = 6 + (k as i32 / 2) * ROW as i32 + 8;
+            let (row, column) = (k / columns, k % columns);
+            let x = 84 + column as i32 * column_width;
+            let y = 6 + row as i32 * ROW as i32 + 8;
             let colour = match s.style {
                 Style::Thin { colour } | Style::Level { colour } => PALETTE[colour % PALETTE.len()],
                 _ => colour,
@@ -219,7 +249,7 @@ pub fn line_chart_legend_below_svg(chart: &LineChart) -> Result<String> {
                 .draw(&Text::new(
                     s.name.clone(),
                     (x + 32, y - 8),
-                    ("sans-serif", 14).into_font(),
+                    ("sans-serif", 15).into_font(),
                 ))
                 .map_err(plot_err)?;
         }
@@ -257,7 +287,10 @@ where
         y1
     };
     let mut ctx = ChartBuilder::on(area)
-        .caption(chart.title, ("sans-serif", 20))
+        .caption(
+            chart.title,
+            ("sans-serif", caption_px(area.dim_in_pixel().0, 20)),
+        )
         .margin(12)
         .x_label_area_size(48)
         .y_label_area_size(72)
@@ -266,8 +299,8 @@ where
     ctx.configure_mesh()
         .x_desc(chart.x_label)
         .y_desc(chart.y_label)
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
         .light_line_style(RGBColor(235, 235, 235))
         .draw()
         .map_err(plot_err)?;
@@ -331,7 +364,7 @@ where
     }
     if legend_inside && chart.series.iter().any(|s| !s.name.is_empty()) {
         ctx.configure_series_labels()
-            .label_font(("sans-serif", 13))
+            .label_font(("sans-serif", 14))
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(180, 180, 180))
             .position(SeriesLabelPosition::UpperRight)
@@ -346,7 +379,16 @@ where
 /// # Errors
 /// When the grid is empty or ragged, or holds no finite value.
 pub fn heatmap_svg(map: &Heatmap) -> Result<String> {
+    heatmap_svg_sized(map, (WIDTH, HEIGHT))
+}
+
+/// [`heatmap_svg`] on a canvas of `size` (width, height in px).
+///
+/// # Errors
+/// As [`heatmap_svg`].
+pub fn heatmap_svg_sized(map: &Heatmap, size: (u32, u32)) -> Result<String> {
     register_font();
+    let (width, height) = size;
     let (nx, ny) = (map.x.len(), map.y.len());
     if nx == 0 || ny == 0 || map.z.len() != ny || map.z.iter().any(|r| r.len() != nx) {
         return Err(anyhow!(
@@ -371,11 +413,11 @@ pub fn heatmap_svg(map: &Heatmap) -> Result<String> {
     let (z0, z1) = extent(map.z.iter().flatten().copied())?;
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_err)?;
-        let (main, bar) = root.split_horizontally(WIDTH - 110);
+        let (main, bar) = root.split_horizontally(width - 110);
         let mut ctx = ChartBuilder::on(&main)
-            .caption(map.title, ("sans-serif", 22))
+            .caption(map.title, ("sans-serif", caption_px(width, 22)))
             .margin(12)
             .x_label_area_size(48)
             .y_label_area_size(72)
@@ -385,8 +427,8 @@ pub fn heatmap_svg(map: &Heatmap) -> Result<String> {
             .disable_mesh()
             .x_desc(map.x_label)
             .y_desc(map.y_label)
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 16))
+            .label_style(("sans-serif", 15))
+            .axis_desc_style(("sans-serif", 17))
             .draw()
             .map_err(plot_err)?;
         let colour = |v: f64| ViridisRGB::get_color_normalized(v, z0, z1);
@@ -415,8 +457,8 @@ pub fn heatmap_svg(map: &Heatmap) -> Result<String> {
             .disable_mesh()
             .disable_x_axis()
             .y_desc(map.z_label)
-            .label_style(("sans-serif", 12))
-            .axis_desc_style(("sans-serif", 14))
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 15))
             .draw()
             .map_err(plot_err)?;
         let steps = 64;

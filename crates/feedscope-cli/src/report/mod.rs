@@ -238,12 +238,15 @@ fn trend_chart(t: &IndicatorTrend) -> Result<Chart> {
     let title = format!("{} [{}]", t.indicator.label(), t.status.as_str());
     let y_label = format!("{} ({})", t.indicator.label(), t.indicator.unit());
     // The legend goes below: inside, its corner would hide the newest tests at the right.
-    let svg = plot::line_chart_legend_below_svg(&LineChart {
-        title: &title,
-        x_label: "weeks since the first test",
-        y_label: &y_label,
-        series,
-    })?;
+    let svg = plot::line_chart_legend_below_svg_sized(
+        &LineChart {
+            title: &title,
+            x_label: "weeks since the first test",
+            y_label: &y_label,
+            series,
+        },
+        plot::TILE,
+    )?;
     Ok(Chart { title, svg })
 }
 
@@ -479,18 +482,21 @@ fn wear_maps(c: &ProfileChanges) -> Result<Vec<Chart>> {
                 "Friction change along the travel, {}: where is it wearing",
                 d.direction.as_str()
             );
-            let svg = plot::heatmap_svg(&Heatmap {
-                title: &title,
-                x_label: "position (mm)",
-                y_label: "stroke test (in time order)",
-                z_label: "change from baseline (N)",
-                x: d.position_mm.clone(),
-                y: (1..=d.tests.len()).map(|k| k as f64).collect(),
-                z: d.tests
-                    .iter()
-                    .map(|t| t.change_n.iter().map(|x| x.unwrap_or(f64::NAN)).collect())
-                    .collect(),
-            })?;
+            let svg = plot::heatmap_svg_sized(
+                &Heatmap {
+                    title: &title,
+                    x_label: "position (mm)",
+                    y_label: "stroke test (in time order)",
+                    z_label: "change from baseline (N)",
+                    x: d.position_mm.clone(),
+                    y: (1..=d.tests.len()).map(|k| k as f64).collect(),
+                    z: d.tests
+                        .iter()
+                        .map(|t| t.change_n.iter().map(|x| x.unwrap_or(f64::NAN)).collect())
+                        .collect(),
+                },
+                plot::TILE,
+            )?;
             Ok(Chart { title, svg })
         })
         .collect()
@@ -559,15 +565,18 @@ fn heatmap_charts(c: &Curves) -> Result<Vec<Chart>> {
         .iter()
         .map(|h| {
             let title = format!("FFS spectra along the travel, {}", h.direction);
-            let svg = plot::heatmap_svg(&Heatmap {
-                title: &title,
-                x_label: "order (cycles per lead)",
-                y_label: "segment centre position (mm)",
-                z_label: "amplitude (N)",
-                x: h.orders.clone(),
-                y: h.position_mm.clone(),
-                z: h.amplitude_n.clone(),
-            })?;
+            let svg = plot::heatmap_svg_sized(
+                &Heatmap {
+                    title: &title,
+                    x_label: "order (cycles per lead)",
+                    y_label: "segment centre position (mm)",
+                    z_label: "amplitude (N)",
+                    x: h.orders.clone(),
+                    y: h.position_mm.clone(),
+                    z: h.amplitude_n.clone(),
+                },
+                plot::TILE,
+            )?;
             Ok(Chart { title, svg })
         })
         .collect()

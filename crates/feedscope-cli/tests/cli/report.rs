@@ -77,6 +77,7 @@ fn report_of_a_drifting_axis() {
         html.matches("<svg").count() >= 6,
         "trend charts and the Stribeck curves"
     );
+    text_is_legible(&html);
     // self-contained: no external resource
     for bad in ["<script", "src=\"http", "href=\"http", "<link"] {
         assert!(!html.contains(bad), "{bad}");
@@ -169,4 +170,33 @@ fn thresholds_from_the_axis_file_are_used() {
         .find(|t| t["indicator"]["kind"] == "static_friction")
         .unwrap_or_else(|| panic!("no static-friction trend in {v}"));
     assert_eq!(fs["threshold"]["upper"].as_f64(), Some(1.0), "{fs}");
+}
+
+/// The plots' text as a reader sees it: each chart in a two-column grid is drawn about as wide
+/// as its cell (560 px in the 1200 px page), so that no label is shrunk; every label is at
+/// least 11 px (the 7-9 px of a 960 px chart shrunk into a cell were hard to read).
+fn text_is_legible(html: &str) {
+    let mut in_grid = 0;
+    for (k, piece) in html
+        .split("<svg class=\"plot\" width=\"")
+        .enumerate()
+        .skip(1)
+    {
+        let width: u32 = piece.split('"').next().unwrap().parse().unwrap();
+        let before = html
+            .split("<svg class=\"plot\" width=\"")
+            .take(k)
+            .collect::<String>();
+        let grid = before.rfind("<div class=\"grid\">") > before.rfind("</div></div>");
+        if grid {
+            in_grid += 1;
+            assert!(width <= 560, "chart {k} in a grid is {width} px wide");
+        }
+        let svg = &piece[..piece.find("</svg>").unwrap()];
+        for size in svg.split("font-size=\"").skip(1) {
+            let px: f64 = size.split('"').next().unwrap().parse().unwrap();
+            assert!(px >= 11.0, "chart {k}: text of {px} px");
+        }
+    }
+    assert!(in_grid >= 4, "only {in_grid} charts in grids");
 }
