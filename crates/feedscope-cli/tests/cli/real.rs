@@ -296,6 +296,7 @@ fn umich_runs_are_mean_level_and_an_unwired_axis_is_refused_at_import() {
     let t = setup();
     let d = t.path();
     let mut estimated = 0;
+    let mut unresolved = 0;
     for n in 1..=18 {
         let name = format!("umich_experiment_{n:02}.csv");
         unpack(d, &name);
@@ -318,12 +319,30 @@ fn umich_runs_are_mean_level_and_an_unwired_axis_is_refused_at_import() {
                 estimated += 1;
                 // A signed current: the sign is Eq. 5's.
                 assert_eq!(json["verdict"]["friction_sign"], "signed");
+                // A mean within 2 SE of zero (run 12 Y: 1119.68 ± 2563.93 N) is remarked on,
+                // and only such a mean.
+                for s in json["strokes"].as_array().unwrap() {
+                    let mean = s["mean_friction_n"].as_f64().unwrap();
+                    let se = s["mean_friction_se_n"].as_f64().unwrap();
+                    assert!(se > 0.0, "{tag}: {s}");
+                    let remarked = s["warnings"]
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .any(|w| w["code"] == "mean-not-resolved");
+                    assert_eq!(remarked, mean.abs() <= 2.0 * se, "{tag}: {s}");
+                    unresolved += usize::from(remarked);
+                }
             }
             later_steps_refuse(d, &trace, &tag);
         }
         std::fs::remove_file(d.join(&name)).unwrap();
     }
     assert!(estimated > 0);
+    assert!(
+        unresolved > 0,
+        "runs 3, 12, 13 and 14 have strokes within 2 SE of zero"
+    );
     store_is_empty(d);
 }
 

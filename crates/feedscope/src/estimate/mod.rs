@@ -394,7 +394,8 @@ pub struct StrokeSummary {
     pub verdict: Option<StrokeVerdict>,
     /// Things a user should know about this stroke, each with a stable code
     /// (`position-not-monotone`, `few-samples-per-lead`, `position-smoothed-below-order`,
-    /// `noise-floor-high`).
+    /// `noise-floor-high`, `mean-not-resolved` when the mean lies within
+    /// [`MEAN_RESOLVED_SE`] standard errors of zero).
     pub warnings: Vec<Diagnostic>,
 }
 
@@ -867,6 +868,10 @@ fn rms_about_mean(v: &[f64]) -> f64 {
     let mean = v.iter().sum::<f64>() / v.len() as f64;
     (v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / v.len() as f64).sqrt()
 }
+
+/// A stroke's mean friction is resolved when it lies more than this many standard errors from
+/// zero (about 95 % two-sided); otherwise the stroke gets the `mean-not-resolved` warning.
+pub const MEAN_RESOLVED_SE: f64 = 2.0;
 
 /// Standard error of the mean of `n` effort samples of robust noise `std` and quantum `q`, in
 /// the effort's unit (see [`StrokeSummary::mean_friction_se_n`]): the noise over √n, and the
@@ -1389,6 +1394,21 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     sm.friction_std_n = var.sqrt();
     sm.raw_samples_per_lead = spl;
     sm.max_order = spl / 2.5;
+    if let Some(se) = sm.mean_friction_se_n {
+        // Within two standard errors of zero the stroke says nothing about its friction, not
+        // even its sign: the table would print it like any other mean.
+        if !(mean.abs() > MEAN_RESOLVED_SE * se) {
+            warnings.push(Diagnostic::new(
+                "mean-not-resolved",
+                format!(
+                    "the mean friction {mean:.2} N lies within {MEAN_RESOLVED_SE} standard \
+                     errors ({se:.2} N) of zero: this stroke does not resolve its friction \
+                     (the effort varies along it far more than friction does: process load, \
+                     or too few samples for its noise)"
+                ),
+            ));
+        }
+    }
     let feed_mm_min = feed_m_s * 60e3;
     if spl < 8.0 {
         warnings.push(Diagnostic::new(

@@ -598,6 +598,10 @@ impl EffortSampling {
 
 /// At most this many samples per channel (and truth records), to keep memory bounded.
 pub(crate) const MAX_SAMPLES: f64 = 2e7;
+/// Largest friction term (N; N/mm × 10³ for the trend, N·s/m for the viscous coefficient)
+/// the simulator accepts.
+pub const MAX_FRICTION_N: f64 = 1e6;
+
 /// At most this many controller steps.
 pub(crate) const MAX_STEPS: f64 = 2e10;
 
@@ -699,21 +703,62 @@ impl SimConfig {
             }
         };
 
-        // friction
+        // friction: finite, and within what a feed drive can push (a ball screw's nut is
+        // rated for about 100 kN); beyond that the servo run only grinds through stiffness
+        // sub-steps of a stuck table
         let f = self.friction_model();
         let fp = &f.params;
+        let force = |key: &str, v: f64, limit: f64, unit: &str| {
+            finite(key, v)?;
+            if v.abs() <= limit {
+                Ok(())
+            } else {
+                Err(bad(
+                    key,
+                    v,
+                    &format!("must lie within ±{limit:e} {unit} (no feed drive has such friction)"),
+                ))
+            }
+        };
         positive("friction.sign_smoothing_mm_s", fp.sign_smoothing_mm_s)?;
         for (name, l) in [("forward", &fp.forward), ("backward", &fp.backward)] {
-            finite(&format!("friction.{name}.offset_n"), l.offset_n)?;
-            finite(&format!("friction.{name}.trend_n_per_mm"), l.trend_n_per_mm)?;
+            force(
+                &format!("friction.{name}.offset_n"),
+                l.offset_n,
+                MAX_FRICTION_N,
+                "N",
+            )?;
+            force(
+                &format!("friction.{name}.trend_n_per_mm"),
+                l.trend_n_per_mm,
+                MAX_FRICTION_N / 1e3,
+                "N/mm",
+            )?;
             for (k, b) in l.bumps.iter().enumerate() {
                 finite(&format!("friction.{name}.bump[{k}].center_mm"), b.center_mm)?;
                 positive(&format!("friction.{name}.bump[{k}].width_mm"), b.width_mm)?;
-                finite(&format!("friction.{name}.bump[{k}].height_n"), b.height_n)?;
+                force(
+                    &format!("friction.{name}.bump[{k}].height_n"),
+                    b.height_n,
+                    MAX_FRICTION_N,
+                    "N",
+                )?;
             }
         }
         let v = &fp.velocity;
         non_negative("friction.velocity.static_excess_n", v.static_excess_n)?;
+        force(
+            "friction.velocity.static_excess_n",
+            v.static_excess_n,
+            MAX_FRICTION_N,
+            "N",
+        )?;
+        force(
+            "friction.velocity.viscous_n_s_per_m",
+            v.viscous_n_s_per_m,
+            MAX_FRICTION_N,
+            "N·s/m",
+        )?;
         positive(
             "friction.velocity.stribeck_velocity_mm_min",
             v.stribeck_velocity_mm_min,
@@ -725,6 +770,12 @@ impl SimConfig {
             non_negative(
                 &format!("friction.component[{k}].amplitude_n"),
                 c.amplitude_n,
+            )?;
+            force(
+                &format!("friction.component[{k}].amplitude_n"),
+                c.amplitude_n,
+                MAX_FRICTION_N,
+                "N",
             )?;
             finite(&format!("friction.component[{k}].phase_deg"), c.phase_deg)?;
         }

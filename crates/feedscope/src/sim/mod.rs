@@ -39,7 +39,7 @@ mod servo;
 
 pub use config::{
     DynamicsConfig, DynamicsMode, EffortSampling, MotionConfig, PositionSampling, SamplingConfig,
-    SamplingMode, SimConfig, TruthConfig, DEFAULT_RAPID_RATE_MM_MIN,
+    SamplingMode, SimConfig, TruthConfig, DEFAULT_RAPID_RATE_MM_MIN, MAX_FRICTION_N,
 };
 pub use friction::{
     Bump, Component, ComponentDirection, Direction, FrictionModel, FrictionParams, MeanLevel,
@@ -81,6 +81,34 @@ pub enum SimError {
     /// [`SimError::Program`]).
     #[error("simulator config: {0}")]
     Axis(AxisError),
+    /// The servo run needs far more integration steps than control steps: the friction is so
+    /// large against its sign smoothing that the plant stays stiff over long stretches (the
+    /// table sticks), and the run would take hours.
+    #[error(
+        "simulator config: the friction (up to {friction_bound_n:.3e} N on an equivalent mass of \
+         {mass_kg:.3e} kg) is too stiff to integrate with `friction.sign_smoothing_mm_s` = \
+         {sign_smoothing_mm_s}: by t = {time_s:.3} s the run had taken {integration_steps} RK4 \
+         steps for {control_steps} control steps (at most {per_step} per control step plus \
+         {extra:.0e} in all); lower the friction, or raise friction.sign_smoothing_mm_s"
+    )]
+    TooStiff {
+        /// Bound of |F_f| over the run (N).
+        friction_bound_n: f64,
+        /// Equivalent mass m_eq (kg).
+        mass_kg: f64,
+        /// v_ε (mm/s).
+        sign_smoothing_mm_s: f64,
+        /// Simulated time reached (s).
+        time_s: f64,
+        /// RK4 steps taken.
+        integration_steps: u64,
+        /// Control steps taken.
+        control_steps: u64,
+        /// Allowed RK4 steps per control step.
+        per_step: u64,
+        /// Allowed RK4 steps beyond those, in all.
+        extra: f64,
+    },
     /// The config asks for more samples, steps or time than the simulator allows.
     #[error("simulator config: key `{key}` asks for {count:.3e}, more than the limit {limit:.1e}")]
     TooLarge {

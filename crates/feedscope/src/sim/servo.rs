@@ -201,6 +201,16 @@ impl<'r> Collector<'r> {
     }
 }
 
+/// RK4 steps allowed per control step, on average over the run, before it is refused as too
+/// stiff ([`SimError::TooStiff`]). The stiffness sub-steps are needed only within a few v_ε
+/// of a reversal, a few per cent of a test; a table that sticks between them needs up to
+/// 10 000 per step all along (a 3 kB config with absurd friction ran for minutes).
+const STIFF_STEPS_PER_CONTROL_STEP: u64 = 4;
+
+/// RK4 steps allowed beyond [`STIFF_STEPS_PER_CONTROL_STEP`] per control step, in all: about
+/// 6 s of integration, enough for the reversals of any real test.
+const STIFF_EXTRA_STEPS: u64 = 10_000_000;
+
 /// Servo mode: the cascaded loop described on [`DynamicsConfig`] drives the plant from
 /// t = 0 to `duration_s`; the state at each requested instant (each list sorted) is the cubic
 /// Hermite interpolation of (z, z'), (z', z'') and (i, i') between integration steps, so the
@@ -338,6 +348,18 @@ pub(crate) fn run_servo(
         t = t_end;
         step += 1;
         stats.control_steps += 1;
+        if stats.integration_steps > STIFF_STEPS_PER_CONTROL_STEP * step + STIFF_EXTRA_STEPS {
+            return Err(SimError::TooStiff {
+                friction_bound_n: f_bound,
+                mass_kg: plant.m,
+                sign_smoothing_mm_s: v_eps * 1e3,
+                time_s: t,
+                integration_steps: stats.integration_steps,
+                control_steps: stats.control_steps,
+                per_step: STIFF_STEPS_PER_CONTROL_STEP,
+                extra: STIFF_EXTRA_STEPS as f64,
+            });
+        }
 
         let cz = profile.kinematics(t).position_m;
         let err = (x.z - cz).abs();

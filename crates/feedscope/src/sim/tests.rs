@@ -1091,3 +1091,53 @@ fn servo_follows_every_shape_with_overrides() {
         assert!(last.position_m.abs() < 2e-6, "{shape:?}");
     }
 }
+
+/// Issue 34 item 7: friction no drive has is refused before the run, naming the key; friction
+/// within the bound that still makes the table stick is refused once the stiffness sub-steps
+/// exceed their budget (4 per control step plus 10⁷), not after minutes. A light table
+/// with heavy friction that does move is simulated, with its sub-steps near the reversals.
+#[test]
+fn absurd_friction_is_refused_and_the_work_is_bounded() {
+    let mut c = short_cfg();
+    c.friction = Some(FrictionParams::default_for(&c.axis));
+    let base = c.clone();
+    let f = c.friction.as_mut().unwrap();
+    f.forward.offset_n = 2.5e7;
+    let e = simulate(&c, &mut |_| {}).unwrap_err().to_string();
+    assert!(
+        e.contains("friction.forward.offset_n") && e.contains("1e6"),
+        "{e}"
+    );
+    let mut c = base.clone();
+    c.friction.as_mut().unwrap().components[0].amplitude_n = 1e300;
+    let e = simulate(&c, &mut |_| {}).unwrap_err().to_string();
+    assert!(e.contains("friction.component[0].amplitude_n"), "{e}");
+
+    // 900 kN: allowed, but the table sticks and every step needs the full sub-steps
+    let mut c = base.clone();
+    c.friction.as_mut().unwrap().forward.offset_n = 9e5;
+    c.friction.as_mut().unwrap().backward.offset_n = 9e5;
+    match simulate(&c, &mut |_| {}) {
+        Err(SimError::TooStiff {
+            integration_steps,
+            control_steps,
+            ..
+        }) => assert!(
+            integration_steps <= 4 * control_steps + 10_000_000 + 10_000,
+            "{integration_steps} {control_steps}"
+        ),
+        other => panic!("{:?}", other.map(|o| o.stats)),
+    }
+
+    // 20 kg and 2.5 kN of friction: stiff near the reversals only
+    let mut c = base;
+    c.axis.table_mass_kg = 20.0;
+    c.axis.inertia_kgm2 = 1e-4;
+    c.friction.as_mut().unwrap().forward.offset_n = 2500.0;
+    let out = run(&c);
+    assert!(
+        out.stats.integration_steps > out.stats.control_steps,
+        "{:?}",
+        out.stats
+    );
+}
