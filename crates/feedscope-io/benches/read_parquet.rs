@@ -6,6 +6,9 @@
 //! on one clock, 10 M rows) is read too. Both are written once to `target/bench-data/` and
 //! reused.
 //!
+//! A third file holds 600,000 wide rows in 6,000 row groups of 100 (a logger that flushes
+//! every 0.1 s): its read time must grow with the rows, not with the square of the groups.
+//!
 //! Run: `cargo bench -p feedscope-io --bench read_parquet`. Criterion reports bytes/s of the file;
 //! samples/s (both channels) is printed for each file beside it.
 use std::hint::black_box;
@@ -100,5 +103,62 @@ fn bench_read(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_read);
+/// 6,000 row groups of 100 wide rows (`time_s`, `position_mm`, `current_a`).
+fn many_groups_file() -> PathBuf {
+    use arrow_array::{ArrayRef, Float64Array, RecordBatch};
+    use parquet::arrow::ArrowWriter;
+    use parquet::file::properties::WriterProperties;
+    use std::sync::Arc;
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/bench-data");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("trace_6000_groups.parquet");
+    if path.exists() {
+        return path;
+    }
+    let tmp = dir.join("trace_6000_groups.parquet.tmp");
+    let props = WriterProperties::builder()
+        .set_max_row_group_row_count(Some(100))
+        .build();
+    let (groups, rows) = (6000usize, 100usize);
+    let mut w: Option<ArrowWriter<std::fs::File>> = None;
+    for g in 0..groups {
+        let t: Vec<f64> = (0..rows).map(|k| (g * rows + k) as f64 * 1e-3).collect();
+        let z: Vec<f64> = t
+            .iter()
+            .map(|t| 200.0 - ((t * 10.0) % 400.0 - 200.0).abs())
+            .collect();
+        let i: Vec<f64> = t.iter().map(|t| 1.2 + 0.05 * (t * 7.0).sin()).collect();
+        let cols: Vec<(&str, ArrayRef)> = vec![
+            ("time_s", Arc::new(Float64Array::from(t))),
+            ("position_mm", Arc::new(Float64Array::from(z))),
+            ("current_a", Arc::new(Float64Array::from(i))),
+        ];
+        let batch = RecordBatch::try_from_iter(cols).unwrap();
+        let writer = w.get_or_insert_with(|| {
+            ArrowWriter::try_new(
+                std::fs::File::create(&tmp).unwrap(),
+                batch.schema(),
+                Some(props.clone()),
+            )
+            .unwrap()
+        });
+        writer.write(&batch).unwrap();
+        writer.flush().unwrap();
+    }
+    w.unwrap().close().unwrap();
+    std::fs::rename(&tmp, &path).unwrap();
+    path
+}
+
+fn bench_many_groups(c: &mut Criterion) {
+    let path = many_groups_file();
+    let mut g = c.benchmark_group("read_parquet");
+    g.sample_size(10);
+    g.bench_function("wide_600k_rows_in_6000_groups", |b| {
+        b.iter(|| black_box(read_trace_file(&path, &ReadOptions::default()).unwrap()))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench_read, bench_many_groups);
 criterion_main!(benches);
