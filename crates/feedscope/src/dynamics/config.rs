@@ -678,9 +678,27 @@ impl DriveConfig {
             500,
             "must be at most 500",
         )?;
+        // Each sweep point solves an eigenproblem of about 4·elements_per_side + 2 DOFs
+        // (axial and torsional nodes): O(n³) each. 500 elements and 10,000 positions at four
+        // feeds ran for minutes; the bound keeps a run within about ten seconds.
+        let solves = (w.feed_points + w.position_points * w.position_feeds_mm_min.len()) as f64;
+        let n = (4 * self.mesh.elements_per_side + 2) as f64;
+        if solves * n.powi(3) > MAX_SWEEP_WORK {
+            return Err(DynamicsError::InvalidValue {
+                key: "mesh.elements_per_side",
+                value: self.mesh.elements_per_side as f64,
+                reason: "too fine for the sweep: (sweep.feed_points + sweep.position_points × \
+                         the number of sweep.position_feeds_mm_min) × (4·elements_per_side + \
+                         2)³ must be at most 1e10 (about ten seconds of eigen solves); use \
+                         fewer elements or fewer sweep points",
+            });
+        }
         Ok(())
     }
 }
+
+/// Bound of the sweep's eigen-solve work, solves × DOFs³ (the default drive: 1.6e7).
+const MAX_SWEEP_WORK: f64 = 1e10;
 
 /// Nearest a nut position may come to a bearing, as a fraction of the screw's length: 0.1 %.
 /// The mesh puts `elements_per_side` elements on either side of the nut, and a side of

@@ -364,9 +364,26 @@ fn oversized_sweeps_and_meshes_are_errors_naming_the_key() {
             other => panic!("{key}: {other:?}"),
         }
     }
-    // The largest accepted sizes are still valid.
+    // The largest accepted sizes are still valid, each with the other sizes small.
     let mut cfg = DriveConfig::default();
     cfg.sweep.feed_points = 100_000;
-    cfg.mesh.elements_per_side = 500;
     assert!(cfg.validate().is_ok());
+    let mut cfg = DriveConfig::default();
+    cfg.mesh.elements_per_side = 300;
+    cfg.sweep.feed_points = 2;
+    cfg.sweep.position_points = 2;
+    cfg.sweep.position_feeds_mm_min = vec![0.0];
+    assert!(cfg.validate().is_ok());
+    // Issue 34 item 7: sizes each within bounds whose product is minutes of eigen solves
+    // (500 elements per side, 10,000 positions at 4 feeds ran for over 100 s).
+    let mut cfg = DriveConfig::default();
+    cfg.mesh.elements_per_side = 500;
+    cfg.sweep.position_points = 10_000;
+    match cfg.validate() {
+        Err(DynamicsError::InvalidValue { key, reason, .. }) => {
+            assert_eq!(key, "mesh.elements_per_side");
+            assert!(reason.starts_with("too fine for the sweep"), "{reason}");
+        }
+        other => panic!("{other:?}"),
+    }
 }
