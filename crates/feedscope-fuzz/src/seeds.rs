@@ -174,6 +174,58 @@ pub fn sim() -> Vec<Vec<u8>> {
     vec![strokes.as_bytes().to_vec(), example.into_bytes()]
 }
 
+/// Simulator configs small enough for the `sim_run` target to run: a servo run of 0.4 s with
+/// the default friction on a light table (stiff near its reversals), an ideal-mode run.
+pub fn sim_run() -> Vec<Vec<u8>> {
+    let servo = "seed = 3\n[axis]\nlead_mm = 5.0\ntable_mass_kg = 20.0\ninertia_kgm2 = 0.0001\n\
+         damping_nms_per_rad = 0.001\ntorque_constant_nm_per_a = 0.9\n[motion]\nlead_in_s = 0.05\nlead_out_s = 0.05\n\
+         acceleration_mm_s2 = 2000.0\n[[motion.stroke]]\nto_mm = 3\nfeed_mm_min = 1200\n\
+         [[motion.stroke]]\nto_mm = 0\nfeed_mm_min = 1200\n[dynamics]\nmode = \"servo\"\n\
+         [sampling]\nmode = \"synchronous\"\nsynchronous_rate_hz = 2000.0\n\
+         [truth]\ninterval_ms = 10.0\n";
+    let ideal = "[motion]\nlead_in_s = 0.1\nlead_out_s = 0.1\n\
+         [[motion.stroke]]\nto_mm = 8\nfeed_mm_min = 600\n\
+         [[motion.stroke]]\nto_mm = 0\nfeed_mm_min = 600\n[dynamics]\nmode = \"ideal\"\n";
+    vec![servo.as_bytes().to_vec(), ideal.as_bytes().to_vec()]
+}
+
+/// The twin of the `effort_glitch` target: 20 mm strokes at 600 mm/min sampled at 200 Hz,
+/// with the seed's effort glitches written in.
+fn glitch_twin() -> (feedscope::trace::Trace, AxisParams) {
+    let mut cfg = SimConfig::from_toml_str(
+        "[motion]\nlead_in_s = 0.2\nlead_out_s = 0.2\n\
+         [[motion.stroke]]\nto_mm = 20\nfeed_mm_min = 600\ndwell_s = 0.3\n\
+         [[motion.stroke]]\nto_mm = 0\nfeed_mm_min = 600\n\
+         [sampling]\nmode = \"synchronous\"\nsynchronous_rate_hz = 200.0\n",
+    )
+    .expect("the glitch twin config is valid");
+    cfg.dynamics.mode = DynamicsMode::Ideal;
+    let sim = simulate(&cfg, &mut |_| {}).expect("the glitch twin runs");
+    (sim.trace, sim.truth.axis)
+}
+
+/// The axis the `effort_glitch` target estimates with (the twin's).
+pub fn glitch_axis() -> AxisParams {
+    glitch_twin().1
+}
+
+/// Long-layout CSVs of the glitch twin: clean, and with one and three effort samples scaled by
+/// −10³ (a garbled drive reading, within the ±10⁴ A a reader accepts at all).
+pub fn effort_glitch() -> Vec<Vec<u8>> {
+    let (t, _) = glitch_twin();
+    let mut out = Vec::new();
+    for at in [&[][..], &[300][..], &[150, 151, 500][..]] {
+        let mut g = t.clone();
+        for &k in at {
+            g.effort.value[k] *= -1e3;
+        }
+        let mut b = Vec::new();
+        write_csv(&g, &mut b, Layout::Long).expect("written to memory");
+        out.push(b);
+    }
+    out
+}
+
 /// Test-set indexes of `feedscope map`.
 pub fn map_index() -> Vec<Vec<u8>> {
     vec![

@@ -219,6 +219,20 @@ pub fn all() -> Vec<Target> {
             run: run_sim,
         },
         Target {
+            name: "sim_run",
+            about: "simulator config, run (simulate, servo work bound)",
+            seeds: seeds::sim_run,
+            mutator: text,
+            run: run_sim_run,
+        },
+        Target {
+            name: "effort_glitch",
+            about: "trace CSV with effort glitches, screened and estimated (parse_trace, estimate)",
+            seeds: seeds::effort_glitch,
+            mutator: text,
+            run: run_effort_glitch,
+        },
+        Target {
             name: "map_index",
             about: "test-set index of `feedscope map` (read_index)",
             seeds: seeds::map_index,
@@ -560,6 +574,107 @@ fn run_sim(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
     };
     match parsed {
         Ok(c) => toml_finite(&c).map(|()| Verdict::Accepted),
+        Err(e) => refused(e.kind(), e.to_string()),
+    }
+}
+
+/// Largest run the `sim_run` target simulates: servo control steps, and samples of any
+/// channel. Larger accepted configs are only parsed (the `sim` target's checks).
+const SIM_RUN_MAX_STEPS: f64 = 20_000.0;
+const SIM_RUN_MAX_SAMPLES: f64 = 50_000.0;
+
+fn run_sim_run(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
+    use feedscope::sim::{
+        max_integration_steps, simulate, DynamicsMode, MotionProfile, SamplingMode,
+    };
+    let text = String::from_utf8_lossy(b);
+    let cfg = match feedscope_io::sim::config_from_toml_str_in_dir(&text, &ctx.dir) {
+        Ok(c) => c,
+        Err(e) => return refused(e.kind(), e.to_string()),
+    };
+    toml_finite(&cfg)?;
+    let path = match cfg.path() {
+        Ok(p) => p,
+        Err(e) => return refused(e.kind(), e.to_string()),
+    };
+    let duration = MotionProfile::duration_s(&path);
+    let s = &cfg.sampling;
+    let samples = match s.mode {
+        SamplingMode::Asynchronous => {
+            duration / (1e-3 * s.position.interval_ms.min(s.effort.interval_ms))
+        }
+        SamplingMode::Synchronous => duration * s.synchronous_rate_hz,
+    }
+    .max(duration / (1e-3 * cfg.truth.interval_ms));
+    let steps = match cfg.dynamics.mode {
+        DynamicsMode::Servo => duration / (1e-3 * cfg.dynamics.step_ms),
+        DynamicsMode::Ideal => 0.0,
+    };
+    if !(steps <= SIM_RUN_MAX_STEPS && samples <= SIM_RUN_MAX_SAMPLES) {
+        return Ok(Verdict::Accepted);
+    }
+    match simulate(&cfg, &mut |_| {}) {
+        Ok(out) => {
+            let bound = max_integration_steps(out.stats.control_steps);
+            if out.stats.integration_steps > bound {
+                return Err(format!(
+                    "{} RK4 steps for {} control steps, above the bound {bound}",
+                    out.stats.integration_steps, out.stats.control_steps
+                ));
+            }
+            let t = &out.trace;
+            for (name, ch) in [("position", &t.position_m), ("effort", &t.effort)] {
+                if let Some(x) = ch.time_s.iter().chain(&ch.value).find(|x| !x.is_finite()) {
+                    return Err(format!("simulated {name} channel holds {x}"));
+                }
+            }
+            Ok(Verdict::Accepted)
+        }
+        Err(e) => refused(e.kind(), e.to_string()),
+    }
+}
+
+/// An accepted trace keeps no effort beyond the glitch screen's bound, and its estimate (on
+/// the twin's axis) is finite in every column and every stroke summary: a glitch either goes
+/// or is refused, it never turns into friction of −3.4e8 N.
+fn run_effort_glitch(b: &[u8], _: &Ctx) -> Result<Verdict, Finding> {
+    use feedscope::estimate::{estimate, EstimateParams};
+    let opts = ReadOptions {
+        effort: None,
+        threads: 1,
+    };
+    let (t, report) = match parse_trace(b, "fuzz", &opts) {
+        Ok(r) => r,
+        Err(e) => return refused(e.kind(), e.to_string()),
+    };
+    check_trace(&t)?;
+    if let Some(limit) = report.effort_glitch_limit {
+        if let Some(e) = t.effort.value.iter().find(|e| e.abs() > limit) {
+            return Err(format!(
+                "effort {e} kept beyond the glitch bound {limit} ({} dropped)",
+                report.dropped_effort.len()
+            ));
+        }
+    }
+    let axis = seeds::glitch_axis();
+    match estimate(&t, &axis, &EstimateParams::default()) {
+        Ok(est) => {
+            check_strokes(&est.strokes)?;
+            for s in &est.strokes {
+                let m = &s.summary;
+                let se = m.mean_friction_se_n.unwrap_or(0.0);
+                if !(m.mean_friction_n.is_finite()
+                    && m.friction_std_n.is_finite()
+                    && se.is_finite())
+                {
+                    return Err(format!(
+                        "stroke {}: mean {} ± {se} N, std {}",
+                        m.stroke, m.mean_friction_n, m.friction_std_n
+                    ));
+                }
+            }
+            Ok(Verdict::Accepted)
+        }
         Err(e) => refused(e.kind(), e.to_string()),
     }
 }

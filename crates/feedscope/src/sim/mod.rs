@@ -49,7 +49,7 @@ pub use motion::{
     CommandedStroke, FeedChange, FeedModulation, FeedOverride, FnProfile, Kinematics, MotionLimits,
     MotionProfile, MoveKind, NcPath, RampShape, StrokeConfig, DEFAULT_JERK_MM_S3,
 };
-pub use servo::{RunStats, StateSample};
+pub use servo::{max_integration_steps, RunStats, StateSample};
 
 use serde::{Deserialize, Serialize};
 

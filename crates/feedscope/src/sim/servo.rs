@@ -208,8 +208,18 @@ impl<'r> Collector<'r> {
 const STIFF_STEPS_PER_CONTROL_STEP: u64 = 4;
 
 /// RK4 steps allowed beyond [`STIFF_STEPS_PER_CONTROL_STEP`] per control step, in all: about
-/// 6 s of integration, enough for the reversals of any real test.
+/// 6 s of integration, enough for the reversals of any real test (each needs the sub-steps
+/// for about one control step).
 const STIFF_EXTRA_STEPS: u64 = 10_000_000;
+
+/// Most RK4 steps a servo run of `control_steps` control steps may take before it is refused
+/// as too stiff ([`SimError::TooStiff`]): 4 per control step, plus
+/// min(10⁷, max(10⁵, 100 per control step)) near reversals. Its work is bounded by this
+/// times the friction terms: a short run stays short.
+pub fn max_integration_steps(control_steps: u64) -> u64 {
+    let extra = STIFF_EXTRA_STEPS.min((100 * control_steps).max(100_000));
+    STIFF_STEPS_PER_CONTROL_STEP * control_steps + extra
+}
 
 /// Servo mode: the cascaded loop described on [`DynamicsConfig`] drives the plant from
 /// t = 0 to `duration_s`; the state at each requested instant (each list sorted) is the cubic
@@ -267,6 +277,7 @@ pub(crate) fn run_servo(
     let mut step: u64 = 0;
     let n_steps = (duration_s / h).ceil() as u64;
     let report_every = (n_steps / 200).max(1);
+    let extra_steps = max_integration_steps(n_steps) - STIFF_STEPS_PER_CONTROL_STEP * n_steps;
     let mut a_prev = c0.accel_m_s2;
 
     let deriv = |x: &X, i_cmd: f64| -> X {
@@ -348,7 +359,7 @@ pub(crate) fn run_servo(
         t = t_end;
         step += 1;
         stats.control_steps += 1;
-        if stats.integration_steps > STIFF_STEPS_PER_CONTROL_STEP * step + STIFF_EXTRA_STEPS {
+        if stats.integration_steps > STIFF_STEPS_PER_CONTROL_STEP * step + extra_steps {
             return Err(SimError::TooStiff {
                 friction_bound_n: f_bound,
                 mass_kg: plant.m,
@@ -357,7 +368,7 @@ pub(crate) fn run_servo(
                 integration_steps: stats.integration_steps,
                 control_steps: stats.control_steps,
                 per_step: STIFF_STEPS_PER_CONTROL_STEP,
-                extra: STIFF_EXTRA_STEPS as f64,
+                extra: extra_steps as f64,
             });
         }
 
