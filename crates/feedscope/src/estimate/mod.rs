@@ -1397,7 +1397,7 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     if let Some(se) = sm.mean_friction_se_n {
         // Within two standard errors of zero the stroke says nothing about its friction, not
         // even its sign: the table would print it like any other mean.
-        if !(mean.abs() > MEAN_RESOLVED_SE * se) {
+        if mean.is_nan() || mean.abs() <= MEAN_RESOLVED_SE * se {
             warnings.push(Diagnostic::new(
                 "mean-not-resolved",
                 format!(
