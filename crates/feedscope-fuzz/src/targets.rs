@@ -578,15 +578,14 @@ fn run_sim(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
     }
 }
 
-/// Largest run the `sim_run` target simulates: servo control steps, and samples of any
-/// channel. Larger accepted configs are only parsed (the `sim` target's checks).
-const SIM_RUN_MAX_STEPS: f64 = 20_000.0;
+/// Largest run the `sim_run` target simulates: RK4 steps in the worst case
+/// (`integration_steps_bound`), and samples of any channel. Larger accepted configs are only
+/// parsed and bounded.
+const SIM_RUN_MAX_STEPS: f64 = 200_000.0;
 const SIM_RUN_MAX_SAMPLES: f64 = 50_000.0;
 
 fn run_sim_run(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
-    use feedscope::sim::{
-        max_integration_steps, simulate, DynamicsMode, MotionProfile, SamplingMode,
-    };
+    use feedscope::sim::{integration_steps_bound, simulate, MotionProfile, SamplingMode};
     let text = String::from_utf8_lossy(b);
     let cfg = match feedscope_io::sim::config_from_toml_str_in_dir(&text, &ctx.dir) {
         Ok(c) => c,
@@ -606,17 +605,16 @@ fn run_sim_run(b: &[u8], ctx: &Ctx) -> Result<Verdict, Finding> {
         SamplingMode::Synchronous => duration * s.synchronous_rate_hz,
     }
     .max(duration / (1e-3 * cfg.truth.interval_ms));
-    let steps = match cfg.dynamics.mode {
-        DynamicsMode::Servo => duration / (1e-3 * cfg.dynamics.step_ms),
-        DynamicsMode::Ideal => 0.0,
+    let bound = match integration_steps_bound(&cfg) {
+        Ok(b) => b,
+        Err(e) => return refused(e.kind(), e.to_string()),
     };
-    if !(steps <= SIM_RUN_MAX_STEPS && samples <= SIM_RUN_MAX_SAMPLES) {
+    if !(bound <= SIM_RUN_MAX_STEPS && samples <= SIM_RUN_MAX_SAMPLES) {
         return Ok(Verdict::Accepted);
     }
     match simulate(&cfg, &mut |_| {}) {
         Ok(out) => {
-            let bound = max_integration_steps(out.stats.control_steps);
-            if out.stats.integration_steps > bound {
+            if out.stats.integration_steps as f64 > bound {
                 return Err(format!(
                     "{} RK4 steps for {} control steps, above the bound {bound}",
                     out.stats.integration_steps, out.stats.control_steps

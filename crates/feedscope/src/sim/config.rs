@@ -600,7 +600,7 @@ impl EffortSampling {
 pub(crate) const MAX_SAMPLES: f64 = 2e7;
 /// Largest friction term (N; N/mm × 10³ for the trend, N·s/m for the viscous coefficient)
 /// the simulator accepts.
-pub const MAX_FRICTION_N: f64 = 1e6;
+pub const MAX_FRICTION_N: f64 = 1e5;
 
 /// At most this many controller steps.
 pub(crate) const MAX_STEPS: f64 = 2e10;
@@ -704,8 +704,8 @@ impl SimConfig {
         };
 
         // friction: finite, and within what a feed drive can push (a ball screw's nut is
-        // rated for about 100 kN); beyond that the servo run only grinds through stiffness
-        // sub-steps of a stuck table
+        // rated for about 100 kN, its friction a few per cent of that); beyond, the servo run
+        // only grinds through the stiffness sub-steps of a stuck table
         let f = self.friction_model();
         let fp = &f.params;
         let force = |key: &str, v: f64, limit: f64, unit: &str| {

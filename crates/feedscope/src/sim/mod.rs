@@ -49,7 +49,7 @@ pub use motion::{
     CommandedStroke, FeedChange, FeedModulation, FeedOverride, FnProfile, Kinematics, MotionLimits,
     MotionProfile, MoveKind, NcPath, RampShape, StrokeConfig, DEFAULT_JERK_MM_S3,
 };
-pub use servo::{max_integration_steps, RunStats, StateSample};
+pub use servo::{RunStats, StateSample, MAX_INTEGRATION_STEPS};
 
 use serde::{Deserialize, Serialize};
 
@@ -81,15 +81,17 @@ pub enum SimError {
     /// [`SimError::Program`]).
     #[error("simulator config: {0}")]
     Axis(AxisError),
-    /// The servo run needs far more integration steps than control steps: the friction is so
-    /// large against its sign smoothing that the plant stays stiff over long stretches (the
-    /// table sticks), and the run would take hours.
+    /// The servo run is too stiff to integrate: the friction is so large against its sign
+    /// smoothing and the equivalent mass that a control step at rest needs more than 10,000
+    /// RK4 sub-steps (no stable integration), or the run could need more than
+    /// [`MAX_INTEGRATION_STEPS`] in all (hours of work for a table that sticks).
     #[error(
         "simulator config: the friction (up to {friction_bound_n:.3e} N on an equivalent mass of \
          {mass_kg:.3e} kg) is too stiff to integrate with `friction.sign_smoothing_mm_s` = \
-         {sign_smoothing_mm_s}: by t = {time_s:.3} s the run had taken {integration_steps} RK4 \
-         steps for {control_steps} control steps (at most {per_step} per control step plus \
-         {extra:.0e} in all); lower the friction, or raise friction.sign_smoothing_mm_s"
+         {sign_smoothing_mm_s}: a control step at rest needs {sub_steps:.0} RK4 sub-steps (at \
+         most 10000) and the {control_steps} control steps up to {integration_steps:.3e} (at \
+         most 5e8, about 5 minutes); lower the friction, raise friction.sign_smoothing_mm_s, \
+         or shorten the run"
     )]
     TooStiff {
         /// Bound of |F_f| over the run (N).
@@ -98,16 +100,12 @@ pub enum SimError {
         mass_kg: f64,
         /// v_ε (mm/s).
         sign_smoothing_mm_s: f64,
-        /// Simulated time reached (s).
-        time_s: f64,
-        /// RK4 steps taken.
-        integration_steps: u64,
-        /// Control steps taken.
+        /// RK4 sub-steps of a control step at rest.
+        sub_steps: f64,
+        /// Control steps of the run.
         control_steps: u64,
-        /// Allowed RK4 steps per control step.
-        per_step: u64,
-        /// Allowed RK4 steps beyond those, in all.
-        extra: f64,
+        /// RK4 steps of the run in the worst case.
+        integration_steps: f64,
     },
     /// The config asks for more samples, steps or time than the simulator allows.
     #[error("simulator config: key `{key}` asks for {count:.3e}, more than the limit {limit:.1e}")]
@@ -216,6 +214,24 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<SimOut
     let mut out = run(cfg, &path, progress)?;
     out.truth.strokes = path.strokes().to_vec();
     Ok(out)
+}
+
+/// The most RK4 steps the servo run of `cfg` may take (every control step as stiff as at
+/// rest), 0 in ideal mode: what [`simulate`] refuses above [`MAX_INTEGRATION_STEPS`] before
+/// it starts, and what bounds its work.
+///
+/// # Errors
+/// As [`simulate`] before the run: validation and the program.
+pub fn integration_steps_bound(cfg: &SimConfig) -> Result<f64, SimError> {
+    cfg.validate_settings()?;
+    let path = cfg.path()?;
+    cfg.validate_path(&path)?;
+    if cfg.dynamics.mode == DynamicsMode::Ideal {
+        return Ok(0.0);
+    }
+    let friction = cfg.friction_model();
+    let plant = servo::Plant::new(&cfg.axis, &friction);
+    Ok(servo::WorkBound::of(&plant, &cfg.dynamics, &path).integration_steps_max())
 }
 
 /// Simulate an NC program read by [`crate::nc`] on the drive of `cfg`: the `[motion]` start,

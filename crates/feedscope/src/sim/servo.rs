@@ -201,24 +201,86 @@ impl<'r> Collector<'r> {
     }
 }
 
-/// RK4 steps allowed per control step, on average over the run, before it is refused as too
-/// stiff ([`SimError::TooStiff`]). The stiffness sub-steps are needed only within a few v_ε
-/// of a reversal, a few per cent of a test; a table that sticks between them needs up to
-/// 10 000 per step all along (a 3 kB config with absurd friction ran for minutes).
-const STIFF_STEPS_PER_CONTROL_STEP: u64 = 4;
+/// Most RK4 sub-steps per control step: beyond, h·λ of the stiff friction cannot be brought
+/// below 1 and the integration is not stable.
+const MAX_SUB_STEPS: f64 = 10_000.0;
 
-/// RK4 steps allowed beyond [`STIFF_STEPS_PER_CONTROL_STEP`] per control step, in all: about
-/// 6 s of integration, enough for the reversals of any real test (each needs the sub-steps
-/// for about one control step).
-const STIFF_EXTRA_STEPS: u64 = 10_000_000;
+/// Most RK4 steps a servo run may need in the worst case (every control step as stiff as at
+/// rest): about 5 minutes of integration.
+pub const MAX_INTEGRATION_STEPS: f64 = 5e8;
 
-/// Most RK4 steps a servo run of `control_steps` control steps may take before it is refused
-/// as too stiff ([`SimError::TooStiff`]): 4 per control step, plus
-/// min(10⁷, max(10⁵, 100 per control step)) near reversals. Its work is bounded by this
-/// times the friction terms: a short run stays short.
-pub fn max_integration_steps(control_steps: u64) -> u64 {
-    let extra = STIFF_EXTRA_STEPS.min((100 * control_steps).max(100_000));
-    STIFF_STEPS_PER_CONTROL_STEP * control_steps + extra
+/// The servo run's work, known before it starts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct WorkBound {
+    /// Bound of |F_f| over the run (N).
+    pub friction_bound_n: f64,
+    /// Control steps.
+    pub control_steps: u64,
+    /// Most RK4 sub-steps of one control step (at rest, where the smooth sign is stiffest).
+    pub sub_steps_max: f64,
+}
+
+impl WorkBound {
+    /// Of the run of `profile` on `plant` with `dyn_cfg`.
+    pub(crate) fn of(plant: &Plant, dyn_cfg: &DynamicsConfig, profile: &dyn MotionProfile) -> Self {
+        let duration_s = profile.duration_s();
+        let h = dyn_cfg.step_ms * 1e-3;
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut vmax = 0.0f64;
+        let probes = 1000;
+        for k in 0..=probes {
+            let c = profile.kinematics(duration_s * k as f64 / probes as f64);
+            lo = lo.min(c.position_m);
+            hi = hi.max(c.position_m);
+            vmax = vmax.max(c.velocity_m_s.abs());
+        }
+        let friction_bound_n = plant.friction.magnitude_bound_n(lo, hi, 2.0 * vmax + 1.0);
+        let sub_steps_max = (h
+            * (lam_base(plant, dyn_cfg)
+                + friction_bound_n / (plant.m * plant.friction.sign_smoothing_m_s())))
+        .ceil()
+        .max(1.0);
+        Self {
+            friction_bound_n,
+            // + 1: t advances by sums of h, whose rounding can leave a last sliver of a step
+            // (found by the `sim_run` fuzz target: 2001 steps for 0.2 s at 0.1 ms)
+            control_steps: (duration_s / h).ceil() as u64 + 1,
+            sub_steps_max,
+        }
+    }
+
+    /// Most RK4 steps of the whole run.
+    pub(crate) fn integration_steps_max(&self) -> f64 {
+        self.control_steps as f64 * self.sub_steps_max
+    }
+
+    /// [`SimError::TooStiff`] when the integration cannot be stable or the worst case exceeds
+    /// [`MAX_INTEGRATION_STEPS`].
+    pub(crate) fn check(&self, plant: &Plant) -> Result<(), SimError> {
+        let worst = self.integration_steps_max();
+        if self.sub_steps_max.is_finite()
+            && self.sub_steps_max <= MAX_SUB_STEPS
+            && worst <= MAX_INTEGRATION_STEPS
+        {
+            return Ok(());
+        }
+        Err(SimError::TooStiff {
+            friction_bound_n: self.friction_bound_n,
+            mass_kg: plant.m,
+            sign_smoothing_mm_s: plant.friction.sign_smoothing_m_s() * 1e3,
+            sub_steps: self.sub_steps_max,
+            control_steps: self.control_steps,
+            integration_steps: worst,
+        })
+    }
+}
+
+/// Eigenvalue magnitudes of the loop, the current lag and the viscous terms (1/s); the
+/// friction adds F_bound·sech²(v/v_ε)/(m·v_ε) near v = 0.
+fn lam_base(plant: &Plant, dyn_cfg: &DynamicsConfig) -> f64 {
+    let tau = dyn_cfg.current_time_constant_ms * 1e-3;
+    let w_v = 2.0 * std::f64::consts::PI * dyn_cfg.velocity_bandwidth_hz;
+    1.0 / tau + 2.0 * w_v + (plant.b + 1.0) / plant.m
 }
 
 /// Servo mode: the cascaded loop described on [`DynamicsConfig`] drives the plant from
@@ -246,20 +308,11 @@ pub(crate) fn run_servo(
     let k_ff = dyn_cfg.velocity_feedforward;
     let v_eps = plant.friction.sign_smoothing_m_s();
 
-    // Bound of |F_f| for the stiffness estimate near reversals.
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    let mut vmax = 0.0f64;
-    let probes = 1000;
-    for k in 0..=probes {
-        let c = profile.kinematics(duration_s * k as f64 / probes as f64);
-        lo = lo.min(c.position_m);
-        hi = hi.max(c.position_m);
-        vmax = vmax.max(c.velocity_m_s.abs());
-    }
-    let f_bound = plant.friction.magnitude_bound_n(lo, hi, 2.0 * vmax + 1.0);
-    // Eigenvalue magnitudes of the loop, the current lag and the viscous terms; the friction
-    // adds F_bound·sech²(v/v_ε)/(m·v_ε) near v = 0.
-    let lam_base = 1.0 / tau + 2.0 * w_v + (plant.b + 1.0) / plant.m;
+    // Bound of |F_f| for the stiffness estimate near reversals; the whole run's work.
+    let work = WorkBound::of(plant, dyn_cfg, profile);
+    work.check(plant)?;
+    let f_bound = work.friction_bound_n;
+    let lam_base = lam_base(plant, dyn_cfg);
 
     let mut collector = Collector::new(requests);
 
@@ -277,7 +330,6 @@ pub(crate) fn run_servo(
     let mut step: u64 = 0;
     let n_steps = (duration_s / h).ceil() as u64;
     let report_every = (n_steps / 200).max(1);
-    let extra_steps = max_integration_steps(n_steps) - STIFF_STEPS_PER_CONTROL_STEP * n_steps;
     let mut a_prev = c0.accel_m_s2;
 
     let deriv = |x: &X, i_cmd: f64| -> X {
@@ -308,7 +360,7 @@ pub(crate) fn run_servo(
             1.0 / s_eff.cosh().powi(2)
         };
         let lam = lam_base + f_bound * sech2 / (plant.m * v_eps);
-        let n_sub = (h * lam).ceil().clamp(1.0, 10_000.0) as u64;
+        let n_sub = (h * lam).ceil().clamp(1.0, MAX_SUB_STEPS) as u64;
         let t_end = (t + h).min(duration_s);
         let hs = (t_end - t) / n_sub as f64;
 
@@ -359,18 +411,6 @@ pub(crate) fn run_servo(
         t = t_end;
         step += 1;
         stats.control_steps += 1;
-        if stats.integration_steps > STIFF_STEPS_PER_CONTROL_STEP * step + extra_steps {
-            return Err(SimError::TooStiff {
-                friction_bound_n: f_bound,
-                mass_kg: plant.m,
-                sign_smoothing_mm_s: v_eps * 1e3,
-                time_s: t,
-                integration_steps: stats.integration_steps,
-                control_steps: stats.control_steps,
-                per_step: STIFF_STEPS_PER_CONTROL_STEP,
-                extra: extra_steps as f64,
-            });
-        }
 
         let cz = profile.kinematics(t).position_m;
         let err = (x.z - cz).abs();
