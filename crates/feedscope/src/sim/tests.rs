@@ -1135,7 +1135,7 @@ fn absurd_friction_is_refused_and_the_work_is_bounded() {
     match simulate(&c, &mut |_| {}) {
         Err(SimError::TooStiff {
             integration_steps, ..
-        }) => assert_eq!(integration_steps, bound),
+        }) => assert!((integration_steps - bound).abs() <= 1e-9 * bound),
         other => panic!("{:?}", other.map(|o| o.stats)),
     }
     assert!(t0.elapsed().as_secs_f64() < 1.0, "refused before the run");

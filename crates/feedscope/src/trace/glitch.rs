@@ -259,7 +259,7 @@ pub fn screen_position(position_m: &Channel, params: &GlitchParams) -> Result<Sc
     })
 }
 
-/// Median of the steps between consecutive times `t` (s) (of at most [`MEDIAN_STEPS`] of
+/// Median of the steps between consecutive times `t` (s) (of at most 2¹⁶ of
 /// them, at a fixed stride): the sampling interval a recording with gaps and bursts really
 /// has, where the mean over its span counts the gaps. NaN for fewer than two times.
 pub fn median_step(t: &[f64]) -> f64 {
