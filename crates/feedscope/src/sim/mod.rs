@@ -84,14 +84,15 @@ pub enum SimError {
     /// The servo run is too stiff to integrate: the friction is so large against its sign
     /// smoothing and the equivalent mass that a control step at rest needs more than 10,000
     /// RK4 sub-steps (no stable integration), or the run could need more than
-    /// [`MAX_INTEGRATION_STEPS`] in all (hours of work for a table that sticks).
+    /// [`MAX_INTEGRATION_STEPS`] in all and more than 16 per control step (hours of work for
+    /// a table that sticks).
     #[error(
         "simulator config: the friction (up to {friction_bound_n:.3e} N on an equivalent mass of \
          {mass_kg:.3e} kg) is too stiff to integrate with `friction.sign_smoothing_mm_s` = \
          {sign_smoothing_mm_s}: a control step at rest needs {sub_steps:.0} RK4 sub-steps (at \
          most 10000) and the {control_steps} control steps up to {integration_steps:.3e} (at \
-         most 5e8, about 5 minutes); lower the friction, raise friction.sign_smoothing_mm_s, \
-         or shorten the run"
+         most 5e8, about 5 minutes, or 16 per control step); lower the friction, raise \
+         friction.sign_smoothing_mm_s, or shorten the run"
     )]
     TooStiff {
         /// Bound of |F_f| over the run (N).
