@@ -204,9 +204,11 @@ fn glitch_twin() -> (feedscope::trace::Trace, AxisParams) {
     (sim.trace, sim.truth.axis)
 }
 
-/// The axis the `effort_glitch` target estimates with (the twin's).
-pub fn glitch_axis() -> AxisParams {
-    glitch_twin().1
+/// The axis the `effort_glitch` target estimates with (the twin's), simulated once: the
+/// target asks for it on every input.
+pub fn glitch_axis() -> &'static AxisParams {
+    static AXIS: std::sync::OnceLock<AxisParams> = std::sync::OnceLock::new();
+    AXIS.get_or_init(|| glitch_twin().1)
 }
 
 /// Long-layout CSVs of the glitch twin: clean, and with one and three effort samples scaled by

@@ -654,8 +654,7 @@ fn run_effort_glitch(b: &[u8], _: &Ctx) -> Result<Verdict, Finding> {
             ));
         }
     }
-    let axis = seeds::glitch_axis();
-    match estimate(&t, &axis, &EstimateParams::default()) {
+    match estimate(&t, seeds::glitch_axis(), &EstimateParams::default()) {
         Ok(est) => {
             check_strokes(&est.strokes)?;
             for s in &est.strokes {

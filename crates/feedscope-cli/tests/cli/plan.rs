@@ -1,7 +1,7 @@
 //! `feedscope plan`: golden G-code for both dialects and both tests, limits, printed timing.
 use std::path::Path;
 
-use crate::util::{feedscope, run, stderr, stdout};
+use crate::util::{expect_bad_input, feedscope, run, stderr, stdout};
 
 const AXIS: &str = "name = \"test Z\"\nlead_mm = 10\ntable_mass_kg = 300\n\
     inertia_kgm2 = 0.002\ndamping_nms_per_rad = 0\ntorque_constant_nm_per_a = 1.5\n\
@@ -289,4 +289,31 @@ fn triangle_warns_when_the_acquisition_cannot_identify_it() {
     assert!(json["warnings"].as_array().unwrap().is_empty(), "{json:#}");
     let o = simulate_and_identify("mode = \"synchronous\"\nsynchronous_rate_hz = 500.0");
     assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// A sampling interval that is no interval is refused naming the option, and nothing is written.
+#[test]
+fn bad_sample_interval_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    for ms in ["0", "-72", "NaN"] {
+        let opt = format!("--sample-interval-ms={ms}");
+        expect_bad_input(
+            d.path(),
+            &[
+                "plan",
+                "triangle",
+                "--from",
+                "0",
+                "--to",
+                "200",
+                "--feed-max",
+                "3000",
+                &opt,
+                "-o",
+                "t.nc",
+            ],
+            &["--sample-interval-ms", "must be > 0"],
+        );
+        assert!(!d.path().join("t.nc").exists());
+    }
 }
