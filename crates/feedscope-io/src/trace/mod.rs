@@ -81,6 +81,7 @@ mod csv;
 mod format;
 pub mod limits;
 mod parquet;
+mod parquet_pages;
 mod read;
 
 pub use csv::{write_csv, TraceChunk};

@@ -271,10 +271,9 @@ fn decode<R: ChunkReader + 'static>(
     // The footer is parsed once and shared with every row group's reader: parsing it again
     // for each of G row groups made the read O(G²) (6,000 row groups took over 20 s).
     let meta = ArrowReaderMetadata::load(&file, Default::default()).map_err(corrupt)?;
-    let builder = ParquetRecordBatchReaderBuilder::new_with_metadata(file, meta.clone());
-    let total_rows = usize::try_from(builder.metadata().file_metadata().num_rows()).unwrap_or(0);
+    let total_rows = usize::try_from(meta.metadata().file_metadata().num_rows()).unwrap_or(0);
     let mut facts = RecordingFacts::default();
-    for kv in builder
+    for kv in meta
         .metadata()
         .file_metadata()
         .key_value_metadata()
@@ -291,8 +290,13 @@ fn decode<R: ChunkReader + 'static>(
                 })?;
         }
     }
-    let schema = builder.schema().clone();
+    let schema = meta.schema().clone();
     let (plan, roots) = plan(&schema, name, opts)?;
+    check_projected_pages(meta.metadata(), &roots, name, &file)?;
+    // The footer's row count is a claim: reserve for no more rows than the file has bytes (a
+    // trace's rows take several bytes each), so a forged count cannot reserve terabytes.
+    let reserve_rows = total_rows.min(usize::try_from(file.len()).unwrap_or(usize::MAX));
+    let builder = ParquetRecordBatchReaderBuilder::new_with_metadata(file, meta.clone());
     let mask = ProjectionMask::roots(builder.parquet_schema(), roots);
     // The first data row of each row group, from the footer.
     let groups: Vec<(usize, u64)> = builder
@@ -306,7 +310,7 @@ fn decode<R: ChunkReader + 'static>(
             Some((g, first))
         })
         .collect();
-    let mut state = State::new(name, &plan, total_rows);
+    let mut state = State::new(name, &plan, reserve_rows);
     if groups.len() < 2 || rayon::current_num_threads() < 2 {
         let reader = builder
             .with_projection(mask)
@@ -396,6 +400,21 @@ fn decode<R: ChunkReader + 'static>(
         trace.facts.effort_quantum = Some(q);
     }
     Ok((trace, report))
+}
+
+/// Check the page headers of the projected root columns before any is decoded
+/// ([`super::parquet_pages`]).
+fn check_projected_pages(
+    meta: &parquet::file::metadata::ParquetMetaData,
+    roots: &[usize],
+    name: &str,
+    file: &impl ChunkReader,
+) -> Result<(), TraceError> {
+    let schema = meta.file_metadata().schema_descr();
+    let leaves: Vec<usize> = (0..schema.num_columns())
+        .filter(|&l| roots.contains(&schema.get_column_root_idx(l)))
+        .collect();
+    super::parquet_pages::check_pages(file, meta, &leaves, name)
 }
 
 /// Prefix of the key-value metadata that carry [`RecordingFacts`] (`feedscope.fact.KEY`).
@@ -1570,6 +1589,47 @@ mod tests {
         junk.extend_from_slice(b"PAR1");
         std::fs::write(&p, &junk).unwrap();
         assert!(matches!(err(&p), TraceError::Parquet { .. }));
+    }
+
+    #[test]
+    fn a_page_claiming_gigabytes_is_refused_before_it_is_decoded() {
+        // The fuzz finding: a 2 kB file whose dictionary page header of `channel` has, where
+        // its uncompressed size should be, a field of the wrong wire type. The decoder reads a
+        // field by its id whatever its type, took the 7-byte varint that follows as
+        // 1,386,564,245 bytes and reserved them before it failed. The page check reads the
+        // header as Thrift and refuses it before any page is decoded, naming where it is.
+        let bytes =
+            include_bytes!("../../../feedscope-fuzz/regressions/trace_parquet/page-claims-1.4-GB");
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("forged.parquet");
+        std::fs::write(&p, bytes).unwrap();
+        let e = err(&p).to_string();
+        let named = "row group 0, column `channel`: the page header at byte 448 is not a page \
+                     header (an unknown Thrift wire type)";
+        assert!(e.contains(named), "{e}");
+        let opts = ReadOptions::default();
+        let from_memory =
+            super::super::parse_trace_with(bytes, "forged", &opts, &GlitchParams::default());
+        assert!(from_memory.is_err_and(|e| e.to_string().contains(named)));
+    }
+
+    #[test]
+    fn a_page_claiming_more_than_its_rows_hold_is_refused_naming_it() {
+        // A well-formed header whose uncompressed size is 1.4 GB for a page of 300 doubles.
+        let d = tempfile::tempdir().unwrap();
+        let (_, bytes) = good_file(d.path(), 300);
+        let forged =
+            super::super::parquet_pages::tests::forge_first_page(&bytes.into(), 1, 1_386_564_245);
+        let p = d.path().join("forged.parquet");
+        std::fs::write(&p, &forged).unwrap();
+        let e = err(&p).to_string();
+        assert!(
+            e.contains(
+                "row group 0, column `position_m`: the page at byte 1634 claims 1386564245 \
+                        bytes uncompressed, more than the 300 rows of its row group can hold"
+            ),
+            "{e}"
+        );
     }
 
     #[test]
