@@ -1,6 +1,7 @@
 //! The `feedscope` command-line tool.
 use clap::Parser;
 mod cmd;
+mod front;
 mod output;
 mod paths;
 mod plot;

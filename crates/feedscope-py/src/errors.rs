@@ -43,7 +43,9 @@ fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
     if e.is::<BadInput>() {
         return Some(ErrorKind::BadInput);
     }
-    feedscope_store::error_kind(e).or_else(|| feedscope_io::error_kind(e))
+    feedscope_app::error::error_kind(e)
+        .or_else(|| feedscope_store::error_kind(e))
+        .or_else(|| feedscope_io::error_kind(e))
 }
 
 /// The kind of an error chain, by the rule the CLI decides its exit code with.

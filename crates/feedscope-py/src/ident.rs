@@ -1,46 +1,27 @@
 //! `feedscope.identify`: Fs, Fc, σ, vs and the inertia J from one triangular-wave test (paper
 //! 002), as `feedscope identify` (its `ident.json`).
-use feedscope::estimate::EstimateParams;
-use feedscope::ident::{fit_groups, identify as run_identify, ForceSide, IdentParams, TorqueFit};
+use feedscope::ident::IdentParams;
+use feedscope_app::identify::{identify_recordings, IdentifyOptions};
+use feedscope_app::{FrontEnd, Recording};
 use numpy::PyArray1;
 use pyo3::prelude::*;
-use serde_json::{json, Value};
+use serde_json::Value;
 
 use crate::axis::Axis;
 use crate::convert::{array, readonly_bool, to_py};
-use crate::errors::{py_err, BadInput};
+use crate::errors::py_err;
 use crate::trace::Trace;
 
-/// The parameter set of a fit as `ident.json` holds it (the CLI's `ParamSet`).
-fn param_set(f: &TorqueFit, lead_m: f64) -> serde_json::Map<String, Value> {
-    let v = json!({
-        "motor": {
-            "j_total_kgm2": f.j_total_kgm2,
-            "tc_nm": f.tc_nm,
-            "ts_nm": f.ts_nm,
-            "vs_mm_min": f.vs_mm_min,
-            "sigma_nm_s_per_m": f.sigma_nm_s_per_m,
-            "offset_nm": f.offset_nm,
-            "delta": f.delta,
-        },
-        "std_error": f.std_error,
-        "force": ForceSide::from_fit(f, lead_m),
-        "diagnostics": {
-            "residual_rms_nm": f.residual_rms_nm,
-            "condition_number": f.condition_number,
-            "iterations": f.iterations,
-            "samples_used": f.samples_used,
-            "vs_at_bound": f.vs_at_bound,
-        },
-    });
-    match v {
-        Value::Object(m) => m,
-        _ => serde_json::Map::new(),
-    }
-}
+/// Python as a front end: a field is a keyword argument.
+pub(crate) struct Keywords;
 
-fn pct(a: f64, b: f64) -> f64 {
-    100.0 * (a - b) / b
+impl FrontEnd for Keywords {
+    fn name(&self, field: &str) -> String {
+        field.to_string()
+    }
+    fn spell(&self, field: &str, value: &str) -> String {
+        format!("{field}=\"{value}\"")
+    }
 }
 
 /// The result of `identify`: the parameters on the motor side (`motor`: `j_total_kgm2`
@@ -147,95 +128,29 @@ pub fn identify(
     fit_offset: bool,
     compare: Option<&Bound<'_, Trace>>,
 ) -> PyResult<IdentifyResult> {
-    let a = &axis.inner;
-    if compare.is_some() && !a.has_dynamics() {
-        let key = if a.inertia_kgm2.is_finite() {
-            "damping_nms_per_rad"
-        } else {
-            "inertia_kgm2"
-        };
-        return Err(py_err(BadInput(format!(
-            "compare estimates the friction of the constant-speed strokes (paper 000 Eq. 5), \
-             which needs key `{key}` in the axis"
-        ))));
-    }
-    let params = IdentParams {
-        kernel_half_width_s: kernel_s,
-        min_speed_mm_min,
-        reversal_guard_s: guard_s,
-        delta,
-        vs_min_mm_min,
-        vs_max_mm_min,
-        fit_offset,
-        ..IdentParams::default()
+    let options = IdentifyOptions {
+        params: IdentParams {
+            kernel_half_width_s: kernel_s,
+            min_speed_mm_min,
+            reversal_guard_s: guard_s,
+            delta,
+            vs_min_mm_min,
+            vs_max_mm_min,
+            fit_offset,
+            ..IdentParams::default()
+        },
     };
     let t = trace.get();
-    let id = py
-        .detach(|| run_identify(&t.inner, a, &params))
-        .map_err(|e| {
-            py_err(
-                anyhow::Error::new(BadInput(e.to_string()))
-                    .context(format!("identifying from {}", t.source)),
-            )
-        })?;
-    let lead_m = a.lead_m();
-    let mut warnings: Vec<String> = t
-        .report
-        .warning()
-        .map(|w| format!("{}: {w}", t.source))
-        .into_iter()
-        .collect();
-    warnings.extend(id.warnings.iter().cloned());
-    let compare_json = match compare {
-        Some(c) => {
-            let c = c.get();
-            warnings.extend(c.report.warning().map(|w| format!("{}: {w}", c.source)));
-            let g = py
-                .detach(|| fit_groups(&c.inner, a, &params, &EstimateParams::default()))
-                .map_err(|e| {
-                    py_err(
-                        anyhow::Error::new(BadInput(e.to_string()))
-                            .context(format!("fitting the constant-speed groups of {}", c.source)),
-                    )
-                })?;
-            if g.fit.vs_at_bound {
-                warnings.push(
-                    "groups: the Stribeck velocity ended at a search bound (not resolved by \
-                     the feeds of the groups)"
-                        .to_string(),
-                );
-            }
-            let f = &id.fit;
-            let mut m = param_set(&g.fit, lead_m);
-            m.insert("source".into(), json!(c.source));
-            m.insert("groups".into(), json!(g.groups));
-            m.insert(
-                "difference_percent".into(),
-                json!({
-                    "tc": pct(f.tc_nm, g.fit.tc_nm),
-                    "ts": pct(f.ts_nm, g.fit.ts_nm),
-                    "vs": pct(f.vs_mm_min, g.fit.vs_mm_min),
-                    "sigma": pct(f.sigma_nm_s_per_m, g.fit.sigma_nm_s_per_m),
-                }),
-            );
-            Value::Object(m)
-        }
-        None => Value::Null,
-    };
-    let mut m = param_set(&id.fit, lead_m);
-    m.insert("source".into(), json!(t.source));
-    m.insert("effort".into(), json!(t.inner.effort_kind));
-    m.insert("lead_mm".into(), json!(a.lead_mm));
-    m.insert("samples_total".into(), json!(id.samples_total));
-    m.insert("kernel_half_width_s".into(), json!(id.kernel_half_width_s));
-    m.insert("reversal_guard_s".into(), json!(id.reversal_guard_s));
-    m.insert("sample_interval_s".into(), json!(id.sample_interval_s));
-    m.insert("axis_j_total_kgm2".into(), json!(id.axis_j_total_kgm2));
-    m.insert("params".into(), json!(params));
-    m.insert("warnings".into(), json!(warnings));
-    m.insert("compare".into(), compare_json);
+    let test = Recording::borrowed(&t.inner, t.source.clone(), t.report.clone());
+    let c = compare.map(|c| c.get());
+    let groups = c.map(|c| Recording::borrowed(&c.inner, c.source.clone(), c.report.clone()));
+    let done = py
+        .detach(|| identify_recordings(&test, groups.as_ref(), &axis.inner, &options, &Keywords))
+        .map_err(py_err)?;
+    let report = serde_json::to_value(&done.report).map_err(py_err)?;
+    let id = done.fit;
     Ok(IdentifyResult {
-        report: Value::Object(m),
+        report,
         time_s: array(py, id.time_s)?.unbind(),
         measured_torque_nm: array(py, id.regressors.torque_nm)?.unbind(),
         computed_torque_nm: array(py, id.computed_torque_nm)?.unbind(),

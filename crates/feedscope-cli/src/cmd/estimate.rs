@@ -74,6 +74,15 @@ pub enum EffortArg {
     Torque,
 }
 
+impl From<EffortArg> for feedscope_app::recording::Effort {
+    fn from(e: EffortArg) -> Self {
+        match e {
+            EffortArg::Current => Self::Current,
+            EffortArg::Torque => Self::Torque,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
 pub enum Format {
     /// A table for people.

@@ -2,17 +2,12 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
-use feedscope::estimate::EstimateParams;
-use feedscope::ident::{
-    fit_groups, identify, ForceSide, Group, IdentParams, Identification, TorqueFit, TorqueStdError,
-};
-use feedscope::trace::{EffortKind, GlitchParams};
-use feedscope_io::trace::{read_trace_file_with, ReadOptions};
-use serde::Serialize;
+use anyhow::Result;
+use feedscope::ident::{IdentParams, Identification};
+use feedscope_app::identify::{IdentifyOptions, IdentifyReport, IdentifyRequest};
 
 use super::estimate::{EffortArg, Format};
-use super::BadInput;
+use crate::front::Cli;
 use crate::plot;
 
 /// Identify friction and inertia from one test (paper 002): J, Tc, Ts, vs, σ.
@@ -86,97 +81,6 @@ pub struct Args {
     pub format: Format,
 }
 
-/// Motor-side parameters as written in `ident.json`.
-#[derive(Debug, Serialize)]
-struct Motor {
-    j_total_kgm2: f64,
-    tc_nm: f64,
-    ts_nm: f64,
-    vs_mm_min: f64,
-    sigma_nm_s_per_m: f64,
-    offset_nm: f64,
-    delta: f64,
-}
-
-#[derive(Debug, Serialize)]
-struct Diagnostics {
-    residual_rms_nm: f64,
-    condition_number: f64,
-    iterations: usize,
-    samples_used: usize,
-    vs_at_bound: bool,
-}
-
-#[derive(Debug, Serialize)]
-struct ParamSet {
-    motor: Motor,
-    std_error: TorqueStdError,
-    force: ForceSide,
-    diagnostics: Diagnostics,
-}
-
-impl ParamSet {
-    fn new(f: &TorqueFit, lead_m: f64) -> Self {
-        Self {
-            motor: Motor {
-                j_total_kgm2: f.j_total_kgm2,
-                tc_nm: f.tc_nm,
-                ts_nm: f.ts_nm,
-                vs_mm_min: f.vs_mm_min,
-                sigma_nm_s_per_m: f.sigma_nm_s_per_m,
-                offset_nm: f.offset_nm,
-                delta: f.delta,
-            },
-            std_error: f.std_error.clone(),
-            force: ForceSide::from_fit(f, lead_m),
-            diagnostics: Diagnostics {
-                residual_rms_nm: f.residual_rms_nm,
-                condition_number: f.condition_number,
-                iterations: f.iterations,
-                samples_used: f.samples_used,
-                vs_at_bound: f.vs_at_bound,
-            },
-        }
-    }
-}
-
-#[derive(Debug, Serialize)]
-struct Comparison {
-    source: String,
-    groups: Vec<Group>,
-    #[serde(flatten)]
-    set: ParamSet,
-    /// (one-test − groups)/groups in percent.
-    difference_percent: Difference,
-}
-
-#[derive(Debug, Serialize)]
-struct Difference {
-    tc: f64,
-    ts: f64,
-    vs: f64,
-    sigma: f64,
-}
-
-#[derive(Debug, Serialize)]
-struct Output {
-    source: String,
-    effort: EffortKind,
-    lead_mm: f64,
-    #[serde(flatten)]
-    set: ParamSet,
-    samples_total: usize,
-    kernel_half_width_s: f64,
-    reversal_guard_s: f64,
-    sample_interval_s: f64,
-    /// J_total the axis file predicts (motor + screw + table), for comparison; null when the
-    /// file gives no `inertia_kgm2`.
-    axis_j_total_kgm2: Option<f64>,
-    params: IdentParams,
-    warnings: Vec<String>,
-    compare: Option<Comparison>,
-}
-
 fn params_from(a: &Args) -> IdentParams {
     IdentParams {
         kernel_half_width_s: a.kernel_s,
@@ -188,27 +92,6 @@ fn params_from(a: &Args) -> IdentParams {
         fit_offset: !a.no_offset,
         ..IdentParams::default()
     }
-}
-
-/// Read a trace with the position screened at the axis' speed limit; a warning about dropped
-/// glitches is printed and also returned, for the output's warnings.
-fn read(
-    path: &std::path::Path,
-    effort: Option<EffortArg>,
-    axis: &feedscope::axis::AxisParams,
-) -> Result<(feedscope::trace::Trace, Option<String>)> {
-    let opts = ReadOptions {
-        effort: effort.map(|e| match e {
-            EffortArg::Current => EffortKind::CurrentA,
-            EffortArg::Torque => EffortKind::TorqueNm,
-        }),
-        threads: 0,
-    };
-    let (trace, report) = read_trace_file_with(path, &opts, &GlitchParams::for_axis(axis))
-        .map_err(|e| super::effort::name_the_flag(e, opts.effort))?;
-    let source = path.display().to_string();
-    crate::output::print_read_warnings(&source, &report);
-    Ok((trace, report.warning().map(|w| format!("{source}: {w}"))))
 }
 
 /// Measured and computed torque over time, at most ~4000 points per series.
@@ -251,11 +134,7 @@ fn svg(id: &Identification, title: &str) -> Result<String> {
     })
 }
 
-fn pct(a: f64, b: f64) -> f64 {
-    100.0 * (a - b) / b
-}
-
-fn print_text(out: &Output) -> Result<()> {
+fn print_text(out: &IdentifyReport) -> Result<()> {
     let mut w = std::io::stdout().lock();
     let m = &out.set.motor;
     let s = &out.set.std_error;
@@ -345,91 +224,29 @@ fn print_text(out: &Output) -> Result<()> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    // J and B are what the test identifies: the axis file may leave them out.
-    let axis = feedscope_io::axis::load_for_identification(&args.axis)?;
-    if args.compare.is_some() && !axis.has_dynamics() {
-        let key = if axis.inertia_kgm2.is_finite() {
-            "damping_nms_per_rad"
-        } else {
-            "inertia_kgm2"
-        };
-        return Err(BadInput(format!(
-            "{}: --compare estimates the friction of the constant-speed strokes (paper 000 \
-             Eq. 5), which needs key `{key}` in the axis file",
-            args.axis.display()
-        ))
-        .into());
-    }
-    let params = params_from(&args);
+    let request = IdentifyRequest {
+        trace: args.trace.clone(),
+        axis: args.axis.clone(),
+        compare: args.compare.clone(),
+        effort: args.effort.map(Into::into),
+        options: IdentifyOptions {
+            params: params_from(&args),
+        },
+    };
     let plot_path = (!args.no_plot).then(|| {
         args.plot
             .clone()
             .unwrap_or_else(|| args.output.with_extension("svg"))
     });
-    let (trace, read_warning) = read(&args.trace, args.effort, &axis)?;
-    let source = args.trace.display().to_string();
-    let id = identify(&trace, &axis, &params)
-        .map_err(|e| BadInput(e.to_string()))
-        .with_context(|| format!("identifying from {source}"))?;
-    let effort_kind = trace.effort_kind;
-    drop(trace);
-    let lead_m = axis.lead_m();
-    let set = ParamSet::new(&id.fit, lead_m);
-    let mut warnings: Vec<String> = read_warning.into_iter().collect();
-    warnings.extend(id.warnings.iter().cloned());
-    let compare = match &args.compare {
-        Some(path) => {
-            let (groups_trace, read_warning) = read(path, args.effort, &axis)?;
-            warnings.extend(read_warning);
-            let g = fit_groups(&groups_trace, &axis, &params, &EstimateParams::default())
-                .map_err(|e| BadInput(e.to_string()))
-                .with_context(|| {
-                    format!("fitting the constant-speed groups of {}", path.display())
-                })?;
-            if g.fit.vs_at_bound {
-                warnings.push(
-                    "groups: the Stribeck velocity ended at a search bound (not resolved by \
-                     the feeds of the groups)"
-                        .to_string(),
-                );
-            }
-            let f = &id.fit;
-            let difference_percent = Difference {
-                tc: pct(f.tc_nm, g.fit.tc_nm),
-                ts: pct(f.ts_nm, g.fit.ts_nm),
-                vs: pct(f.vs_mm_min, g.fit.vs_mm_min),
-                sigma: pct(f.sigma_nm_s_per_m, g.fit.sigma_nm_s_per_m),
-            };
-            Some(Comparison {
-                source: path.display().to_string(),
-                set: ParamSet::new(&g.fit, lead_m),
-                groups: g.groups,
-                difference_percent,
-            })
-        }
-        None => None,
-    };
-    let out = Output {
-        source: source.clone(),
-        effort: effort_kind,
-        lead_mm: axis.lead_mm,
-        set,
-        samples_total: id.samples_total,
-        kernel_half_width_s: id.kernel_half_width_s,
-        reversal_guard_s: id.reversal_guard_s,
-        sample_interval_s: id.sample_interval_s,
-        axis_j_total_kgm2: id.axis_j_total_kgm2,
-        params,
-        warnings,
-        compare,
-    };
-    let json = serde_json::to_string_pretty(&out)?;
+    let done = request.run(&Cli)?;
+    let out = &done.report;
+    let json = serde_json::to_string_pretty(out)?;
     // Render everything before writing anything.
     let svg = match &plot_path {
         Some(_) => {
-            let name = axis.name.as_deref().unwrap_or("axis");
+            let name = done.axis.name.as_deref().unwrap_or("axis");
             Some(svg(
-                &id,
+                &done.fit,
                 &format!("Measured and computed motor torque ({name})"),
             )?)
         }
@@ -442,7 +259,7 @@ pub fn run(args: Args) -> Result<()> {
     match args.format {
         Format::Json => writeln!(std::io::stdout().lock(), "{json}")?,
         Format::Text => {
-            print_text(&out)?;
+            print_text(out)?;
             eprintln!(
                 "wrote {}{}",
                 args.output.display(),

@@ -77,7 +77,9 @@ fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
     if e.is::<history::CheckFailed>() {
         return Some(ErrorKind::Internal);
     }
-    feedscope_store::error_kind(e).or_else(|| feedscope_io::error_kind(e))
+    feedscope_app::error::error_kind(e)
+        .or_else(|| feedscope_store::error_kind(e))
+        .or_else(|| feedscope_io::error_kind(e))
 }
 
 /// The kind of an error: [`ErrorKind::BadInput`] when any error of its chain is bad input (a

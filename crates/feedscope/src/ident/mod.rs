@@ -159,7 +159,11 @@ pub enum IdentError {
     Groups(#[from] EstimateError),
 }
 
-fn check_params(p: &IdentParams) -> Result<(), IdentError> {
+/// Check the settings of the identification, before any data are read.
+///
+/// # Errors
+/// [`IdentError::InvalidParam`] naming the first setting out of its range.
+pub fn check_params(p: &IdentParams) -> Result<(), IdentError> {
     let bad = |name, value, reason| {
         Err(IdentError::InvalidParam {
             name,

@@ -1,0 +1,31 @@
+//! What a use case asks of the front end that runs it: where its progress goes, and how the
+//! user spells a request field in a message.
+
+/// The front end a use case runs under.
+pub trait FrontEnd: Sync {
+    /// A named stage of the work began ("reading trace.csv", "fitting").
+    fn stage(&self, _what: &str) {}
+
+    /// Something the user should know now, while the work goes on (a reader's warning); it
+    /// is in the report too.
+    fn notice(&self, _message: &str) {}
+
+    /// How the user names a request field (`--compare` on the command line, `compare` in
+    /// Python). The default is the request's serde name in backquotes.
+    fn name(&self, field: &str) -> String {
+        format!("`{field}`")
+    }
+
+    /// How the user gives `field` the value `value` (`--effort torque` on the command line,
+    /// `effort="torque"` in Python); messages that ask for a choice use it. The default is the
+    /// request's serde form.
+    fn spell(&self, field: &str, value: &str) -> String {
+        format!("`{field}` = \"{value}\"")
+    }
+}
+
+/// A front end that shows no progress and spells fields in the request's serde form.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Quiet;
+
+impl FrontEnd for Quiet {}

@@ -1,0 +1,54 @@
+//! The use cases of feedscope as requests and reports: the layer that the command-line tool,
+//! the Python module and a server share, so that each is a thin front end.
+//!
+//! # The layers
+//! ```text
+//!   feedscope (maths: estimation, fits, identification, the twin)
+//!       ↑
+//!   feedscope-io (file formats)      feedscope-store (the condition history)
+//!       ↑                                  ↑
+//!   feedscope-app (use cases: Request → run → Report)        ← this crate
+//!       ↑
+//!   feedscope-cli (`feedscope`), feedscope-py (`import feedscope`), a server
+//! ```
+//! A use case takes a request (serde, `Default`, with `validate()` naming a bad field), runs
+//! against a [`FrontEnd`] (progress, and how the user spells a field: `--effort torque` on the
+//! command line, `effort="torque"` in Python) and returns a report that derives `Serialize`
+//! and *is* the JSON layout the front ends write or return. Errors are one type,
+//! [`AppError`], whose [`kind`](AppError::kind) a front end maps to an exit code or a status.
+//!
+//! Use cases here so far: [`identify`] (paper 002, with the comparison against
+//! constant-speed groups).
+//!
+//! # Example
+//! Identify J and the Stribeck curve from a triangular-wave test run on the twin:
+//! ```
+//! use feedscope::plan::{triangle_program, Limits, TriangleParams};
+//! use feedscope::sim::{simulate_profile, DynamicsMode, SamplingMode, SimConfig};
+//! use feedscope_app::identify::{identify_recordings, IdentifyOptions};
+//! use feedscope_app::{Quiet, Recording};
+//!
+//! let program = triangle_program(&TriangleParams::default(), &Limits::default()).unwrap();
+//! let mut twin = SimConfig::default();
+//! twin.dynamics.mode = DynamicsMode::Servo;
+//! twin.sampling.mode = SamplingMode::Synchronous;
+//! twin.sampling.synchronous_rate_hz = 500.0;
+//! twin.axis.travel_min_mm = None;
+//! twin.axis.travel_max_mm = None;
+//! let run = simulate_profile(&twin, &program, &mut |_| {}).unwrap();
+//! let test = Recording::in_memory(run.trace, "twin");
+//! let options = IdentifyOptions::default();
+//! let done = identify_recordings(&test, None, &twin.axis, &options, &Quiet).unwrap();
+//! let j = done.report.set.motor.j_total_kgm2;
+//! let truth = done.report.axis_j_total_kgm2.unwrap(); // motor + screw + table
+//! assert!((j - truth).abs() < 0.05 * truth, "J {j} against {truth}");
+//! ```
+
+pub mod error;
+pub mod front;
+pub mod identify;
+pub mod recording;
+
+pub use error::AppError;
+pub use front::{FrontEnd, Quiet};
+pub use recording::Recording;
