@@ -48,6 +48,7 @@ pub mod error;
 pub mod front;
 pub mod identify;
 pub mod recording;
+pub mod stribeck;
 
 pub use error::AppError;
 pub use front::{FrontEnd, Quiet};

@@ -2,7 +2,7 @@
 //! 002), as `feedscope identify` (its `ident.json`).
 use feedscope::ident::IdentParams;
 use feedscope_app::identify::{identify_recordings, IdentifyOptions};
-use feedscope_app::{FrontEnd, Recording};
+use feedscope_app::Recording;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use serde_json::Value;
@@ -10,19 +10,8 @@ use serde_json::Value;
 use crate::axis::Axis;
 use crate::convert::{array, readonly_bool, to_py};
 use crate::errors::py_err;
+use crate::front::Keywords;
 use crate::trace::Trace;
-
-/// Python as a front end: a field is a keyword argument.
-pub(crate) struct Keywords;
-
-impl FrontEnd for Keywords {
-    fn name(&self, field: &str) -> String {
-        field.to_string()
-    }
-    fn spell(&self, field: &str, value: &str) -> String {
-        format!("{field}=\"{value}\"")
-    }
-}
 
 /// The result of `identify`: the parameters on the motor side (`motor`: `j_total_kgm2`
 /// (kg·m²), `tc_nm`, `ts_nm` (N·m), `vs_mm_min` (mm/min), `sigma_nm_s_per_m` (N·m·s/m),

@@ -23,6 +23,7 @@ mod convert;
 mod dynamics;
 pub mod errors;
 mod estimate;
+mod front;
 mod history;
 mod ident;
 mod map;

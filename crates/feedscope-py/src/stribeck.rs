@@ -2,20 +2,18 @@
 //! 001 Eq. 15), as `feedscope fit-stribeck` (its `stribeck.json`, without `--export`).
 use std::path::PathBuf;
 
-use feedscope::estimate::Direction;
-use feedscope::stribeck::{
-    detect_nonconventional, DeltaMode, NonConventionalParams, ParamEstimate, StribeckFitParams,
-    StribeckFitter, M_S_PER_MM_MIN,
-};
-use feedscope_io::stribeck_table::{self, SpeedPoints, TableOptions};
+use feedscope::stribeck::DeltaMode;
+use feedscope_app::stribeck::{fit_table, FitStribeckOptions};
+use feedscope_io::stribeck_table;
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyFloat, PyInt, PyString};
-use serde_json::{json, Value};
+use serde_json::Value;
 
 use crate::axis::Axis;
 use crate::convert::{f64_vec, to_py};
 use crate::errors::{bad_input, py_err};
+use crate::front::Keywords;
 
 /// The Stribeck fits of a table: `directions` (one dict per direction fitted: `model`,
 /// `params` in user units — `fc_n` (N), `fs_n` (N), `vs_mm_min` (mm/min), `sigma_n_s_per_m`
@@ -95,14 +93,6 @@ fn delta_arg(obj: &Bound<'_, PyAny>) -> PyResult<DeltaMode> {
 }
 
 /// A parameter estimate in user units, as the CLI's `est`.
-fn est(e: &ParamEstimate, scale: f64) -> Value {
-    json!({
-        "value": e.value * scale,
-        "std_error": e.std_error * scale,
-        "ci95": [e.ci95_low * scale, e.ci95_high * scale],
-    })
-}
-
 /// Fit Stribeck curves F(v) = Fc + (Fs − Fc)·exp(−(|v|/vs)^δ) + σ·|v| to a steady-speed table,
 /// each direction on its own, as `feedscope fit-stribeck TABLE`.
 ///
@@ -136,26 +126,18 @@ pub fn fit_stribeck(
         Some(d) if !d.is_none() => delta_arg(d)?,
         _ => DeltaMode::Fixed(2.0),
     };
-    if let Some(s) = noise_n {
-        if !(s.is_finite() && s >= 0.0) {
-            return Err(bad_input(format!("noise_n must be >= 0, got {s}")));
-        }
-    }
-    // One lead: the axis's, or lead_mm, and they must agree when both are given (as the CLI).
-    let lead_mm = match (axis, lead_mm) {
-        (Some(a), Some(l)) if (a.inner.lead_mm - l).abs() > 1e-9 * a.inner.lead_mm.abs() => {
-            return Err(bad_input(format!(
-                "lead_mm {l} disagrees with lead_mm = {} of the axis",
-                a.inner.lead_mm
-            )))
-        }
-        (Some(a), _) => Some(a.inner.lead_mm),
-        (None, l) => l,
-    };
-    let opts = TableOptions {
+    let options = FitStribeckOptions {
         lead_mm,
         efficiency,
+        delta,
+        noise_n,
     };
+    options.validate(&Keywords).map_err(py_err)?;
+    // One lead: the axis's, or lead_mm, and they must agree when both are given (as the CLI).
+    let lead_mm = options
+        .lead_mm(axis.map(|a| (&a.inner, "the axis")), &Keywords)
+        .map_err(py_err)?;
+    let opts = options.table_options(lead_mm);
     let (tab, name) = match (table, feed_mm_min) {
         (Some(path), None) => {
             let name = path.display().to_string();
@@ -179,125 +161,11 @@ pub fn fit_stribeck(
             ))
         }
     };
-    let fit_params = StribeckFitParams {
-        delta,
-        ..StribeckFitParams::default()
-    };
-    if tab.forward.speed_m_s.is_empty() && tab.backward.speed_m_s.is_empty() {
-        return Err(bad_input(format!("{name}: no data rows")));
-    }
-    let nc_params = NonConventionalParams {
-        noise_n,
-        ..NonConventionalParams::default()
-    };
-    let directions = py.detach(|| -> Result<Vec<Value>, String> {
-        let mut out = Vec::new();
-        for (dir, pts) in [
-            (Direction::Forward, &tab.forward),
-            (Direction::Backward, &tab.backward),
-        ] {
-            if pts.speed_m_s.is_empty() {
-                continue;
-            }
-            out.push(fit_direction(dir, pts, &fit_params, &nc_params, &name)?);
-        }
-        Ok(out)
-    });
-    let directions = directions.map_err(bad_input)?;
-    let report = json!({
-        "source": name,
-        "input": tab.effort,
-        "lead_mm": lead_mm,
-        "efficiency": efficiency,
-        "delta": match delta {
-            DeltaMode::Free => "free".to_string(),
-            DeltaMode::Fixed(d) => format!("{d}"),
-        },
-        "directions": directions,
-    });
+    let done = py
+        .detach(|| fit_table(&tab, &name, lead_mm, &options, &Keywords))
+        .map_err(py_err)?;
+    let report = serde_json::to_value(&done.report).map_err(py_err)?;
     Ok(StribeckResult { report })
-}
-
-/// The fit of one direction as the CLI's `direction_fit` reports it; errors in its words.
-fn fit_direction(
-    dir: Direction,
-    pts: &SpeedPoints,
-    fit_params: &StribeckFitParams,
-    nc_params: &NonConventionalParams,
-    name: &str,
-) -> Result<Value, String> {
-    let fitter = StribeckFitter::new(&pts.speed_m_s, fit_params)
-        .map_err(|e| format!("{name}: {} direction: {e}", dir.as_str()))?;
-    if let [one] = fitter.distinct_speeds_m_s() {
-        return Err(format!(
-            "{name}: the {} direction has 1 distinct feed ({} mm/min, {} rows); a friction \
-             curve needs at least 2 (Coulomb + viscous), a Stribeck curve at least 4 (5 with \
-             --delta free): measure at more feeds",
-            dir.as_str(),
-            one / M_S_PER_MM_MIN,
-            pts.speed_m_s.len()
-        ));
-    }
-    let fit = fitter
-        .fit(&pts.friction_n)
-        .map_err(|e| format!("{name}: {} direction: {e}", dir.as_str()))?;
-    let nc = detect_nonconventional(&pts.speed_m_s, &pts.friction_n, &fit, nc_params)
-        .map_err(|e| format!("{name}: {} direction: {e}", dir.as_str()))?;
-    let mm = 1.0 / M_S_PER_MM_MIN;
-    let p = &fit.params;
-    let mut data: Vec<(f64, f64, f64)> = pts
-        .speed_m_s
-        .iter()
-        .zip(&pts.friction_n)
-        .map(|(&v, &f)| (v * mm, f, p.magnitude_n(v)))
-        .collect();
-    data.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let note = |code: &str, message: String| json!({"code": code, "message": message});
-    Ok(json!({
-        "direction": dir.as_str(),
-        "model": fit.model.code(),
-        "reductions": fit.reductions.iter().map(|r| note(r.code(), r.to_string())).collect::<Vec<_>>(),
-        "points": fit.points,
-        "feed_min_mm_min": fit.min_speed_m_s * mm,
-        "feed_max_mm_min": fit.max_speed_m_s * mm,
-        "params": {
-            "fc_n": p.fc_n,
-            "fs_n": fit.fs_n(),
-            "vs_mm_min": fit.vs_m_s().map(|v| v * mm),
-            "sigma_n_s_per_m": fit.sigma_n_s_per_m(),
-            "delta": fit.delta(),
-        },
-        "uncertainty": fit.uncertainty.as_ref().map(|u| json!({
-            "fc_n": est(&u.fc_n, 1.0),
-            "fs_n": u.fs_n.as_ref().map(|e| est(e, 1.0)),
-            "static_excess_n": u.static_excess_n.as_ref().map(|e| est(e, 1.0)),
-            "vs_mm_min": u.vs_m_s.as_ref().map(|e| est(e, mm)),
-            "sigma_n_s_per_m": u.sigma_n_s_per_m.as_ref().map(|e| est(e, 1.0)),
-            "delta": u.delta.as_ref().map(|d| est(d, 1.0)),
-        })),
-        "residual_rms_n": fit.residual_rms_n,
-        "dof": fit.dof,
-        "iterations": fit.iterations,
-        "termination": fit.termination,
-        "condition_number": fit.condition_number,
-        "warnings": fit.warnings.iter().map(|w| note(w.code(), w.to_string())).collect::<Vec<_>>(),
-        "nonconventional": {
-            "noise_n": nc.noise_n,
-            "threshold_n": nc.threshold_n,
-            "rising_above_mm_min": nc.rising_above_m_s * mm,
-            "ranges": nc.ranges.iter().map(|r| json!({
-                "from_mm_min": r.from_mm_min(),
-                "to_mm_min": r.to_mm_min(),
-                "points": r.points,
-                "drop_n": r.drop_n,
-                "fit_change_n": r.fit_change_n,
-                "excess_drop_n": r.excess_drop_n,
-            })).collect::<Vec<_>>(),
-        },
-        "data": data.iter().map(|(f, fr, fit)| json!({
-            "feed_mm_min": f, "friction_n": fr, "fitted_n": fit,
-        })).collect::<Vec<_>>(),
-    }))
 }
 
 /// The arrays as the text of a steady-speed table, every number in Rust's shortest

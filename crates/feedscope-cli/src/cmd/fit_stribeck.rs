@@ -4,18 +4,15 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use feedscope::compensation::{DriveConversion, FrictionCurve};
-use feedscope::estimate::Direction;
-use feedscope::stribeck::{
-    detect_nonconventional, DeltaMode, FitWarning, FrictionModel, NonConventional,
-    NonConventionalParams, ParamEstimate, Reduction, StribeckFit, StribeckFitParams,
-    StribeckFitter, StribeckParams, M_S_PER_MM_MIN,
+use feedscope::stribeck::{DeltaMode, FrictionModel, M_S_PER_MM_MIN};
+use feedscope_app::stribeck::{
+    Estimate, FitStribeckOptions, FitStribeckRequest, StribeckReport as Report,
 };
-use feedscope_io::stribeck_table::{self, EffortColumn, SpeedPoints, TableOptions};
-use serde::Serialize;
 
 use super::estimate::Format;
 use super::export::{ExportArgs, ExportCurves};
 use super::BadInput;
+use crate::front::Cli;
 use crate::output::OutputSet;
 use crate::plot;
 
@@ -84,201 +81,6 @@ fn parse_delta(s: &str) -> Result<DeltaMode, String> {
 
 fn bad(msg: String) -> anyhow::Error {
     BadInput(msg).into()
-}
-
-/// A parameter in user units with its uncertainty.
-#[derive(Debug, Serialize)]
-pub struct Estimate {
-    pub value: f64,
-    pub std_error: f64,
-    pub ci95: [f64; 2],
-}
-
-fn est(e: &ParamEstimate, scale: f64) -> Estimate {
-    Estimate {
-        value: e.value * scale,
-        std_error: e.std_error * scale,
-        ci95: [e.ci95_low * scale, e.ci95_high * scale],
-    }
-}
-
-/// Parameters in user units; `null` when the reported model has no such parameter.
-#[derive(Debug, Serialize)]
-pub struct Params {
-    pub fc_n: f64,
-    pub fs_n: Option<f64>,
-    pub vs_mm_min: Option<f64>,
-    pub sigma_n_s_per_m: Option<f64>,
-    pub delta: Option<f64>,
-}
-
-#[derive(Debug, Serialize)]
-pub struct Uncertainty {
-    pub fc_n: Estimate,
-    pub fs_n: Option<Estimate>,
-    pub static_excess_n: Option<Estimate>,
-    pub vs_mm_min: Option<Estimate>,
-    pub sigma_n_s_per_m: Option<Estimate>,
-    pub delta: Option<Estimate>,
-}
-
-/// A warning or a refused model in the JSON: a stable code and the text printed on stderr.
-#[derive(Debug, Serialize)]
-pub struct Note {
-    pub code: &'static str,
-    pub message: String,
-}
-
-impl From<&FitWarning> for Note {
-    fn from(w: &FitWarning) -> Self {
-        Note {
-            code: w.code(),
-            message: w.to_string(),
-        }
-    }
-}
-
-impl From<&Reduction> for Note {
-    fn from(r: &Reduction) -> Self {
-        Note {
-            code: r.code(),
-            message: r.to_string(),
-        }
-    }
-}
-
-#[derive(Debug, Serialize)]
-pub struct Range {
-    pub from_mm_min: f64,
-    pub to_mm_min: f64,
-    pub points: usize,
-    pub drop_n: f64,
-    pub fit_change_n: f64,
-    pub excess_drop_n: f64,
-}
-
-#[derive(Debug, Serialize)]
-pub struct NonConv {
-    pub noise_n: f64,
-    pub threshold_n: f64,
-    pub rising_above_mm_min: f64,
-    pub ranges: Vec<Range>,
-}
-
-#[derive(Debug, Serialize)]
-pub struct Point {
-    pub feed_mm_min: f64,
-    pub friction_n: f64,
-    pub fitted_n: f64,
-}
-
-/// One direction in stribeck.json.
-#[derive(Debug, Serialize)]
-pub struct DirectionFit {
-    pub direction: &'static str,
-    /// `stribeck`, `coulomb-viscous` or `coulomb`.
-    pub model: &'static str,
-    /// Richer models refused, in the order tried, and why.
-    pub reductions: Vec<Note>,
-    pub points: usize,
-    pub feed_min_mm_min: f64,
-    pub feed_max_mm_min: f64,
-    pub params: Params,
-    pub uncertainty: Option<Uncertainty>,
-    pub residual_rms_n: f64,
-    pub dof: usize,
-    pub iterations: usize,
-    pub termination: feedscope::stribeck::Termination,
-    pub condition_number: Option<f64>,
-    pub warnings: Vec<Note>,
-    pub nonconventional: NonConv,
-    pub data: Vec<Point>,
-    /// The reported curve (SI), for the plot.
-    #[serde(skip)]
-    pub curve: StribeckParams,
-    #[serde(skip)]
-    pub model_name: String,
-}
-
-/// stribeck.json.
-#[derive(Debug, Serialize)]
-pub struct Report {
-    pub source: String,
-    pub input: EffortColumn,
-    pub lead_mm: Option<f64>,
-    pub efficiency: f64,
-    pub delta: String,
-    pub directions: Vec<DirectionFit>,
-}
-
-fn direction_fit(
-    direction: Direction,
-    pts: &SpeedPoints,
-    fit: &StribeckFit,
-    nc: &NonConventional,
-) -> DirectionFit {
-    let mm = 1.0 / M_S_PER_MM_MIN;
-    let p = &fit.params;
-    let mut data: Vec<Point> = pts
-        .speed_m_s
-        .iter()
-        .zip(&pts.friction_n)
-        .map(|(&v, &f)| Point {
-            feed_mm_min: v * mm,
-            friction_n: f,
-            fitted_n: p.magnitude_n(v),
-        })
-        .collect();
-    data.sort_by(|a, b| a.feed_mm_min.total_cmp(&b.feed_mm_min));
-    DirectionFit {
-        direction: direction.as_str(),
-        model: fit.model.code(),
-        reductions: fit.reductions.iter().map(Note::from).collect(),
-        points: fit.points,
-        feed_min_mm_min: fit.min_speed_m_s * mm,
-        feed_max_mm_min: fit.max_speed_m_s * mm,
-        params: Params {
-            fc_n: p.fc_n,
-            fs_n: fit.fs_n(),
-            vs_mm_min: fit.vs_m_s().map(|v| v * mm),
-            sigma_n_s_per_m: fit.sigma_n_s_per_m(),
-            delta: fit.delta(),
-        },
-        uncertainty: fit.uncertainty.as_ref().map(|u| Uncertainty {
-            fc_n: est(&u.fc_n, 1.0),
-            fs_n: u.fs_n.as_ref().map(|e| est(e, 1.0)),
-            static_excess_n: u.static_excess_n.as_ref().map(|e| est(e, 1.0)),
-            vs_mm_min: u.vs_m_s.as_ref().map(|e| est(e, mm)),
-            sigma_n_s_per_m: u.sigma_n_s_per_m.as_ref().map(|e| est(e, 1.0)),
-            delta: u.delta.as_ref().map(|d| est(d, 1.0)),
-        }),
-        residual_rms_n: fit.residual_rms_n,
-        dof: fit.dof,
-        iterations: fit.iterations,
-        termination: fit.termination,
-        condition_number: fit.condition_number,
-        warnings: fit.warnings.iter().map(Note::from).collect(),
-        nonconventional: NonConv {
-            noise_n: nc.noise_n,
-            threshold_n: nc.threshold_n,
-            rising_above_mm_min: nc.rising_above_m_s * mm,
-            ranges: nc
-                .ranges
-                .iter()
-                .map(|r| Range {
-                    from_mm_min: r.from_mm_min(),
-                    to_mm_min: r.to_mm_min(),
-                    points: r.points,
-                    drop_n: r.drop_n,
-                    fit_change_n: r.fit_change_n,
-                    excess_drop_n: r.excess_drop_n,
-                })
-                .collect(),
-        },
-        data,
-        curve: *p,
-        model_name: fit.model.to_string(),
-    }
 }
 
 fn svg(report: &Report) -> Result<String> {
@@ -425,11 +227,6 @@ pub(crate) fn advice(code: &str, delta_free: bool) -> &'static str {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if let Some(s) = args.noise_n {
-        if !(s.is_finite() && s >= 0.0) {
-            return Err(bad(format!("--noise-n must be >= 0, got {s}")));
-        }
-    }
     let export = args.export.validate()?;
     if export.is_some() && args.axis.is_none() {
         return Err(bad(
@@ -439,80 +236,26 @@ pub fn run(args: Args) -> Result<()> {
                 .into(),
         ));
     }
-    let axis = args
-        .axis
-        .as_ref()
-        .map(|p| feedscope_io::axis::load(p))
-        .transpose()?;
-    // One lead: the axis file's, or --lead-mm, and they must agree when both are given.
-    let lead_mm = match (&axis, args.lead_mm) {
-        (Some(a), Some(l)) if (a.lead_mm - l).abs() > 1e-9 * a.lead_mm.abs() => {
-            return Err(bad(format!(
-                "--lead-mm {l} disagrees with lead_mm = {} of {}",
-                a.lead_mm,
-                args.axis
-                    .as_ref()
-                    .map_or(String::new(), |p| p.display().to_string())
-            )))
-        }
-        (Some(a), _) => Some(a.lead_mm),
-        (None, l) => l,
-    };
-    let table = stribeck_table::read(
-        &args.table,
-        &TableOptions {
-            lead_mm,
+    let request = FitStribeckRequest {
+        table: args.table.clone(),
+        axis: args.axis.clone(),
+        options: FitStribeckOptions {
+            lead_mm: args.lead_mm,
             efficiency: args.efficiency,
+            delta: args.delta,
+            noise_n: args.noise_n,
         },
-    )?;
-    let (input, fwd, bwd) = (table.effort, table.forward, table.backward);
-    let fit_params = StribeckFitParams {
-        delta: args.delta,
-        ..StribeckFitParams::default()
     };
-    let name = args.table.display().to_string();
-    if fwd.speed_m_s.is_empty() && bwd.speed_m_s.is_empty() {
-        return Err(bad(format!("{name}: no data rows")));
-    }
-    let nc_params = NonConventionalParams {
-        noise_n: args.noise_n,
-        ..NonConventionalParams::default()
-    };
-    let mut directions = Vec::new();
-    let mut curves = Vec::new();
-    for (dir, pts) in [(Direction::Forward, &fwd), (Direction::Backward, &bwd)] {
-        if pts.speed_m_s.is_empty() {
-            continue;
-        }
-        let fitter = StribeckFitter::new(&pts.speed_m_s, &fit_params)
-            .map_err(|e| bad(format!("{name}: {} direction: {e}", dir.as_str())))?;
-        // One feed gives a level that mixes Coulomb and viscous friction: not a friction
-        // curve (the library would report it as a Coulomb level).
-        if let [one] = fitter.distinct_speeds_m_s() {
-            return Err(bad(format!(
-                "{name}: the {} direction has 1 distinct feed ({} mm/min, {} rows); a \
-                 friction curve needs at least 2 (Coulomb + viscous), a Stribeck curve at \
-                 least 4 (5 with --delta free): measure at more feeds",
-                dir.as_str(),
-                one / M_S_PER_MM_MIN,
-                pts.speed_m_s.len()
-            )));
-        }
-        let fit = fitter
-            .fit(&pts.friction_n)
-            .map_err(|e| bad(format!("{name}: {} direction: {e}", dir.as_str())))?;
-        let nc = detect_nonconventional(&pts.speed_m_s, &pts.friction_n, &fit, &nc_params)
-            .map_err(|e| bad(format!("{name}: {} direction: {e}", dir.as_str())))?;
-        directions.push(direction_fit(dir, pts, &fit, &nc));
-        if export.is_some() {
-            curves.push(
-                FrictionCurve::from_stribeck(dir, &fit)
-                    .with_context(|| format!("{name}: --export"))?,
-            );
-        }
-    }
-    let exports = match (&export, &axis) {
+    let done = request.run(&Cli)?;
+    let name = &done.report.source;
+    let exports = match (&export, &done.axis) {
         (Some(cfg), Some(axis)) => {
+            let curves = done
+                .fits
+                .iter()
+                .map(|(dir, fit)| FrictionCurve::from_stribeck(*dir, fit))
+                .collect::<Result<Vec<_>, _>>()
+                .with_context(|| format!("{name}: --export"))?;
             let drive = DriveConversion::from_axis(axis, args.efficiency)
                 .context("--export: the axis file and --efficiency")?;
             let source = format!("feedscope fit-stribeck {name}");
@@ -532,19 +275,9 @@ pub fn run(args: Args) -> Result<()> {
         }
         _ => Vec::new(),
     };
-    let report = Report {
-        source: name,
-        input,
-        lead_mm,
-        efficiency: args.efficiency,
-        delta: match args.delta {
-            DeltaMode::Free => "free".to_string(),
-            DeltaMode::Fixed(d) => format!("{d}"),
-        },
-        directions,
-    };
-    let json = serde_json::to_string_pretty(&report)?;
-    let svg = svg(&report)?;
+    let report = &done.report;
+    let json = serde_json::to_string_pretty(report)?;
+    let svg = svg(report)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let json_path = args.out.join("stribeck.json");
@@ -560,10 +293,10 @@ pub fn run(args: Args) -> Result<()> {
     match args.format {
         Format::Json => {
             writeln!(std::io::stdout().lock(), "{json}")?;
-            print_models(&report);
+            print_models(report);
         }
         Format::Text => {
-            print_table(&report)?;
+            print_table(report)?;
             eprintln!("wrote {}, {}", json_path.display(), svg_path.display());
         }
     }
