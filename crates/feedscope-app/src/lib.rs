@@ -18,7 +18,8 @@
 //! [`AppError`], whose [`kind`](AppError::kind) a front end maps to an exit code or a status.
 //!
 //! Use cases here so far: [`identify`] (paper 002, with the comparison against
-//! constant-speed groups).
+//! constant-speed groups) and [`stribeck`] (Stribeck curves from a steady-speed table, paper
+//! 000 Eq. 9 and paper 001 Eq. 15).
 //!
 //! # Example
 //! Identify J and the Stribeck curve from a triangular-wave test run on the twin:
