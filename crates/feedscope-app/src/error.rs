@@ -57,9 +57,8 @@ impl AppError {
     /// An error of the layer below as it is: its message, its causes, and its kind as the
     /// crates below say it ([`ErrorKind::Internal`] for a type they do not know).
     pub fn from_error(error: impl std::error::Error + Send + Sync + 'static) -> Self {
-        let kind = feedscope_io::error_kind(&error)
-            .or_else(|| feedscope::error::kind_of(&error))
-            .unwrap_or(ErrorKind::Internal);
+        // `feedscope_io::error_kind` falls back to the maths crate's kinds.
+        let kind = feedscope_io::error_kind(&error).unwrap_or(ErrorKind::Internal);
         Self {
             kind,
             field: None,

@@ -22,6 +22,14 @@ pub enum Effort {
 }
 
 impl Effort {
+    /// The value that selects a channel.
+    pub fn of(kind: EffortKind) -> Self {
+        match kind {
+            EffortKind::CurrentA => Effort::Current,
+            EffortKind::TorqueNm => Effort::Torque,
+        }
+    }
+
     /// The value's name in requests (and the CLI's `--effort`).
     pub fn name(self) -> &'static str {
         match self {
@@ -109,25 +117,30 @@ pub fn read_recording(
             }
             Ok(recording)
         }
-        Err(TraceError::AmbiguousEffort { source_name }) => Err(AppError::bad_input(format!(
+        Err(e) => Err(effort_error(e, effort, front)),
+    }
+}
+
+/// A trace reader's error, restated in the words of the `effort` field that chooses the
+/// channel: a file with both channels asks for a choice, as the front end spells it; a channel
+/// asked for and absent names the field as given. Other errors pass unchanged
+/// ([`AppError::from_error`]).
+pub fn effort_error(e: TraceError, asked: Option<Effort>, front: &dyn FrontEnd) -> AppError {
+    match e {
+        TraceError::AmbiguousEffort { source_name } => AppError::bad_input(format!(
             "{source_name}: both `current_a` and `torque_nm` are present; choose one with {} \
              or {}",
             front.spell("effort", "current"),
             front.spell("effort", "torque")
         ))
-        .for_field("effort")),
-        Err(e @ TraceError::MissingChannel { .. })
-            if effort.is_some_and(|k| {
-                matches!(&e, TraceError::MissingChannel { channel, .. }
-                    if channel == k.kind().column())
-            }) =>
+        .for_field("effort"),
+        TraceError::MissingChannel { ref channel, .. }
+            if asked.is_some_and(|k| channel == k.kind().column()) =>
         {
-            let asked = effort.map_or("", Effort::name);
-            Err(
-                AppError::caused(ErrorKind::BadInput, front.spell("effort", asked), e)
-                    .for_field("effort"),
-            )
+            let value = asked.map_or("", Effort::name);
+            AppError::caused(ErrorKind::BadInput, front.spell("effort", value), e)
+                .for_field("effort")
         }
-        Err(e) => Err(AppError::from_error(e)),
+        e => AppError::from_error(e),
     }
 }

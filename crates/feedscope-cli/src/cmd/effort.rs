@@ -1,32 +1,12 @@
 //! Errors about the effort channel in the words of the `--effort` flag that chooses it.
 use feedscope::trace::EffortKind;
+use feedscope_app::recording::{effort_error, Effort};
 use feedscope_io::trace::TraceError;
 
-use super::BadInput;
-
-/// The value of `--effort` that selects `k`.
-fn flag_value(k: EffortKind) -> &'static str {
-    match k {
-        EffortKind::CurrentA => "current",
-        EffortKind::TorqueNm => "torque",
-    }
-}
-
-/// A trace reader's error, restated for a command that has `--effort`: a file with both
-/// channels names the flag and its values; a channel asked for with `--effort` and absent
-/// names the flag as given. Other errors pass unchanged.
+/// A trace reader's error, restated for a command that has `--effort`
+/// ([`feedscope_app::recording::effort_error`] with the flag's spelling).
 pub fn name_the_flag(e: TraceError, asked: Option<EffortKind>) -> anyhow::Error {
-    match (e, asked) {
-        (TraceError::AmbiguousEffort { source_name }, _) => BadInput(format!(
-            "{source_name}: both `current_a` and `torque_nm` are present; choose one with \
-             --effort current or --effort torque"
-        ))
-        .into(),
-        (e @ TraceError::MissingChannel { .. }, Some(k)) if matches!(&e, TraceError::MissingChannel { channel, .. } if channel == k.column()) => {
-            anyhow::Error::new(e).context(format!("--effort {}", flag_value(k)))
-        }
-        (e, _) => e.into(),
-    }
+    effort_error(e, asked.map(Effort::of), &crate::front::Cli).into()
 }
 
 #[cfg(test)]
