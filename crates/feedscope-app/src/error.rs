@@ -54,6 +54,16 @@ impl AppError {
         }
     }
 
+    /// `context` (what was being done), caused by `source`, whose kind it keeps as the crates
+    /// below say it ([`ErrorKind::Internal`] for a type they do not know).
+    pub fn within(
+        context: impl Into<String>,
+        source: impl std::error::Error + Send + Sync + 'static,
+    ) -> Self {
+        let kind = feedscope_io::error_kind(&source).unwrap_or(ErrorKind::Internal);
+        Self::caused(kind, context, source)
+    }
+
     /// An error of the layer below as it is: its message, its causes, and its kind as the
     /// crates below say it ([`ErrorKind::Internal`] for a type they do not know).
     pub fn from_error(error: impl std::error::Error + Send + Sync + 'static) -> Self {

@@ -6,6 +6,10 @@ pub trait FrontEnd: Sync {
     /// A named stage of the work began ("reading trace.csv", "fitting").
     fn stage(&self, _what: &str) {}
 
+    /// `done` of `total` steps of `what` ("analyse") are done; the first call of a `what`
+    /// begins its bar, `done == total` ends it.
+    fn progress(&self, _what: &str, _done: usize, _total: usize) {}
+
     /// Something the user should know now, while the work goes on (a reader's warning); it
     /// is in the report too.
     fn notice(&self, _message: &str) {}

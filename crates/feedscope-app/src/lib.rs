@@ -17,7 +17,8 @@
 //! and *is* the JSON layout the front ends write or return. Errors are one type,
 //! [`AppError`], whose [`kind`](AppError::kind) a front end maps to an exit code or a status.
 //!
-//! Use cases here so far: [`identify`] (paper 002, with the comparison against
+//! Use cases here so far: [`analyze`] (the friction profile along the travel and its
+//! fluctuation in screw orders, paper 000 Section 4.1), [`identify`] (paper 002, with the comparison against
 //! constant-speed groups) and [`stribeck`] (Stribeck curves from a steady-speed table, paper
 //! 000 Eq. 9 and paper 001 Eq. 15).
 //!
@@ -45,6 +46,7 @@
 //! assert!((j - truth).abs() < 0.05 * truth, "J {j} against {truth}");
 //! ```
 
+pub mod analyze;
 pub mod error;
 pub mod front;
 pub mod identify;

@@ -7,6 +7,8 @@ const FLAGS: &[(&str, &str)] = &[
     ("kernel_half_width_s", "--kernel-s"),
     ("reversal_guard_s", "--guard-s"),
     ("fit_offset", "--no-offset"),
+    ("breaks_mm", "--breaks"),
+    ("input", "INPUT"),
 ];
 
 /// The flag of a request field.
@@ -18,11 +20,46 @@ pub fn flag(field: &str) -> String {
         .unwrap_or_else(|| format!("--{}", field.replace('_', "-")))
 }
 
-/// The command line: notices are printed on stderr as they come, fields are spelled as flags.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Cli;
+/// The command line: notices are printed on stderr as they come, progress is a bar on stderr
+/// (hidden when stderr is not a terminal), fields are spelled as flags.
+#[derive(Debug, Default)]
+pub struct Cli {
+    /// The bar of the work under way, and what it counts.
+    bar: std::sync::Mutex<Option<(String, indicatif::ProgressBar)>>,
+}
+
+impl Cli {
+    fn clear_bar(&self) {
+        let mut bar = self.bar.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((_, pb)) = bar.take() {
+            pb.finish_and_clear();
+        }
+    }
+}
+
+impl Drop for Cli {
+    fn drop(&mut self) {
+        self.clear_bar();
+    }
+}
 
 impl FrontEnd for Cli {
+    fn progress(&self, what: &str, done: usize, total: usize) {
+        let mut bar = self.bar.lock().unwrap_or_else(|p| p.into_inner());
+        if bar.as_ref().is_some_and(|(w, _)| w != what) {
+            if let Some((_, pb)) = bar.take() {
+                pb.finish_and_clear();
+            }
+        }
+        let (_, pb) =
+            bar.get_or_insert_with(|| (what.to_string(), crate::output::bar(total as u64, what)));
+        pb.set_position(done as u64);
+        if done >= total {
+            pb.finish_and_clear();
+            *bar = None;
+        }
+    }
+
     fn notice(&self, message: &str) {
         eprintln!("warning: {message}");
     }
@@ -42,8 +79,8 @@ mod tests {
 
     #[test]
     fn fields_are_spelled_as_their_flags() {
-        assert_eq!(Cli.spell("effort", "torque"), "--effort torque");
-        assert_eq!(Cli.name("compare"), "--compare");
+        assert_eq!(Cli::default().spell("effort", "torque"), "--effort torque");
+        assert_eq!(Cli::default().name("compare"), "--compare");
         assert_eq!(flag("kernel_half_width_s"), "--kernel-s");
         assert_eq!(flag("min_speed_mm_min"), "--min-speed-mm-min");
     }

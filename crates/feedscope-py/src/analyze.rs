@@ -1,16 +1,15 @@
 //! `feedscope.analyze`: the mean friction profile (IAFV) and the fluctuation spectra in screw
 //! orders (paper 000, Section 4.1), as `feedscope analyze TRACE`.
-use feedscope::order::SegmentSpec;
-use feedscope::study::{analyze_trace, AnalyzeStudyParams, StudyError};
-use feedscope::verdict::FrictionSign;
+use feedscope_app::analyze::{analyze_recording, AnalyzeOptions};
+use feedscope_app::Recording;
 use numpy::PyArray1;
 use pyo3::prelude::*;
-use serde_json::json;
 
 use crate::axis::Axis;
 use crate::convert::{array, to_py};
-use crate::errors::{bad_input, py_err};
+use crate::errors::py_err;
 use crate::estimate::Stroke;
+use crate::front::Keywords;
 use crate::trace::Trace;
 
 /// One analysed stroke: its friction (`stroke`, a `Stroke`), the IAFV and the FFS on the same
@@ -150,124 +149,20 @@ pub fn analyze(
     segments: Option<usize>,
     segment_length_mm: Option<f64>,
 ) -> PyResult<AnalyzeResult> {
-    // The CLI's checks of its options, in its words (keywords instead of flags).
-    let mut params = AnalyzeStudyParams::default();
-    if !(1..=1_000_000).contains(&samples_per_lead) {
-        return Err(bad_input(format!(
-            "samples_per_lead = {samples_per_lead} is not in 1..=1000000"
-        )));
-    }
-    params.estimate.samples_per_lead = samples_per_lead;
-    let p = &mut params.analysis;
-    match (&breaks_mm, &orders) {
-        (Some(b), Some(o)) => {
-            if o.len() != b.len() + 1 {
-                return Err(bad_input(format!(
-                    "orders needs one order per interval: {} breakpoints make {} intervals, {} \
-                     orders given",
-                    b.len(),
-                    b.len() + 1,
-                    o.len()
-                )));
-            }
-            p.profile.breaks_mm = Some(b.clone());
-            p.profile.orders = Some(o.clone());
-        }
-        (None, Some(o)) => {
-            if o.len() != 1 {
-                return Err(bad_input("orders without breaks_mm takes one order"));
-            }
-            p.profile.breaks_mm = Some(Vec::new());
-            p.profile.orders = Some(o.clone());
-        }
-        (Some(_), None) => return Err(bad_input("breaks_mm needs orders (one per interval)")),
-        (None, None) => {}
-    }
-    if segments.is_some() && segment_length_mm.is_some() {
-        return Err(bad_input("give segments or segment_length_mm, not both"));
-    }
-    if let Some(n) = segments {
-        if n == 0 {
-            return Err(bad_input("segments must be at least 1"));
-        }
-        p.spectrum.segments = SegmentSpec::Count { count: n };
-    }
-    if let Some(l) = segment_length_mm {
-        if !(l.is_finite() && l > 0.0) {
-            return Err(bad_input("segment_length_mm must be a positive length"));
-        }
-        p.spectrum.segments = SegmentSpec::LengthMm { length_mm: l };
-    }
+    let options = AnalyzeOptions {
+        samples_per_lead,
+        breaks_mm,
+        orders,
+        segments,
+        segment_length_mm,
+    };
     let t = trace.get();
-    let a = &axis.inner;
-    let study = py
-        .detach(|| analyze_trace(&t.inner, a, &params, &|_, _| {}))
-        .map_err(|e| {
-            // The context `feedscope analyze` gives each failing step (cmd/analyze.rs).
-            py_err(match e {
-                StudyError::Stroke {
-                    stroke,
-                    direction,
-                    start_mm,
-                    end_mm,
-                    source,
-                } => anyhow::Error::new(source).context(format!(
-                    "stroke {stroke} ({direction}, {start_mm:.1} to {end_mm:.1} mm)"
-                )),
-                StudyError::SinglePolynomial { source, .. } => {
-                    anyhow::Error::new(source).context("single-polynomial fit")
-                }
-                StudyError::OrderScanTable(e) => anyhow::Error::new(e),
-                StudyError::Estimate(e) => anyhow::Error::new(e),
-                e => anyhow::Error::new(e),
-            })
-        })?;
-    let verdict = study.verdict.as_ref();
-    let mut stroke_reports = Vec::new();
-    for ((s, an), single) in study
-        .strokes
-        .iter()
-        .zip(&study.analyses)
-        .zip(&study.single_polynomials)
-    {
-        stroke_reports.push(json!({
-            "stroke": s.summary.stroke,
-            "direction": s.summary.direction,
-            "feed_mm_min": s.summary.feed_mm_min,
-            "start_mm": s.summary.start_mm,
-            "end_mm": s.summary.end_mm,
-            "max_trusted_order": s.summary.max_order,
-            "order_scan": an.order_scan,
-            "iafv": an.iafv,
-            "single_polynomial_order": an.order_scan.best_order,
-            "single_polynomial_std_n": single.residual_std_n,
-            "fluctuation": an.fluctuation,
-        }));
-    }
-    let mut report = json!({
-        "source": t.source,
-        "axis": a,
-        "params": params.analysis,
-        "order_scan_table": study.order_scan_table,
-        "strokes": stroke_reports,
-        "withheld": study.withheld,
-        "conventions": {
-            "order": "cycles per screw revolution = cycles per lead of table travel",
-            "friction_sign": match verdict.map(|v| v.friction_sign) {
-                Some(FrictionSign::FromDirection) => {
-                    "from the direction of motion (the effort is a magnitude): positive \
-                     moving forward, negative backward"
-                }
-                _ => "as paper 000 Eq. 5: positive moving forward, negative backward",
-            },
-            "amplitude": "single-sided amplitude spectrum in newtons; the window's coherent \
-                          gain is corrected (factor amplitude_correction = 2/sum(w)), so a \
-                          sinusoid of amplitude A reads A on its bin",
-        },
-    });
-    if let Some(v) = verdict {
-        report["verdict"] = json!(v);
-    }
+    let recording = Recording::borrowed(&t.inner, t.source.clone(), t.report.clone());
+    let done = py
+        .detach(|| analyze_recording(&recording, &axis.inner, &options, &Keywords))
+        .map_err(py_err)?;
+    let report = serde_json::to_value(&done.report).map_err(py_err)?;
+    let study = done.study;
     let kind = t.inner.effort_kind;
     let mut strokes = Vec::new();
     for ((s, an), r) in study

@@ -4,20 +4,14 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use feedscope::axis::AxisParams;
 use feedscope::estimate::{Direction, StrokeFriction};
-use feedscope::order::{Cause, Segment, SegmentSpec};
-use feedscope::profile::{AnalysisParams, StrokeAnalysis};
-use feedscope::study::{
-    analyze_strokes, analyze_trace, AnalyzeStudy, AnalyzeStudyParams, StudyError,
-};
-use feedscope::trace::GlitchParams;
-use feedscope::verdict::FrictionSign;
+use feedscope::order::{Cause, Segment};
+use feedscope::profile::StrokeAnalysis;
+use feedscope::study::AnalyzeStudyParams;
+use feedscope_app::analyze::{AnalyzeOptions, AnalyzeRequest, Analyzed};
 use feedscope_io::friction_csv;
-use feedscope_io::trace::{read_trace_file_with, ReadOptions};
-use serde::Serialize;
 
-use super::BadInput;
+use crate::front::Cli;
 use crate::output::OutputSet;
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
 
@@ -68,231 +62,45 @@ pub struct Args {
     pub format: super::estimate::Format,
 }
 
-/// One stroke in `analysis.json` (the per-point arrays are in friction.csv).
-#[derive(Debug, Serialize)]
-struct StrokeReport<'a> {
-    stroke: usize,
-    direction: Direction,
-    feed_mm_min: f64,
-    start_mm: f64,
-    end_mm: f64,
-    max_trusted_order: f64,
-    order_scan: &'a feedscope::profile::OrderScan,
-    iafv: &'a feedscope::profile::IafvFit,
-    single_polynomial_order: usize,
-    single_polynomial_std_n: f64,
-    fluctuation: &'a feedscope::order::FluctuationAnalysis,
-}
-
-#[derive(Debug, Serialize)]
-struct Report<'a> {
-    source: String,
-    axis: &'a AxisParams,
-    params: &'a AnalysisParams,
-    order_scan_table: feedscope::profile::OrderScanTable,
-    strokes: Vec<StrokeReport<'a>>,
-    /// Strokes left out: their data support no profile.
-    withheld: &'a [feedscope::study::WithheldStroke],
-    /// The recording's data verdict (absent when a friction CSV was read).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    verdict: Option<&'a feedscope::verdict::DataVerdict>,
-    conventions: Conventions,
-}
-
-#[derive(Debug, Serialize)]
-struct Conventions {
-    order: &'static str,
-    friction_sign: &'static str,
-    amplitude: &'static str,
-}
-
-/// Read the input (the friction CSV of `estimate`, or a trace to estimate) and analyse it: one
-/// library call, [`analyze_strokes`] or [`analyze_trace`].
-fn load_and_analyze(
-    args: &Args,
-    axis: &AxisParams,
-    params: &AnalyzeStudyParams,
-) -> Result<(AnalyzeStudy, String)> {
-    let source = args.input.display().to_string();
-    let pb = std::cell::OnceCell::new();
-    let progress = |done: usize, total: usize| {
-        pb.get_or_init(|| crate::output::bar(total as u64, "analyze"))
-            .set_position(done as u64);
-    };
-    let study = if friction_csv::is_friction_csv(&args.input)? {
-        let strokes = friction_csv::read(&args.input, axis.lead_m())?;
-        analyze_strokes(strokes, axis, params, &progress)
-    } else {
-        let (trace, report) = read_trace_file_with(
-            &args.input,
-            &ReadOptions::default(),
-            &GlitchParams::for_axis(axis),
-        )?;
-        crate::output::print_read_warnings(&source, &report);
-        analyze_trace(&trace, axis, params, &progress)
-    };
-    if let Some(pb) = pb.get() {
-        pb.finish_and_clear();
-    }
-    // The failing step's own error with the context `analyze` has always given it: the same
-    // messages and error chain (hence exit codes) as when the loop lived here.
-    let study = study.map_err(|e| match e {
-        StudyError::Stroke {
-            stroke,
-            direction,
-            start_mm,
-            end_mm,
-            source,
-        } => anyhow::Error::new(source).context(format!(
-            "stroke {stroke} ({direction}, {start_mm:.1} to {end_mm:.1} mm)"
-        )),
-        StudyError::SinglePolynomial { source, .. } => {
-            anyhow::Error::new(source).context("single-polynomial fit")
-        }
-        StudyError::OrderScanTable(e) => anyhow::Error::new(e),
-        StudyError::Estimate(e) => anyhow::Error::new(e),
-        e => anyhow::Error::new(e),
-    })?;
-    Ok((study, source))
-}
-
 pub fn run(args: Args) -> Result<()> {
-    let axis = feedscope_io::axis::load(&args.axis)?;
-    let mut study_params = AnalyzeStudyParams::default();
-    study_params.estimate.samples_per_lead = args.samples_per_lead;
-    let params = &mut study_params.analysis;
-    if let (Some(b), Some(o)) = (&args.breaks, &args.orders) {
-        if o.len() != b.len() + 1 {
-            return Err(BadInput(format!(
-                "--orders needs one order per interval: {} breakpoints make {} intervals, \
-                 {} orders given",
-                b.len(),
-                b.len() + 1,
-                o.len()
-            ))
-            .into());
-        }
-        params.profile.breaks_mm = Some(b.clone());
-        params.profile.orders = Some(o.clone());
-    } else if let Some(o) = &args.orders {
-        if o.len() != 1 {
-            return Err(BadInput("--orders without --breaks takes one order".into()).into());
-        }
-        params.profile.breaks_mm = Some(Vec::new());
-        params.profile.orders = Some(o.clone());
-    }
-    if let Some(n) = args.segments {
-        if n == 0 {
-            return Err(BadInput("--segments must be at least 1".into()).into());
-        }
-        params.spectrum.segments = SegmentSpec::Count { count: n };
-    }
-    if let Some(l) = args.segment_length_mm {
-        if !(l.is_finite() && l > 0.0) {
-            return Err(BadInput("--segment-length-mm must be a positive length".into()).into());
-        }
-        params.spectrum.segments = SegmentSpec::LengthMm { length_mm: l };
-    }
-    let (study, source) = load_and_analyze(&args, &axis, &study_params)?;
-    let params = &study_params.analysis;
-    let AnalyzeStudy {
-        strokes,
-        analyses,
-        single_polynomials: singles,
-        order_scan_table: table,
-        withheld,
-        verdict,
-    } = &study;
+    let request = AnalyzeRequest {
+        input: args.input.clone(),
+        axis: args.axis.clone(),
+        options: AnalyzeOptions {
+            samples_per_lead: args.samples_per_lead,
+            breaks_mm: args.breaks.clone(),
+            orders: args.orders.clone(),
+            segments: args.segments,
+            segment_length_mm: args.segment_length_mm,
+        },
+    };
+    let Analyzed { report, study } = request.run(&Cli::default())?;
 
     // Render everything before anything is written.
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let report = Report {
-        source,
-        axis: &axis,
-        params,
-        order_scan_table: table.clone(),
-        strokes: strokes
-            .iter()
-            .zip(analyses)
-            .zip(singles)
-            .map(|((s, a), single)| StrokeReport {
-                stroke: s.summary.stroke,
-                direction: s.summary.direction,
-                feed_mm_min: s.summary.feed_mm_min,
-                start_mm: s.summary.start_mm,
-                end_mm: s.summary.end_mm,
-                max_trusted_order: s.summary.max_order,
-                order_scan: &a.order_scan,
-                iafv: &a.iafv,
-                single_polynomial_order: a.order_scan.best_order,
-                single_polynomial_std_n: single.residual_std_n,
-                fluctuation: &a.fluctuation,
-            })
-            .collect(),
-        withheld,
-        verdict: verdict.as_ref(),
-        conventions: Conventions {
-            order: "cycles per screw revolution = cycles per lead of table travel",
-            friction_sign: match verdict.as_ref().map(|v| v.friction_sign) {
-                Some(FrictionSign::FromDirection) => {
-                    "from the direction of motion (the effort is a magnitude): positive \
-                     moving forward, negative backward"
-                }
-                _ => "as paper 000 Eq. 5: positive moving forward, negative backward",
-            },
-            amplitude: "single-sided amplitude spectrum in newtons; the window's coherent gain \
-                        is corrected (factor amplitude_correction = 2/sum(w)), so a sinusoid \
-                        of amplitude A reads A on its bin",
-        },
-    };
     let json = serde_json::to_string_pretty(&report)?;
-    let svgs = plots(strokes, analyses, singles, args.segment)?;
+    let svgs = plots(
+        &study.strokes,
+        &study.analyses,
+        &study.single_polynomials,
+        args.segment,
+    )?;
 
     // All or nothing: the files replace the previous run's together at the end.
     let mut outputs = OutputSet::new();
     let mut fcsv = outputs.create(&args.out.join("friction.csv"))?;
-    friction_csv::write_analyzed(fcsv.writer(), strokes, analyses)?;
+    friction_csv::write_analyzed(fcsv.writer(), &study.strokes, &study.analyses)?;
     outputs.add(fcsv)?;
-    let mut comp = String::from(
-        "stroke,direction,segment,start_mm,end_mm,order,amplitude_n,floor_n,cause,trusted\n",
-    );
-    for (s, a) in strokes.iter().zip(analyses) {
-        for c in &a.fluctuation.components {
-            let sp = a
-                .fluctuation
-                .spectra
-                .iter()
-                .find(|x| x.segment == c.segment);
-            let (lo, hi) = sp.map_or((f64::NAN, f64::NAN), |x| (x.start_mm, x.end_mm));
-            comp.push_str(&format!(
-                "{},{},{},{:.3},{:.3},{:.4},{:.4},{:.4},{},{}\n",
-                s.summary.stroke,
-                s.summary.direction.as_str(),
-                c.segment,
-                lo,
-                hi,
-                c.order,
-                c.amplitude_n,
-                c.floor_n,
-                c.cause,
-                c.trusted
-            ));
-        }
-    }
-    let mut scan = String::from("order,forward_std_n,backward_std_n\n");
-    for r in &table.rows {
-        let f = |v: Option<f64>| v.map(|x| format!("{x:.4}")).unwrap_or_default();
-        scan.push_str(&format!(
-            "{},{},{}\n",
-            r.order,
-            f(r.forward_std_n),
-            f(r.backward_std_n)
-        ));
-    }
     outputs.write(&args.out.join("analysis.json"), json.as_bytes())?;
-    outputs.write(&args.out.join("components.csv"), comp.as_bytes())?;
-    outputs.write(&args.out.join("order_scan.csv"), scan.as_bytes())?;
+    outputs.write(
+        &args.out.join("components.csv"),
+        report.components_csv().as_bytes(),
+    )?;
+    outputs.write(
+        &args.out.join("order_scan.csv"),
+        report.order_scan_csv().as_bytes(),
+    )?;
     for (name, svg) in &svgs {
         outputs.write(&args.out.join(name), svg.as_bytes())?;
     }
@@ -301,12 +109,12 @@ pub fn run(args: Args) -> Result<()> {
     match args.format {
         super::estimate::Format::Json => outln!("{json}"),
         super::estimate::Format::Text => {
-            print_summary(strokes, analyses, table)?;
-            if let Some(v) = verdict {
+            print_summary(&study.strokes, &study.analyses, &report.order_scan_table)?;
+            if let Some(v) = &report.verdict {
                 outln!();
                 outln!("{}", v.headline());
             }
-            for w in withheld.iter() {
+            for w in &report.withheld {
                 eprintln!(
                     "verdict: stroke {} ({}) withheld, its data support {} only: {}",
                     w.stroke,

@@ -6,7 +6,7 @@ use feedscope_io::trace::TraceError;
 /// A trace reader's error, restated for a command that has `--effort`
 /// ([`feedscope_app::recording::effort_error`] with the flag's spelling).
 pub fn name_the_flag(e: TraceError, asked: Option<EffortKind>) -> anyhow::Error {
-    effort_error(e, asked.map(Effort::of), &crate::front::Cli).into()
+    effort_error(e, asked.map(Effort::of), &crate::front::Cli::default()).into()
 }
 
 #[cfg(test)]

@@ -246,7 +246,7 @@ pub fn run(args: Args) -> Result<()> {
             noise_n: args.noise_n,
         },
     };
-    let done = request.run(&Cli)?;
+    let done = request.run(&Cli::default())?;
     let name = &done.report.source;
     let exports = match (&export, &done.axis) {
         (Some(cfg), Some(axis)) => {

@@ -238,7 +238,7 @@ pub fn run(args: Args) -> Result<()> {
             .clone()
             .unwrap_or_else(|| args.output.with_extension("svg"))
     });
-    let done = request.run(&Cli)?;
+    let done = request.run(&Cli::default())?;
     let out = &done.report;
     let json = serde_json::to_string_pretty(out)?;
     // Render everything before writing anything.
