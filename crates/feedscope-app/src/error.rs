@@ -39,6 +39,18 @@ impl AppError {
         }
     }
 
+    /// The work could not be done although the request was valid and no one input explains
+    /// it (every run of a test set failed): [`ErrorKind::Internal`], the binary's exit code 1.
+    pub fn failed(message: impl Into<String>) -> Self {
+        Self {
+            kind: ErrorKind::Internal,
+            field: None,
+            message: message.into(),
+            source: None,
+            transparent: false,
+        }
+    }
+
     /// `context` (what was being done), caused by `source`; the kind is `kind`.
     pub fn caused(
         kind: ErrorKind,

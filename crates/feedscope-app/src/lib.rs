@@ -50,6 +50,7 @@ pub mod analyze;
 pub mod error;
 pub mod front;
 pub mod identify;
+pub mod map;
 pub mod recording;
 pub mod stribeck;
 

@@ -8,6 +8,8 @@ const FLAGS: &[(&str, &str)] = &[
     ("reversal_guard_s", "--guard-s"),
     ("fit_offset", "--no-offset"),
     ("breaks_mm", "--breaks"),
+    ("positions_mm", "--positions"),
+    ("table_feeds_mm_min", "--table-feeds"),
     ("input", "INPUT"),
 ];
 

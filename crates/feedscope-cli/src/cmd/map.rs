@@ -5,23 +5,17 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use clap::ValueEnum;
-use feedscope::compensation::{DriveConversion, FrictionCurve};
-use feedscope::estimate::{Direction, EstimateParams};
-use feedscope::map::{
-    stribeck_profile, FeedScale, FrictionMap, MapParams, NonConventionalSpan, StribeckAtPosition,
-    StribeckProfile, TestSet,
-};
-use feedscope::stribeck::{FitWarning, FrictionModel, ParamEstimate, Reduction, M_S_PER_MM_MIN};
-use feedscope::study::{map_grid, map_study, MapStudy, MapStudyParams, StudyError};
-use feedscope_io::compensation::CompensationTable;
-use feedscope_io::test_set::{estimate_set, read_index};
-use feedscope_io::trace::ReadOptions;
-use serde::Serialize;
+use feedscope::estimate::Direction;
+use feedscope::map::{FeedScale, NonConventionalSpan, StribeckAtPosition, StribeckProfile};
+use feedscope::stribeck::{FrictionModel, Reduction, M_S_PER_MM_MIN};
+use feedscope::study::{map_grid, MapStudy};
+use feedscope_app::map::{ExportCurve, MapOptions, MapRequest, MapSummary};
 
 use super::estimate::Format;
-use super::export::{ExportArgs, ExportConfig, ExportCurves, ExportFile};
+use super::export::{ExportArgs, ExportCurves};
 use super::BadInput;
-use crate::output::{bar, AtomicFile, OutputSet};
+use crate::front::Cli;
+use crate::output::OutputSet;
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
 
 /// Friction map over position and feed from a test set (paper 000 Section 4.2).
@@ -79,13 +73,13 @@ pub struct Args {
     #[arg(long, value_delimiter = ',')]
     pub orders: Option<Vec<usize>>,
     /// Highest order of the feed polynomial (Eq. 8); lowered to feeds − 2 when fewer feeds.
-    #[arg(long, default_value_t = MapParams::default().feed_order)]
+    #[arg(long, default_value_t = MapOptions::default().feed_order)]
     pub feed_order: usize,
     /// Scaled feed variable of the feed polynomial.
-    #[arg(long, value_enum, default_value_t = ScaleArg::from(MapParams::default().feed_scale))]
+    #[arg(long, value_enum, default_value_t = ScaleArg::from(MapOptions::default().feed_scale))]
     pub feed_scale: ScaleArg,
     /// Position step of the map grid, the compensation table and the Stribeck profile (mm).
-    #[arg(long, default_value_t = MapStudyParams::default().position_step_mm)]
+    #[arg(long, default_value_t = MapOptions::default().position_step_mm)]
     pub position_step_mm: f64,
     /// Feeds of the compensation table (mm/min) [default: the measured feeds].
     #[arg(long, value_delimiter = ',')]
@@ -94,7 +88,7 @@ pub struct Args {
     #[arg(long)]
     pub extrapolate: bool,
     /// Trimmed from both ends of the strokes' common span (mm).
-    #[arg(long, default_value_t = MapParams::default().margin_mm)]
+    #[arg(long, default_value_t = MapOptions::default().margin_mm)]
     pub margin_mm: f64,
     /// Feed whose repeats are plotted with their mean (mm/min) [default: the slowest].
     #[arg(long)]
@@ -103,7 +97,7 @@ pub struct Args {
     #[arg(long)]
     pub strict: bool,
     /// Resampling points per lead when estimating.
-    #[arg(long, default_value_t = EstimateParams::default().samples_per_lead)]
+    #[arg(long, default_value_t = MapOptions::default().samples_per_lead)]
     pub samples_per_lead: u32,
     /// What to print on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
@@ -151,166 +145,84 @@ impl From<FeedScale> for ScaleArg {
     }
 }
 
-/// Validated settings (before any I/O).
-struct Config {
-    params: MapStudyParams,
-    export: Option<ExportConfig>,
-}
-
-fn validate(args: &Args) -> Result<Config> {
-    let bad = |m: String| -> anyhow::Error { BadInput(m).into() };
-    if let Some(p) = &args.positions {
-        if let Some(x) = p.iter().find(|x| !x.is_finite()) {
-            return Err(bad(format!("--positions: {x} is not a finite position")));
-        }
-    }
-    if !(args.position_step_mm.is_finite() && args.position_step_mm > 0.0) {
-        return Err(bad(format!(
-            "--position-step-mm {} must be positive",
-            args.position_step_mm
-        )));
-    }
-    if let Some(f) = &args.table_feeds {
-        if let Some(x) = f.iter().find(|x| !(x.is_finite() && **x > 0.0)) {
-            return Err(bad(format!("--table-feeds: {x} is not a positive feed")));
-        }
-    }
-    if args.samples_per_lead < 16 {
-        return Err(bad("--samples-per-lead must be at least 16".into()));
-    }
-    let export = args.export.validate()?;
-    if export.is_none() {
-        if args.export_position_mm.is_some() {
-            return Err(bad("--export-position-mm is used only with --export".into()));
-        }
-        if args.export_curve != ExportCurveArg::Stribeck {
-            return Err(bad("--export-curve is used only with --export".into()));
-        }
-    }
-    if let Some(z) = args.export_position_mm.filter(|z| !z.is_finite()) {
-        return Err(bad(format!(
-            "--export-position-mm: {z} is not a finite position"
-        )));
-    }
-    let params = MapParams {
-        breaks_mm: args.breaks.clone(),
-        orders: args.orders.clone(),
-        margin_mm: args.margin_mm,
-        feed_order: args.feed_order,
-        feed_scale: match args.feed_scale {
+impl From<ScaleArg> for FeedScale {
+    fn from(s: ScaleArg) -> Self {
+        match s {
             ScaleArg::Log => FeedScale::Log,
             ScaleArg::Linear => FeedScale::Linear,
-        },
-        ..MapParams::default()
-    };
-    if let Some(o) = &args.orders {
-        let n = args.breaks.as_ref().map_or(0, Vec::len) + 1;
-        if o.len() != n {
-            return Err(bad(format!(
-                "--orders has {} values; {n} intervals need {n}",
-                o.len()
-            )));
         }
     }
-    params.validate().map_err(|e| bad(e.to_string()))?;
-    Ok(Config {
-        params: MapStudyParams {
-            map: params,
-            positions_mm: args.positions.clone(),
-            position_step_mm: args.position_step_mm,
-            table_feeds_mm_min: args.table_feeds.clone(),
-            extrapolate: args.extrapolate,
-            ..MapStudyParams::default()
-        },
-        export,
-    })
+}
+
+impl From<ExportCurveArg> for ExportCurve {
+    fn from(c: ExportCurveArg) -> Self {
+        match c {
+            ExportCurveArg::Stribeck => ExportCurve::Stribeck,
+            ExportCurveArg::Map => ExportCurve::Map,
+        }
+    }
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let cfg = validate(&args)?;
-    let axis = feedscope_io::axis::load(&args.axis)?;
-    // A position outside the declared travel is wrong whatever the data say.
-    if let (Some(lo), Some(hi)) = (axis.travel_min_mm, axis.travel_max_mm) {
-        let outside = |flag: &str, xs: &[f64]| match xs.iter().find(|&&x| x < lo || x > hi) {
-            Some(x) => Err(BadInput(format!(
-                "{flag}: {x} mm is outside the axis travel [{lo}, {hi}] mm"
-            ))),
-            None => Ok(()),
-        };
-        outside("--positions", args.positions.as_deref().unwrap_or(&[]))?;
-        outside("--export-position-mm", args.export_position_mm.as_slice())?;
-    }
-    let set = read_index(&args.index).map_err(|e| BadInput(e.to_string()))?;
-    let est_params = EstimateParams {
-        samples_per_lead: args.samples_per_lead,
-        ..EstimateParams::default()
-    };
-    let pb = bar(set.runs.len() as u64, "estimate");
-    let est = estimate_set(
-        &set,
-        &axis,
-        &est_params,
-        &ReadOptions::default(),
-        cfg.params.map.stroke_feed_tolerance,
-        &|_| pb.inc(1),
-    );
-    pb.finish_and_clear();
-    for w in &est.read_warnings {
-        eprintln!("warning: run {}: {}", w.run, w.message);
-    }
-    for f in &est.failed {
-        eprintln!("run {} failed: {}", f.run.name, f.error);
-    }
-    if est.ok.is_empty() {
-        return Err(anyhow!(
-            "all {} runs of {} failed; nothing to map",
-            set.runs.len(),
-            set.source_name
-        ));
-    }
-    // Everything is computed before the first file is written: a refusal leaves nothing behind.
-    let study = map_study(&est.ok, axis.lead_m(), &cfg.params).map_err(|e| match e {
-        StudyError::Position(e) => anyhow::Error::new(e).context("--positions"),
-        StudyError::TableFeed(e) => {
-            anyhow::Error::new(e).context("--table-feeds, without --extrapolate")
+    let export = args.export.validate()?;
+    if export.is_none() {
+        if args.export_position_mm.is_some() {
+            return Err(BadInput("--export-position-mm is used only with --export".into()).into());
         }
-        e => anyhow::Error::new(e).context(set.source_name.clone()),
-    })?;
-    let (map, at_positions, profiles, spans) = (
-        &study.map,
-        &study.at_positions,
-        &study.profiles,
-        &study.nonconventional,
-    );
-    let exports = match &cfg.export {
-        Some(e) => export_files(e, &args, &axis, &study, &cfg.params.map, &set.source_name)?,
+        if args.export_curve != ExportCurveArg::Stribeck {
+            return Err(BadInput("--export-curve is used only with --export".into()).into());
+        }
+    }
+    let request = MapRequest {
+        index: args.index.clone(),
+        axis: args.axis.clone(),
+        options: MapOptions {
+            positions_mm: args.positions.clone(),
+            breaks_mm: args.breaks.clone(),
+            orders: args.orders.clone(),
+            feed_order: args.feed_order,
+            feed_scale: args.feed_scale.into(),
+            position_step_mm: args.position_step_mm,
+            table_feeds_mm_min: args.table_feeds.clone(),
+            extrapolate: args.extrapolate,
+            margin_mm: args.margin_mm,
+            samples_per_lead: args.samples_per_lead,
+        },
+    };
+    let front = Cli::default();
+    let mapped = request.run(&front)?;
+    let est = &mapped.estimate;
+    // Everything is computed before the first file is written: a refusal leaves nothing behind.
+    let exports = match &export {
+        Some(cfg) => {
+            let at = mapped.export_at(args.export_position_mm, args.export_curve.into(), &front)?;
+            super::export::build(
+                cfg,
+                &ExportCurves {
+                    table: &at.table,
+                    stribeck: &at.stribeck,
+                },
+                &mapped.axis,
+                at.drive,
+                &feedscope_io::controller_compensation::ExportSource {
+                    source: &at.source,
+                    axis_name: mapped.axis.name.as_deref(),
+                },
+            )?
+        }
         None => Vec::new(),
     };
+    let files = mapped.files()?;
 
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let out = &args.out;
     // All or nothing: the files replace the previous run's together at the end.
     let mut outputs = OutputSet::new();
-    outputs.write(
-        &out.join("stribeck.json"),
-        serde_json::to_string_pretty(&stribeck_report(at_positions, spans))?.as_bytes(),
-    )?;
-    write_profile_csv(&mut outputs, &out.join("stribeck_profile.csv"), profiles)?;
-    write_compensation(&mut outputs, out, &study, args.extrapolate)?;
-    write_ppocm_csv(&mut outputs, &out.join("ppocm.csv"), map)?;
-    write_repeatability_csv(&mut outputs, &out.join("repeatability.csv"), map)?;
-    write_runs_csv(&mut outputs, &out.join("runs.csv"), &est)?;
-    let summary = map_summary(&set, &est, map, spans);
-    outputs.write(
-        &out.join("map.json"),
-        serde_json::to_string_pretty(&MapJson {
-            summary: &summary,
-            map,
-        })?
-        .as_bytes(),
-    )?;
-    write_plots(&mut outputs, out, &study, &args)?;
+    for (name, text) in &files {
+        outputs.write(&out.join(name), text.as_bytes())?;
+    }
+    write_plots(&mut outputs, out, &mapped.study, &args)?;
     for f in &exports {
         outputs.write(&out.join(f.name), &f.bytes)?;
     }
@@ -319,104 +231,24 @@ pub fn run(args: Args) -> Result<()> {
         eprintln!("wrote {}: {}", out.join(f.name).display(), f.summary);
     }
 
+    let (at_positions, spans) = (&mapped.study.at_positions, &mapped.study.nonconventional);
     print_models(at_positions);
+    let summary = &mapped.report.summary;
     let stdout = std::io::stdout();
     let mut w = stdout.lock();
     match args.format {
-        Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&summary)?)?,
-        Format::Text => w.write_all(text_report(&summary, at_positions, spans).as_bytes())?,
+        Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(summary)?)?,
+        Format::Text => w.write_all(text_report(summary, at_positions, spans).as_bytes())?,
     }
     w.flush()?;
     if args.strict && !est.failed.is_empty() {
         return Err(anyhow!(
             "{} of {} runs failed (--strict)",
             est.failed.len(),
-            set.runs.len()
+            summary.runs
         ));
     }
     Ok(())
-}
-
-/// The `--export` files of the map at `--export-position-mm` (default: the middle of the span
-/// both directions share): per direction the Stribeck fit there (Eq. 9, also what the
-/// SINUMERIK values need) and, with `--export-curve map`, the map's section for the tables.
-fn export_files(
-    cfg: &ExportConfig,
-    args: &Args,
-    axis: &feedscope::axis::AxisParams,
-    study: &MapStudy,
-    params: &MapParams,
-    index: &str,
-) -> Result<Vec<ExportFile>> {
-    let dirs = &study.map.directions;
-    let lo = dirs
-        .iter()
-        .map(|d| d.start_mm)
-        .fold(f64::NEG_INFINITY, f64::max);
-    let hi = dirs.iter().map(|d| d.end_mm).fold(f64::INFINITY, f64::min);
-    let z = match args.export_position_mm {
-        Some(z) => z,
-        None if hi >= lo => 0.5 * (lo + hi),
-        None => {
-            return Err(BadInput(format!(
-                "--export: the directions' mapped spans do not overlap ({}); give \
-                 --export-position-mm",
-                dirs.iter()
-                    .map(|d| format!(
-                        "{} {:.3}-{:.3} mm",
-                        dir_name(d.direction),
-                        d.start_mm,
-                        d.end_mm
-                    ))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ))
-            .into())
-        }
-    };
-    let mut table = Vec::new();
-    let mut stribeck = Vec::new();
-    for d in dirs {
-        let profile = stribeck_profile(d, &[z], params).context("--export-position-mm")?;
-        let at = &profile.positions[0];
-        let fit = at.fit.as_ref().ok_or_else(|| {
-            BadInput(format!(
-                "--export: the {} Stribeck fit at {z:.3} mm failed: {}",
-                dir_name(d.direction),
-                at.error.clone().unwrap_or_default()
-            ))
-        })?;
-        let s = FrictionCurve::from_stribeck(d.direction, fit)
-            .with_context(|| format!("--export: the {} fit at {z:.3} mm", dir_name(d.direction)))?;
-        table.push(match args.export_curve {
-            ExportCurveArg::Stribeck => s.clone(),
-            ExportCurveArg::Map => {
-                FrictionCurve::from_map_section(d, z).context("--export-position-mm")?
-            }
-        });
-        stribeck.push(s);
-    }
-    let drive = DriveConversion::from_axis(axis, 1.0).context("--export: the axis file")?;
-    let source = format!(
-        "feedscope map {index} at {z:.3} mm, {}",
-        match args.export_curve {
-            ExportCurveArg::Stribeck => "Stribeck fit at the position",
-            ExportCurveArg::Map => "map section at the position",
-        }
-    );
-    super::export::build(
-        cfg,
-        &ExportCurves {
-            table: &table,
-            stribeck: &stribeck,
-        },
-        axis,
-        drive,
-        &feedscope_io::controller_compensation::ExportSource {
-            source: &source,
-            axis_name: axis.name.as_deref(),
-        },
-    )
 }
 
 /// On stderr, per direction: the model at the chosen positions (once when it is the same
@@ -473,427 +305,7 @@ fn dir_name(d: Direction) -> &'static str {
     }
 }
 
-// ---------- stribeck.json ----------
-
-#[derive(Serialize)]
-struct Est {
-    value: f64,
-    std_error: Option<f64>,
-    ci95_low: Option<f64>,
-    ci95_high: Option<f64>,
-}
-
-fn est(value: f64, u: Option<&ParamEstimate>, scale: f64) -> Est {
-    Est {
-        value: value * scale,
-        std_error: u.map(|u| u.std_error * scale),
-        ci95_low: u.map(|u| u.ci95_low * scale),
-        ci95_high: u.map(|u| u.ci95_high * scale),
-    }
-}
-
-#[derive(Serialize)]
-struct Fall {
-    from_mm_min: f64,
-    to_mm_min: f64,
-    drop_n: f64,
-    excess_drop_n: f64,
-}
-
-/// A warning or a refused model in the JSON: a stable code and the text printed on stderr.
-#[derive(Serialize)]
-struct Note {
-    code: &'static str,
-    message: String,
-}
-
-fn warning_note(w: &FitWarning) -> Note {
-    Note {
-        code: w.code(),
-        message: w.to_string(),
-    }
-}
-
-fn reduction_note(r: &Reduction) -> Note {
-    Note {
-        code: r.code(),
-        message: r.to_string(),
-    }
-}
-
-#[derive(Serialize)]
-struct PositionFit {
-    position_mm: f64,
-    /// `stribeck`, `coulomb-viscous` or `coulomb`; `null` when the fit failed.
-    model: Option<&'static str>,
-    /// Richer models refused, in the order tried, and why.
-    reductions: Vec<Note>,
-    fc_n: Option<Est>,
-    fs_n: Option<Est>,
-    static_excess_n: Option<Est>,
-    vs_mm_min: Option<Est>,
-    sigma_n_s_per_m: Option<Est>,
-    residual_rms_n: Option<f64>,
-    friction_n: Vec<f64>,
-    warnings: Vec<Note>,
-    nonconventional: Vec<Fall>,
-    error: Option<String>,
-}
-
-fn position_fit(p: &StribeckAtPosition) -> PositionFit {
-    let f = p.fit.as_ref();
-    let u = f.and_then(|f| f.uncertainty.as_ref());
-    let mm = 1.0 / M_S_PER_MM_MIN;
-    // Parameters the reported model does not have are null.
-    let hump = f.filter(|f| f.model == FrictionModel::Stribeck);
-    let viscous = f.filter(|f| f.model != FrictionModel::Coulomb);
-    PositionFit {
-        position_mm: p.position_mm,
-        model: f.map(|f| f.model.code()),
-        reductions: f
-            .map(|f| f.reductions.iter().map(reduction_note).collect())
-            .unwrap_or_default(),
-        fc_n: f.map(|f| est(f.params.fc_n, u.map(|u| &u.fc_n), 1.0)),
-        fs_n: hump.map(|f| est(f.params.fs_n, u.and_then(|u| u.fs_n.as_ref()), 1.0)),
-        static_excess_n: hump.map(|f| {
-            est(
-                f.params.static_excess_n(),
-                u.and_then(|u| u.static_excess_n.as_ref()),
-                1.0,
-            )
-        }),
-        vs_mm_min: hump.map(|f| est(f.params.vs_m_s, u.and_then(|u| u.vs_m_s.as_ref()), mm)),
-        sigma_n_s_per_m: viscous.map(|f| {
-            est(
-                f.params.sigma_n_s_per_m,
-                u.and_then(|u| u.sigma_n_s_per_m.as_ref()),
-                1.0,
-            )
-        }),
-        residual_rms_n: f.map(|f| f.residual_rms_n),
-        friction_n: p.friction_n.clone(),
-        warnings: f
-            .map(|f| f.warnings.iter().map(warning_note).collect())
-            .unwrap_or_default(),
-        nonconventional: p
-            .nonconventional
-            .iter()
-            .flat_map(|n| &n.ranges)
-            .map(|r| Fall {
-                from_mm_min: r.from_mm_min(),
-                to_mm_min: r.to_mm_min(),
-                drop_n: r.drop_n,
-                excess_drop_n: r.excess_drop_n,
-            })
-            .collect(),
-        error: p.error.clone(),
-    }
-}
-
-#[derive(Serialize)]
-struct DirectionStribeck {
-    direction: Direction,
-    feeds_mm_min: Vec<f64>,
-    positions: Vec<PositionFit>,
-}
-
-#[derive(Serialize)]
-struct StribeckReport<'a> {
-    model: &'static str,
-    conventions: &'static str,
-    directions: Vec<DirectionStribeck>,
-    nonconventional_spans: &'a [NonConventionalSpan],
-}
-
-fn stribeck_report<'a>(
-    at: &[StribeckProfile],
-    spans: &'a [NonConventionalSpan],
-) -> StribeckReport<'a> {
-    StribeckReport {
-        model: "F(v) = Fc + (Fs - Fc)*exp(-(v/vs)^2) + sigma*v on friction magnitudes (paper 000 Eq. 9); \
-                where the feeds do not determine it, the Coulomb + viscous line F = Fc + sigma*v \
-                (positions[].model, the reasons in positions[].reductions)",
-        conventions: "data points: |PPOCM(z)| of every measured feed at the position; forces in N, \
-                      feeds and vs in mm/min, sigma in N*s/m; std_error and 95 % intervals null \
-                      when the fit has no residual degrees of freedom; parameters the reported \
-                      model does not have are null",
-        directions: at
-            .iter()
-            .map(|p| DirectionStribeck {
-                direction: p.direction,
-                feeds_mm_min: p.feeds_mm_min.clone(),
-                positions: p.positions.iter().map(position_fit).collect(),
-            })
-            .collect(),
-        nonconventional_spans: spans,
-    }
-}
-
-// ---------- CSV tables ----------
-
-fn csv_file(path: &Path) -> Result<AtomicFile> {
-    AtomicFile::create(path)
-}
-
-fn opt(x: Option<f64>) -> String {
-    x.map_or_else(String::new, |v| format!("{v:.6}"))
-}
-
-fn write_profile_csv(set: &mut OutputSet, path: &Path, profiles: &[StribeckProfile]) -> Result<()> {
-    let mut f = csv_file(path)?;
-    let w = f.writer();
-    writeln!(w, "# Stribeck fit (paper 000 Eq. 9, delta = 2) at every map grid position; forces in N, vs in mm/min, sigma in N*s/m; *_se = standard error")?;
-    writeln!(w, "# model: stribeck, or coulomb-viscous (F = Fc + sigma*v; fs, vs empty) where the feeds do not determine a Stribeck curve (reasons in stribeck.json)")?;
-    writeln!(w, "direction,position_mm,model,fc_n,fc_se_n,fs_n,fs_se_n,static_excess_n,static_excess_se_n,vs_mm_min,vs_ci95_low_mm_min,vs_ci95_high_mm_min,sigma_n_s_per_m,sigma_se_n_s_per_m,residual_rms_n,nonconventional,warnings")?;
-    let mm = 1.0 / M_S_PER_MM_MIN;
-    for p in profiles {
-        for q in &p.positions {
-            let Some(fit) = &q.fit else {
-                writeln!(
-                    w,
-                    "{},{:.6},,,,,,,,,,,,,,,fit failed: {}",
-                    dir_name(p.direction),
-                    q.position_mm,
-                    q.error.clone().unwrap_or_default().replace(',', ";")
-                )?;
-                continue;
-            };
-            let u = fit.uncertainty.as_ref();
-            let nc = q.nonconventional.as_ref().map_or(0, |n| n.ranges.len());
-            let warn: Vec<String> = fit
-                .warnings
-                .iter()
-                .map(|w| w.to_string().replace(',', ";"))
-                .collect();
-            let hump = fit.model == FrictionModel::Stribeck;
-            writeln!(
-                w,
-                "{},{:.6},{},{:.6},{},{},{},{},{},{},{},{},{},{},{:.6},{},{}",
-                dir_name(p.direction),
-                q.position_mm,
-                fit.model.code(),
-                fit.params.fc_n,
-                opt(u.map(|u| u.fc_n.std_error)),
-                opt(fit.fs_n()),
-                opt(u.and_then(|u| u.fs_n).map(|e| e.std_error)),
-                opt(hump.then(|| fit.params.static_excess_n())),
-                opt(u.and_then(|u| u.static_excess_n).map(|e| e.std_error)),
-                opt(fit.vs_m_s().map(|v| v * mm)),
-                opt(u.and_then(|u| u.vs_m_s).map(|e| e.ci95_low * mm)),
-                opt(u.and_then(|u| u.vs_m_s).map(|e| e.ci95_high * mm)),
-                opt(fit.sigma_n_s_per_m()),
-                opt(u.and_then(|u| u.sigma_n_s_per_m).map(|e| e.std_error)),
-                fit.residual_rms_n,
-                nc,
-                warn.join(" | ")
-            )?;
-        }
-    }
-    set.add(f)
-}
-
-fn write_compensation(
-    set: &mut OutputSet,
-    out: &Path,
-    study: &MapStudy,
-    extrapolate: bool,
-) -> Result<()> {
-    let map = &study.map;
-    let table = CompensationTable::new(map, extrapolate, |d| {
-        let (grid, feeds) = study
-            .table_axes(d.direction)
-            .expect("a direction of the study's map");
-        (feeds.to_vec(), grid.to_vec())
-    })?;
-    let mut long = csv_file(&out.join("compensation.csv"))?;
-    table.write_long(long.writer())?;
-    for d in &map.directions {
-        let mut wide = csv_file(&out.join(format!("compensation_{}.csv", dir_name(d.direction))))?;
-        table.write_matrix(wide.writer(), d.direction)?;
-        set.add(wide)?;
-    }
-    set.add(long)
-}
-
-fn write_ppocm_csv(set: &mut OutputSet, path: &Path, map: &FrictionMap) -> Result<()> {
-    let mut f = csv_file(path)?;
-    let w = f.writer();
-    writeln!(w, "# PPOCM: mean Legendre coefficients (N) of the repeats' IAFV per feed; in interval [start_mm, end_mm], F = sum_k coefficient_n * P_k(t), t = 2*(z - start_mm)/(end_mm - start_mm) - 1")?;
-    writeln!(
-        w,
-        "direction,feed_mm_min,repeats,interval,start_mm,end_mm,k,coefficient_n"
-    )?;
-    for d in &map.directions {
-        for g in &d.feeds {
-            for (j, c) in g.ppocm.coeffs_n.iter().enumerate() {
-                for (k, v) in c.iter().enumerate() {
-                    writeln!(
-                        w,
-                        "{},{:.6},{},{},{:.6},{:.6},{},{:.9}",
-                        dir_name(d.direction),
-                        g.feed_mm_min,
-                        g.repeats.len(),
-                        j + 1,
-                        d.breaks_mm[j],
-                        d.breaks_mm[j + 1],
-                        k,
-                        v
-                    )?;
-                }
-            }
-        }
-    }
-    set.add(f)
-}
-
-fn write_repeatability_csv(set: &mut OutputSet, path: &Path, map: &FrictionMap) -> Result<()> {
-    let mut f = csv_file(path)?;
-    let w = f.writer();
-    writeln!(w, "# repeatability per interval: std_n = RMS over the interval of the pointwise sample std of the repeats' IAFV (N); max_spread_n = largest pointwise max - min (N); mean_n = mean of the PPOCM (N, signed)")?;
-    writeln!(
-        w,
-        "direction,feed_mm_min,repeats,interval,start_mm,end_mm,mean_n,std_n,max_spread_n"
-    )?;
-    for d in &map.directions {
-        for g in &d.feeds {
-            for (j, r) in g.repeatability.iter().enumerate() {
-                writeln!(
-                    w,
-                    "{},{:.6},{},{},{:.6},{:.6},{:.6},{},{:.6}",
-                    dir_name(d.direction),
-                    g.feed_mm_min,
-                    g.repeats.len(),
-                    j + 1,
-                    r.start_mm,
-                    r.end_mm,
-                    r.mean_n,
-                    opt(r.std_n),
-                    r.max_spread_n
-                )?;
-            }
-        }
-    }
-    set.add(f)
-}
-
-fn write_runs_csv(
-    set: &mut OutputSet,
-    path: &Path,
-    est: &feedscope::map::SetEstimate,
-) -> Result<()> {
-    let mut f = csv_file(path)?;
-    let w = f.writer();
-    writeln!(w, "file,feed_mm_min,repeat,status,strokes,message")?;
-    let clean = |s: &str| s.replace([',', '\n'], ";");
-    for r in &est.ok {
-        writeln!(
-            w,
-            "{},{},{},ok,{},{}",
-            r.run.name,
-            r.run.feed_mm_min,
-            r.run.repeat,
-            r.strokes.len(),
-            clean(&r.warnings.join(" | "))
-        )?;
-    }
-    for r in &est.failed {
-        writeln!(
-            w,
-            "{},{},{},failed,0,{}",
-            r.run.name,
-            r.run.feed_mm_min,
-            r.run.repeat,
-            clean(&r.error)
-        )?;
-    }
-    set.add(f)
-}
-
-// ---------- summary ----------
-
-#[derive(Serialize)]
-struct DirSummary {
-    direction: Direction,
-    start_mm: f64,
-    end_mm: f64,
-    breaks_mm: Vec<f64>,
-    orders: Vec<usize>,
-    feeds_mm_min: Vec<f64>,
-    repeats: Vec<usize>,
-    feed_order: usize,
-    feed_scale: FeedScale,
-    feed_misfit_rms_n: f64,
-    feed_misfit_max_n: f64,
-    worst_repeatability_std_n: Option<f64>,
-}
-
-#[derive(Serialize)]
-struct Summary {
-    index: String,
-    runs: usize,
-    runs_ok: usize,
-    failed: Vec<FailedRun>,
-    directions: Vec<DirSummary>,
-    nonconventional_spans: usize,
-}
-
-#[derive(Serialize)]
-struct FailedRun {
-    file: String,
-    error: String,
-}
-
-#[derive(Serialize)]
-struct MapJson<'a> {
-    summary: &'a Summary,
-    map: &'a FrictionMap,
-}
-
-fn map_summary(
-    set: &TestSet,
-    est: &feedscope::map::SetEstimate,
-    map: &FrictionMap,
-    spans: &[NonConventionalSpan],
-) -> Summary {
-    Summary {
-        index: set.source_name.clone(),
-        runs: set.runs.len(),
-        runs_ok: est.ok.len(),
-        failed: est
-            .failed
-            .iter()
-            .map(|f| FailedRun {
-                file: f.run.name.clone(),
-                error: f.error.clone(),
-            })
-            .collect(),
-        directions: map
-            .directions
-            .iter()
-            .map(|d| DirSummary {
-                direction: d.direction,
-                start_mm: d.start_mm,
-                end_mm: d.end_mm,
-                breaks_mm: d.breaks_mm.clone(),
-                orders: d.orders.clone(),
-                feeds_mm_min: d.feeds_mm_min(),
-                repeats: d.feeds.iter().map(|g| g.repeats.len()).collect(),
-                feed_order: d.feed_model.order,
-                feed_scale: d.feed_model.scale,
-                feed_misfit_rms_n: d.feed_model.rms_misfit_n,
-                feed_misfit_max_n: d.feed_model.max_misfit_n,
-                worst_repeatability_std_n: d
-                    .feeds
-                    .iter()
-                    .flat_map(|g| g.repeatability.iter().filter_map(|r| r.std_n))
-                    .reduce(f64::max),
-            })
-            .collect(),
-        nonconventional_spans: spans.len(),
-    }
-}
-
-fn text_report(s: &Summary, at: &[StribeckProfile], spans: &[NonConventionalSpan]) -> String {
+fn text_report(s: &MapSummary, at: &[StribeckProfile], spans: &[NonConventionalSpan]) -> String {
     let mut o = String::new();
     let _ = writeln!(o, "{}: {} of {} runs mapped", s.index, s.runs_ok, s.runs);
     for f in &s.failed {
