@@ -72,15 +72,14 @@ impl AppError {
         context: impl Into<String>,
         source: impl std::error::Error + Send + Sync + 'static,
     ) -> Self {
-        let kind = feedscope_io::error_kind(&source).unwrap_or(ErrorKind::Internal);
+        let kind = kind_below(&source);
         Self::caused(kind, context, source)
     }
 
     /// An error of the layer below as it is: its message, its causes, and its kind as the
     /// crates below say it ([`ErrorKind::Internal`] for a type they do not know).
     pub fn from_error(error: impl std::error::Error + Send + Sync + 'static) -> Self {
-        // `feedscope_io::error_kind` falls back to the maths crate's kinds.
-        let kind = feedscope_io::error_kind(&error).unwrap_or(ErrorKind::Internal);
+        let kind = kind_below(&error);
         Self {
             kind,
             field: None,
@@ -125,6 +124,14 @@ impl std::error::Error for AppError {
             inner
         }
     }
+}
+
+/// The kind of an error of the crates below as they say it: the store's, else the I/O crate's
+/// (which falls back to the maths crate's), else [`ErrorKind::Internal`].
+fn kind_below(e: &(dyn std::error::Error + 'static)) -> ErrorKind {
+    feedscope_store::error_kind(e)
+        .or_else(|| feedscope_io::error_kind(e))
+        .unwrap_or(ErrorKind::Internal)
 }
 
 /// The kind of one error of a chain when it is an [`AppError`]; `None` for any other type

@@ -26,6 +26,18 @@ pub trait FrontEnd: Sync {
     fn spell(&self, field: &str, value: &str) -> String {
         format!("`{field}` = \"{value}\"")
     }
+
+    /// How the user stores a test in the history, for a message about an empty store.
+    fn how_to_add(&self) -> String {
+        "a `history add` request".to_string()
+    }
+
+    /// The machine a use case takes when the user names none: `None` when it is the only
+    /// one stored (the command line's `--machine`), else this name (Python's
+    /// `machine="machine"`).
+    fn default_machine(&self) -> Option<&str> {
+        None
+    }
 }
 
 /// A front end that shows no progress and spells fields in the request's serde form.

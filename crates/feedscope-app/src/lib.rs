@@ -17,10 +17,15 @@
 //! and *is* the JSON layout the front ends write or return. Errors are one type,
 //! [`AppError`], whose [`kind`](AppError::kind) a front end maps to an exit code or a status.
 //!
-//! Use cases here so far: [`analyze`] (the friction profile along the travel and its
+//! Use cases here so far: [`estimate`] (friction along the travel, paper 000 Eq. 5, streamed
+//! while the file is read), [`map`] (the friction map F(z, v) of a test set, paper 000
+//! Section 4.2), [`analyze`] (the friction profile along the travel and its
 //! fluctuation in screw orders, paper 000 Section 4.1), [`identify`] (paper 002, with the comparison against
 //! constant-speed groups) and [`stribeck`] (Stribeck curves from a steady-speed table, paper
-//! 000 Eq. 9 and paper 001 Eq. 15).
+//! 000 Eq. 9 and paper 001 Eq. 15) and [`trend`] (an axis's indicators over its stored tests,
+//! the position-resolved comparison and the diagnosis).
+//!
+//! Every file a front end writes goes through [`output`]: it appears whole or not at all.
 //!
 //! # Example
 //! Identify J and the Stribeck curve from a triangular-wave test run on the twin:
@@ -48,11 +53,14 @@
 
 pub mod analyze;
 pub mod error;
+pub mod estimate;
 pub mod front;
 pub mod identify;
 pub mod map;
+pub mod output;
 pub mod recording;
 pub mod stribeck;
+pub mod trend;
 
 pub use error::AppError;
 pub use front::{FrontEnd, Quiet};

@@ -73,6 +73,10 @@ impl FrontEnd for Cli {
     fn spell(&self, field: &str, value: &str) -> String {
         format!("{} {value}", flag(field))
     }
+
+    fn how_to_add(&self) -> String {
+        format!("`{}`", crate::cmd::how_to_add(None))
+    }
 }
 
 #[cfg(test)]
@@ -85,5 +89,37 @@ mod tests {
         assert_eq!(Cli::default().name("compare"), "--compare");
         assert_eq!(flag("kernel_half_width_s"), "--kernel-s");
         assert_eq!(flag("min_speed_mm_min"), "--min-speed-mm-min");
+    }
+
+    /// A trace reader's error about the effort channel names the `--effort` flag.
+    #[test]
+    fn effort_errors_name_the_flag() {
+        use feedscope::trace::EffortKind;
+        use feedscope_app::recording::{effort_error, Effort};
+        use feedscope_io::trace::TraceError;
+        let name_the_flag = |e, asked: Option<EffortKind>| -> anyhow::Error {
+            effort_error(e, asked.map(Effort::of), &Cli::default()).into()
+        };
+        let both = name_the_flag(
+            TraceError::AmbiguousEffort {
+                source_name: "t.csv".into(),
+            },
+            None,
+        );
+        assert!(format!("{both:#}").contains("--effort current or --effort torque"));
+        let missing = |channel: &str| TraceError::MissingChannel {
+            source_name: "t.csv".into(),
+            channel: channel.into(),
+            found: "position, current_a".into(),
+        };
+        let e = name_the_flag(missing("torque_nm"), Some(EffortKind::TorqueNm));
+        assert!(
+            format!("{e:#}").starts_with("--effort torque: t.csv"),
+            "{e:#}"
+        );
+        assert_eq!(crate::cmd::exit_code(&e), 2);
+        // A missing position is not about the flag.
+        let e = name_the_flag(missing("position_mm"), Some(EffortKind::TorqueNm));
+        assert!(!format!("{e:#}").contains("--effort"), "{e:#}");
     }
 }

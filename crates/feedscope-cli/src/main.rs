@@ -3,7 +3,6 @@ use clap::Parser;
 mod cmd;
 mod front;
 mod output;
-mod paths;
 mod plot;
 mod report;
 mod store;

@@ -8,6 +8,7 @@ use std::path::Path;
 use std::sync::Once;
 
 use anyhow::{anyhow, Result};
+use feedscope_app::estimate::FrictionPlot;
 use plotters::prelude::*;
 
 static FONT: Once = Once::new();
@@ -478,7 +479,119 @@ pub fn heatmap_svg_sized(map: &Heatmap, size: (u32, u32)) -> Result<String> {
 /// # Errors
 /// I/O errors, with the path in the message.
 pub fn write_svg(path: &Path, svg: &str) -> Result<()> {
-    crate::output::write_atomic(path, svg.as_bytes())
+    Ok(crate::output::write_atomic(path, svg.as_bytes())?)
+}
+
+/// Up to this many strokes of a direction are each drawn in a colour of their own and named
+/// in the legend ([`friction_svg`]); more are drawn thin in one colour per kind, with one
+/// legend entry per kind that counts them.
+const PLOT_NAMED_STROKES: usize = 6;
+
+/// Friction vs position: one panel per direction, with optional extra series (e.g. the
+/// truth) per direction. Every stroke is drawn: a profile as a line, a stroke whose data
+/// support only its mean level as a flat segment at that level with a marker at its middle.
+/// Up to [`PLOT_NAMED_STROKES`] strokes a panel are named one by one; more are drawn thin,
+/// in the direction's colour, and the legend counts them.
+pub fn friction_svg(
+    plot: &FrictionPlot,
+    title: &str,
+    mut extra_forward: Vec<Series>,
+    mut extra_backward: Vec<Series>,
+) -> Result<String> {
+    let mut charts_series = Vec::new();
+    for (d, (label, strokes, extra)) in [
+        ("forward", &plot.forward, &mut extra_forward),
+        ("backward", &plot.backward, &mut extra_backward),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        if strokes.is_empty() {
+            continue;
+        }
+        let (numbers, flat) = (&plot.numbers[d], &plot.mean_only[d]);
+        let is_flat = |k: usize| flat.get(k).copied().unwrap_or(false);
+        let mut series: Vec<Series> = if strokes.len() <= PLOT_NAMED_STROKES {
+            strokes
+                .iter()
+                .enumerate()
+                .map(|(k, pts)| Series {
+                    // Numbered as in the console table and the CSV, not within the plot.
+                    name: match (strokes.len() > 1, is_flat(k)) {
+                        (_, true) => format!(
+                            "{label} stroke {}: mean level only (no profile supported)",
+                            numbers[k]
+                        ),
+                        (true, false) => format!("{label} stroke {}", numbers[k]),
+                        (false, false) => {
+                            format!("{label} stroke {} (estimated)", numbers[k])
+                        }
+                    },
+                    points: pts.clone(),
+                    style: if is_flat(k) {
+                        Style::Level { colour: k }
+                    } else {
+                        Style::Line
+                    },
+                })
+                .collect()
+        } else {
+            let n_flat = (0..strokes.len()).filter(|&k| is_flat(k)).count();
+            let n_profile = strokes.len() - n_flat;
+            let (mut named_profile, mut named_flat) = (false, false);
+            strokes
+                .iter()
+                .enumerate()
+                .map(|(k, pts)| {
+                    let (name, style) = if is_flat(k) {
+                        let name = (!std::mem::replace(&mut named_flat, true)).then(|| {
+                            format!(
+                                "{label}: {n_flat} of {} strokes, mean level only (no \
+                                 profile supported)",
+                                strokes.len()
+                            )
+                        });
+                        (name, Style::Level { colour: d + 2 })
+                    } else {
+                        let name = (!std::mem::replace(&mut named_profile, true)).then(|| {
+                            format!(
+                                "{label}: {n_profile} of {} strokes, friction along the \
+                                 travel",
+                                strokes.len()
+                            )
+                        });
+                        (name, Style::Thin { colour: d })
+                    };
+                    Series {
+                        name: name.unwrap_or_default(),
+                        points: pts.clone(),
+                        style,
+                    }
+                })
+                .collect()
+        };
+        series.append(extra);
+        charts_series.push((label, series));
+    }
+    let titles: Vec<String> = charts_series
+        .iter()
+        .map(|(label, _)| format!("{title}: {label}"))
+        .collect();
+    let charts: Vec<LineChart> = charts_series
+        .into_iter()
+        .zip(&titles)
+        .map(|((_, series), t)| LineChart {
+            title: t,
+            x_label: "position (mm)",
+            y_label: if plot.sign_from_direction {
+                "friction F_f (N, sign from the direction of motion)"
+            } else {
+                "friction F_f (N, signed as Eq. 5)"
+            },
+            series,
+        })
+        .collect();
+    stacked_svg(&charts)
 }
 
 #[cfg(test)]

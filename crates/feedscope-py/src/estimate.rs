@@ -3,46 +3,35 @@
 use std::path::PathBuf;
 
 use feedscope::estimate::{
-    estimate_streaming, EffortSign, Estimate, EstimateParams, PositionSmoothing, StrokeFriction,
-    StrokeSummary, TimeOfPosition,
+    EffortSign, PositionSmoothing, StrokeFriction, StrokeSummary, TimeOfPosition,
 };
 use feedscope::spline::EndCondition;
 use feedscope::trace::EffortKind;
+use feedscope_app::estimate::{estimate_recording, parse_cutoff, EstimateOptions, EstimateReport};
+use feedscope_app::Recording;
 use numpy::PyArray1;
 use pyo3::exceptions::{PyImportError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyFloat, PyInt, PyString};
-use serde_json::json;
 
 use crate::axis::Axis;
 use crate::convert::{array, scaled, to_py};
 use crate::errors::{bad_input, py_err};
+use crate::front::Keywords;
 use crate::trace::Trace;
 
-/// `position_cutoff_hz=`: `"auto"`, `"off"` or a cut-off in Hz, checked as the CLI checks
-/// `--position-cutoff-hz` (None, the default, is `"auto"`).
-fn cutoff(obj: &Bound<'_, PyAny>) -> PyResult<PositionSmoothing> {
+/// `position_cutoff_hz=`: `"auto"`, `"off"` or a cut-off in Hz (None, the default, is
+/// `"auto"`); a number is checked with the request ([`EstimateOptions::params`]).
+fn cutoff(obj: Option<&Bound<'_, PyAny>>) -> PyResult<PositionSmoothing> {
+    let Some(obj) = obj else {
+        return Ok(PositionSmoothing::Auto);
+    };
     if let Ok(s) = obj.cast::<PyString>() {
-        let text = s.to_cow()?;
-        return match text.trim() {
-            "auto" => Ok(PositionSmoothing::Auto),
-            "off" | "none" => Ok(PositionSmoothing::Off),
-            other => Err(bad_input(format!(
-                "position_cutoff_hz: `{other}` is not `auto`, `off` or a cut-off in Hz (a number \
-                 above 0)"
-            ))),
-        };
+        return parse_cutoff(&s.to_cow()?)
+            .map_err(|why| bad_input(format!("position_cutoff_hz: {why}")));
     }
     if obj.cast::<PyFloat>().is_ok() || obj.cast::<PyInt>().is_ok() {
-        let f: f64 = obj.extract()?;
-        return if f.is_finite() && f > 0.0 && f <= 1e6 {
-            Ok(PositionSmoothing::CutoffHz(f))
-        } else {
-            Err(bad_input(format!(
-                "position_cutoff_hz: `{f}` is not `auto`, `off` or a cut-off in Hz (a number \
-                 above 0)"
-            )))
-        };
+        return Ok(PositionSmoothing::CutoffHz(obj.extract()?));
     }
     Err(PyTypeError::new_err(
         "position_cutoff_hz must be \"auto\", \"off\" or a number (Hz)",
@@ -62,55 +51,6 @@ fn word<T: Copy>(name: &str, value: &str, choices: &[(&str, T)]) -> PyResult<T> 
                 names.join(", ")
             ))
         })
-}
-
-/// Estimation settings from keyword arguments, with the CLI's defaults and ranges.
-#[allow(clippy::too_many_arguments)]
-pub fn params(
-    samples_per_lead: u32,
-    end_condition: &str,
-    time_of_position: &str,
-    position_cutoff_hz: &Bound<'_, PyAny>,
-    include_rapids: bool,
-    effort_sign: &str,
-) -> PyResult<EstimateParams> {
-    if !(1..=1_000_000).contains(&samples_per_lead) {
-        return Err(bad_input(format!(
-            "samples_per_lead = {samples_per_lead} is not in 1..=1000000"
-        )));
-    }
-    Ok(EstimateParams {
-        position_smoothing: cutoff(position_cutoff_hz)?,
-        include_rapids,
-        effort_sign: word(
-            "effort_sign",
-            effort_sign,
-            &[
-                ("auto", EffortSign::Auto),
-                ("signed", EffortSign::Signed),
-                ("magnitude", EffortSign::Magnitude),
-                ("negated", EffortSign::Negated),
-            ],
-        )?,
-        samples_per_lead,
-        end_condition: word(
-            "end_condition",
-            end_condition,
-            &[
-                ("not-a-knot", EndCondition::NotAKnot),
-                ("natural", EndCondition::Natural),
-            ],
-        )?,
-        time_of_position: word(
-            "time_of_position",
-            time_of_position,
-            &[
-                ("invert", TimeOfPosition::Invert),
-                ("knot-spline", TimeOfPosition::KnotSpline),
-            ],
-        )?,
-        ..EstimateParams::default()
-    })
 }
 
 /// One stroke's friction along the travel: numpy arrays on the resampling grid (one point
@@ -328,15 +268,9 @@ pub struct EstimateResult {
     /// The strokes in time order.
     #[pyo3(get)]
     strokes: Vec<Py<Stroke>>,
-    /// The rest of the summary (JSON value), without the strokes.
-    rest: serde_json::Value,
+    /// The summary (`feedscope estimate`'s JSON summary), with the strokes' summaries.
+    report: EstimateReport,
     effort_kind: EffortKind,
-}
-
-impl EstimateResult {
-    fn field<'py>(&self, py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.rest[key])
-    }
 }
 
 #[pymethods]
@@ -350,39 +284,33 @@ impl EstimateResult {
     /// `reasons`, ...).
     #[getter]
     fn verdict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.field(py, "verdict")
+        to_py(py, &self.report.verdict)
     }
     /// Every move of the axis with its kind (list of dicts).
     #[getter]
     fn moves<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.field(py, "moves")
+        to_py(py, &self.report.moves)
     }
     /// Dwell and reversal zones between the strokes (list of dicts).
     #[getter]
     fn zones<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.field(py, "zones")
+        to_py(py, &self.report.zones)
     }
     /// Notes of the move classification (list of str).
     #[getter]
     fn notes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.field(py, "notes")
+        to_py(py, &self.report.notes)
     }
     /// Strokes found but not estimated, with the reason (list of str).
     #[getter]
     fn skipped<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.field(py, "skipped")
+        to_py(py, &self.report.skipped)
     }
 
     /// The binary's JSON summary (`OUT.json` of `feedscope estimate`) as a dict: the same keys
     /// and numbers; `source` is the trace's file (or `"arrays"`).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let d = to_py(py, &self.rest)?;
-        let strokes = pyo3::types::PyList::empty(py);
-        for s in &self.strokes {
-            strokes.append(s.get().summary(py)?)?;
-        }
-        d.set_item("strokes", strokes)?;
-        Ok(d)
+        to_py(py, &self.report)
     }
 
     /// The friction CSV's rows as a pandas DataFrame (columns `stroke`, `direction`,
@@ -433,10 +361,7 @@ impl EstimateResult {
     }
 
     fn __repr__(&self) -> String {
-        let head = self.rest["verdict"]["support"]
-            .as_str()
-            .unwrap_or("-")
-            .to_string();
+        let head = self.report.verdict.support.as_str();
         let lines: Vec<String> = self
             .strokes
             .iter()
@@ -485,76 +410,47 @@ pub fn estimate(
     program: Option<PathBuf>,
     program_axis: char,
 ) -> PyResult<EstimateResult> {
-    let auto = PyString::new(py, "auto");
-    let cutoff_arg = position_cutoff_hz.unwrap_or(auto.as_any());
-    let mut p = params(
+    let options = EstimateOptions {
         samples_per_lead,
-        end_condition,
-        time_of_position,
-        cutoff_arg,
+        end_condition: word(
+            "end_condition",
+            end_condition,
+            &[
+                ("not-a-knot", EndCondition::NotAKnot),
+                ("natural", EndCondition::Natural),
+            ],
+        )?,
+        time_of_position: word(
+            "time_of_position",
+            time_of_position,
+            &[
+                ("invert", TimeOfPosition::Invert),
+                ("knot-spline", TimeOfPosition::KnotSpline),
+            ],
+        )?,
+        position_cutoff_hz: cutoff(position_cutoff_hz)?,
         include_rapids,
-        effort_sign,
-    )?;
+        effort_sign: word(
+            "effort_sign",
+            effort_sign,
+            &[
+                ("auto", EffortSign::Auto),
+                ("signed", EffortSign::Signed),
+                ("magnitude", EffortSign::Magnitude),
+                ("negated", EffortSign::Negated),
+            ],
+        )?,
+        program,
+        program_axis,
+        ..EstimateOptions::default()
+    };
     let t = trace.get();
-    if let Some(path) = &program {
-        let opts = feedscope::nc::ParseOptions {
-            axis_letter: program_axis.to_ascii_uppercase(),
-            ..Default::default()
-        };
-        let prog = feedscope_io::nc::read_program(path, &opts).map_err(py_err)?;
-        let start_mm = t.inner.position_m.value.first().copied().unwrap_or(0.0) * 1e3;
-        p.program = feedscope::estimate::ProgrammedMove::from_steps(&prog.resolve(start_mm));
-        if p.program.is_empty() {
-            return Err(bad_input(format!(
-                "{}: no block moves axis {} (use program_axis=)",
-                path.display(),
-                opts.axis_letter
-            )));
-        }
-    }
+    let recording = Recording::borrowed(&t.inner, t.source.clone(), t.report.clone());
     let a = &axis.inner;
-    // The binary's path (`estimate_map_streaming` in batches of twice the worker threads): the
-    // strokes' work arrays are reused from batch to batch instead of all being live at once,
-    // which `estimate::estimate` (one batch of every stroke) would do. Same numbers either way.
     let est = py
-        .detach(|| -> Result<Estimate, feedscope::estimate::EstimateError> {
-            let mut strokes = Vec::new();
-            let batch = 2 * rayon::current_num_threads();
-            let outline = estimate_streaming(&t.inner, a, &p, batch, |s| {
-                strokes.push(s);
-                Ok::<(), feedscope::estimate::EstimateError>(())
-            })?;
-            Ok(Estimate {
-                effort_kind: t.inner.effort_kind,
-                strokes,
-                zones: outline.zones,
-                moves: outline.moves,
-                skipped: outline.skipped,
-                notes: outline.notes,
-                verdict: outline.verdict,
-            })
-        })
+        .detach(|| estimate_recording(&recording, a, &options, &Keywords))
         .map_err(py_err)?;
-    let rest = json!({
-        "source": t.source,
-        "effort": est.effort_kind,
-        "verdict": est.verdict,
-        "axis": a,
-        "params": p,
-        "moves": est.moves,
-        "notes": est.notes,
-        "zones": est.zones,
-        "skipped": est.skipped,
-        "ignored_rows": t.report.ignored_rows,
-        "ignored_channels": t.report.ignored_channels,
-        "dropped_position_samples": t.dropped_json(),
-        "max_axis_speed_mm_min": t.max_axis_speed_mm_min(),
-    });
-    let mut rest = rest;
-    if let Some(l) = t.report.unterminated_last_line {
-        rest["unterminated_last_line"] = json!(l);
-    }
-    let kind = est.effort_kind;
+    let kind = est.report.effort;
     let strokes = est
         .strokes
         .into_iter()
@@ -562,7 +458,7 @@ pub fn estimate(
         .collect::<PyResult<Vec<_>>>()?;
     Ok(EstimateResult {
         strokes,
-        rest,
+        report: est.report,
         effort_kind: kind,
     })
 }

@@ -12,4 +12,10 @@ impl FrontEnd for Keywords {
     fn spell(&self, field: &str, value: &str) -> String {
         format!("{field}=\"{value}\"")
     }
+    fn how_to_add(&self) -> String {
+        "History.add(trace, axis, kind)".to_string()
+    }
+    fn default_machine(&self) -> Option<&str> {
+        Some("machine")
+    }
 }

@@ -1,20 +1,14 @@
 //! `feedscope.History`: the condition history (SQLite), as `feedscope history add|list|trend`.
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Duration;
 
 use anyhow::Context;
-use feedscope::history::{LocalParams, Status, Threshold};
-use feedscope::study::{
-    analyze_test, StrokeStudyParams, TestAnalysis, TestKind, TestStudyParams, TrendStudyParams,
-};
+use feedscope::study::{analyze_test, StrokeStudyParams, TestAnalysis, TestKind, TestStudyParams};
 use feedscope::trace::GlitchParams;
 use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use feedscope_store::time::{format_rfc3339, parse_rfc3339};
-use feedscope_store::{
-    AddOutcome, AxisSeries, Filter, NewTest, OpenOptions, SqliteStore, Store, StoreError,
-};
+use feedscope_store::{AddOutcome, Filter, NewTest, OpenOptions, SqliteStore, Store, StoreError};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use serde_json::{json, Value};
@@ -22,6 +16,8 @@ use serde_json::{json, Value};
 use crate::axis::Axis;
 use crate::convert::to_py;
 use crate::errors::{py_err, to_py as err_to_py, BadInput};
+use crate::front::Keywords;
+use feedscope_app::trend::{axis_trend, AxisTrends, TrendOptions};
 
 /// The environment variable of the CLI's busy timeout (seconds), honoured here too.
 const BUSY_TIMEOUT_VAR: &str = "FEEDSCOPE_BUSY_TIMEOUT_S";
@@ -34,71 +30,6 @@ fn store_err(e: StoreError, path: &Path) -> anyhow::Error {
         }
         _ if e.is_bad_input() => anyhow::Error::new(e),
         _ => anyhow::Error::new(e).context(format!("database {}", path.display())),
-    }
-}
-
-/// `"a" (3 tests)`, as the CLI names an axis series.
-fn one(a: &AxisSeries) -> String {
-    format!(
-        "{:?} ({} test{})",
-        a.axis,
-        a.tests,
-        if a.tests == 1 { "" } else { "s" }
-    )
-}
-
-/// The CLI's `check_known`: refuse a machine or axis the store does not hold, listing those it
-/// does (keywords instead of flags).
-fn check_known(store: &dyn Store, machine: &str, axis: Option<&str>) -> anyhow::Result<()> {
-    let all = store.axes()?;
-    if all.is_empty() {
-        return Err(BadInput(
-            "the database holds no tests yet; store one with History.add(trace, axis, kind)"
-                .to_string(),
-        )
-        .into());
-    }
-    let mine: Vec<&AxisSeries> = all.iter().filter(|a| a.machine == machine).collect();
-    if mine.is_empty() {
-        let mut machines: Vec<String> = Vec::new();
-        for a in &all {
-            let axes: Vec<String> = all
-                .iter()
-                .filter(|b| b.machine == a.machine)
-                .map(one)
-                .collect();
-            let line = format!("{:?} (axes {})", a.machine, axes.join(", "));
-            if !machines.contains(&line) {
-                machines.push(line);
-            }
-        }
-        let hint = if machines.len() == 1 && all[0].machine == "machine" {
-            "; it is the only one, the default when machine= is not given".to_string()
-        } else if machines.len() == 1 {
-            format!("; it is the only one: give machine={:?}", all[0].machine)
-        } else {
-            "; choose one with machine=".to_string()
-        };
-        return Err(BadInput(format!(
-            "no machine {machine:?} in the database; machines stored: {}{hint}",
-            machines.join("; ")
-        ))
-        .into());
-    }
-    match axis {
-        Some(ax) if !mine.iter().any(|a| a.axis == ax) => {
-            let hint = if mine.len() == 1 {
-                "; it is the only one, the default when axis_name= is not given"
-            } else {
-                "; choose one with axis_name="
-            };
-            Err(BadInput(format!(
-                "machine {machine:?} has no axis {ax:?}; axes stored: {}{hint}",
-                mine.iter().map(|a| one(a)).collect::<Vec<_>>().join(", ")
-            ))
-            .into())
-        }
-        _ => Ok(()),
     }
 }
 
@@ -143,7 +74,7 @@ impl HistoryEntry {
 /// `to_dict()` is the binary's `history trend --format json`.
 #[pyclass(module = "feedscope", frozen)]
 pub struct TrendResult {
-    report: Value,
+    report: AxisTrends,
     /// True when any indicator's status is not `ok`.
     #[pyo3(get)]
     warning: bool,
@@ -154,23 +85,23 @@ impl TrendResult {
     /// One dict per indicator with enough tests.
     #[getter]
     fn trends<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.report["trends"])
+        to_py(py, &self.report.trends)
     }
     /// Diagnosis sentences (list of str).
     #[getter]
     fn diagnosis<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.report["diagnosis"])
+        to_py(py, &self.report.diagnosis)
     }
     /// The stroke tests' friction compared with their baseline position by position (dict or
     /// None).
     #[getter]
     fn profiles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.report["profiles"])
+        to_py(py, &self.report.profiles)
     }
     /// The tests of the axis in time order (list of dicts).
     #[getter]
     fn tests<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.report["tests"])
+        to_py(py, &self.report.tests)
     }
     /// The binary's `history trend --format json` as a dict.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
@@ -178,20 +109,23 @@ impl TrendResult {
     }
     fn __repr__(&self) -> String {
         let r = &self.report;
-        let mut lines = Vec::new();
-        for t in r["trends"].as_array().into_iter().flatten() {
-            lines.push(format!(
-                "  {}: {} ({:+.1} %)",
-                t["indicator"].as_str().unwrap_or("-"),
-                t["status"].as_str().unwrap_or("-"),
-                t["change_percent"].as_f64().unwrap_or(f64::NAN)
-            ));
-        }
+        let lines: Vec<String> = r
+            .trends
+            .iter()
+            .map(|t| {
+                format!(
+                    "  {}: {} ({:+.1} %)",
+                    t.indicator.name(),
+                    t.status.as_str(),
+                    t.change_percent
+                )
+            })
+            .collect();
         format!(
             "TrendResult({} {}: {} tests, {} indicators{}\n{})",
-            r["machine"].as_str().unwrap_or("-"),
-            r["axis"].as_str().unwrap_or("-"),
-            r["tests"].as_array().map_or(0, |a| a.len()),
+            r.machine,
+            r.axis,
+            r.tests.len(),
             lines.len(),
             if self.warning { ", WARNING" } else { "" },
             lines.join("\n")
@@ -409,139 +343,31 @@ impl History {
         profile_limit_sigma: Option<f64>,
         component_false_alarm: Option<f64>,
     ) -> PyResult<TrendResult> {
-        let local = LocalParams::default();
-        let defaults = TrendStudyParams::default();
-        let profile_baseline_tests = profile_baseline_tests.unwrap_or(local.baseline_tests);
-        let profile_limit_sigma = profile_limit_sigma.unwrap_or(local.k);
-        let component_false_alarm =
-            component_false_alarm.unwrap_or(defaults.component_false_alarm_per_test);
-        let baseline_tests = baseline_tests.unwrap_or(defaults.baseline_tests);
-        if profile_baseline_tests < 2 {
-            return Err(py_err(BadInput(format!(
-                "profile_baseline_tests {profile_baseline_tests}: the profile baseline needs at \
-                 least 2 stroke tests (their scatter sets the limits)"
-            ))));
-        }
-        if !(profile_limit_sigma.is_finite() && profile_limit_sigma > 0.0) {
-            return Err(py_err(BadInput(format!(
-                "profile_limit_sigma {profile_limit_sigma}: must be a positive number of σ"
-            ))));
-        }
-        if !(component_false_alarm > 0.0 && component_false_alarm < 0.5) {
-            return Err(py_err(BadInput(format!(
-                "component_false_alarm {component_false_alarm}: must be a probability in (0, \
-                 0.5), e.g. 0.001"
-            ))));
-        }
-        let from_file: BTreeMap<String, Threshold> = match &thresholds {
-            None => BTreeMap::new(),
-            Some(p) => feedscope_io::thresholds::read(p).map_err(py_err)?,
+        let defaults = TrendOptions::default();
+        let options = TrendOptions {
+            baseline_tests: baseline_tests.unwrap_or(defaults.baseline_tests),
+            thresholds,
+            profile_baseline_tests: profile_baseline_tests
+                .unwrap_or(defaults.profile_baseline_tests),
+            profile_limit_sigma: profile_limit_sigma.unwrap_or(defaults.profile_limit_sigma),
+            component_false_alarm: component_false_alarm.unwrap_or(defaults.component_false_alarm),
         };
+        options.validate(&Keywords).map_err(py_err)?;
+        let from_file = options.file_thresholds().map_err(py_err)?;
         let machine = machine.to_string();
         let report = py
             .detach(|| {
                 self.with_store(|store| {
-                    check_known(store, &machine, axis_name.as_deref())?;
-                    let axis = match &axis_name {
-                        Some(a) => a.clone(),
-                        None => {
-                            let tests = store.list(&Filter {
-                                machine: Some(machine.clone()),
-                                axis: None,
-                            })?;
-                            let mut axes: Vec<&str> =
-                                tests.iter().map(|t| t.axis.as_str()).collect();
-                            axes.sort_unstable();
-                            axes.dedup();
-                            match axes.as_slice() {
-                                [one] => one.to_string(),
-                                [] => {
-                                    return Err(BadInput(format!(
-                                        "no tests stored for machine {machine:?}"
-                                    ))
-                                    .into())
-                                }
-                                many => {
-                                    return Err(BadInput(format!(
-                                        "machine {machine:?} has several axes ({}): choose one \
-                                         with axis_name=",
-                                        many.join(", ")
-                                    ))
-                                    .into())
-                                }
-                            }
-                        }
-                    };
-                    // The thresholds of the stored axis file, overridden key by key by the
-                    // thresholds file (the CLI's `with_axis_thresholds`).
-                    let mut th = BTreeMap::new();
-                    if let Some(json) = store.axis_params(&machine, &axis)? {
-                        if let Ok(p) = serde_json::from_str::<feedscope::axis::AxisParams>(&json) {
-                            th = p.thresholds;
-                        }
-                    }
-                    th.extend(from_file);
-                    let params = TrendStudyParams {
-                        baseline_tests,
-                        thresholds: th,
-                        profiles: LocalParams {
-                            baseline_tests: profile_baseline_tests,
-                            k: profile_limit_sigma,
-                            ..LocalParams::default()
-                        },
-                        component_false_alarm_per_test: component_false_alarm,
-                        ..TrendStudyParams::default()
-                    };
-                    let tests = store.list(&Filter {
-                        machine: Some(machine.clone()),
-                        axis: Some(axis.clone()),
-                    })?;
-                    if tests.is_empty() {
-                        return Err(
-                            BadInput(format!("no tests stored for {machine} {axis}")).into()
-                        );
-                    }
-                    let reference = tests.iter().find(|t| t.reference).map(|t| t.id);
-                    let series = store.series(&machine, &axis)?;
-                    let mut profiles = Vec::new();
-                    for t in tests.iter().filter(|t| t.kind == "strokes") {
-                        let Some(json) = store.curves(t.id)? else {
-                            continue;
-                        };
-                        let c: feedscope::study::Curves = serde_json::from_str(&json)
-                            .with_context(|| {
-                                format!("reading the stored curves of test {}", t.id)
-                            })?;
-                        if c.grid.is_empty() {
-                            continue;
-                        }
-                        profiles.push(feedscope::history::ProfileTest {
-                            test_id: t.id,
-                            time_s: t.time_s,
-                            profiles: c.grid,
-                        });
-                    }
-                    let study =
-                        feedscope::study::axis_study(&series, reference, &profiles, &params)?;
-                    let warning = study.trends.iter().any(|x| x.status != Status::Ok);
-                    Ok((
-                        json!({
-                            "machine": machine,
-                            "axis": axis,
-                            "tests": tests,
-                            "trends": study.trends,
-                            "skipped": study.skipped,
-                            "profiles": study.profiles,
-                            "diagnosis": study.diagnosis,
-                        }),
-                        warning,
-                    ))
+                    let axis = axis_name.as_deref();
+                    Ok(axis_trend(
+                        store, &machine, axis, &options, from_file, &Keywords,
+                    )?)
                 })
             })
             .map_err(err_to_py)?;
         Ok(TrendResult {
-            report: report.0,
-            warning: report.1,
+            warning: report.needs_attention(),
+            report,
         })
     }
 

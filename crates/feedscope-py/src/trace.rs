@@ -7,12 +7,12 @@ use feedscope::trace::{
     MIN_SAMPLES,
 };
 use feedscope::units::feed_m_s_to_mm_min;
+use feedscope_app::estimate::DroppedPosition;
 use feedscope_io::trace::{read_trace_file_with, ReadOptions, ReadReport, TraceError};
 use numpy::PyArray1;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use serde::Serialize;
 
 use crate::axis::Axis;
 use crate::convert::{f64_vec, readonly, to_py};
@@ -153,41 +153,6 @@ fn opt_vec(name: &str, obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<f6
     }
 }
 
-/// A dropped position sample as the estimate summary reports it (user units).
-#[derive(Serialize)]
-struct Dropped {
-    time_s: f64,
-    position_mm: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    line: Option<u64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    row: Option<u64>,
-}
-
-impl Trace {
-    /// The dropped position samples as `feedscope estimate`'s summary lists them.
-    pub fn dropped_json(&self) -> Vec<serde_json::Value> {
-        self.report
-            .dropped_position
-            .iter()
-            .map(|d| {
-                serde_json::to_value(Dropped {
-                    time_s: d.time_s,
-                    position_mm: d.position_m * 1e3,
-                    line: d.line,
-                    row: d.row,
-                })
-                .unwrap_or(serde_json::Value::Null)
-            })
-            .collect()
-    }
-
-    /// The glitch screen's limit (mm/min), when the trace was screened.
-    pub fn max_axis_speed_mm_min(&self) -> Option<f64> {
-        self.report.max_axis_speed_m_s.map(feed_m_s_to_mm_min)
-    }
-}
-
 #[pymethods]
 impl Trace {
     #[new]
@@ -308,7 +273,13 @@ impl Trace {
     /// file's `line` (CSV) or `row` (Parquet).
     #[getter]
     fn dropped_position<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.dropped_json())
+        let dropped: Vec<DroppedPosition> = self
+            .report
+            .dropped_position
+            .iter()
+            .map(Into::into)
+            .collect();
+        to_py(py, &dropped)
     }
 
     /// What the recording's source declared (`# fact` lines): effort_quantum, effort_signed,

@@ -17,9 +17,12 @@ use rayon::prelude::*;
 
 use feedscope::study::{analyze_test, StrokeStudyParams, TestStudyParams};
 
-use super::estimate::{estimate_to_csv, print_table};
+use super::estimate::print_table;
+use crate::front::Cli;
 use crate::output::{bar, write_atomic};
 use crate::plot::{Series, Style};
+use feedscope_app::estimate::estimate_to_csv;
+use feedscope_app::Recording;
 
 /// Run feedscope on built-in example data: a simulated lathe Z axis with known friction.
 ///
@@ -67,14 +70,9 @@ pub fn run(args: Args) -> Result<()> {
 
     let params = EstimateParams::default();
     let csv = args.out.join("friction.csv");
-    let outcome = estimate_to_csv(
-        &sim.trace,
-        &ReadReport::default(),
-        &args.out.join("trace.csv").display().to_string(),
-        &sim.truth.axis,
-        &params,
-        &csv,
-    )?;
+    let source = args.out.join("trace.csv").display().to_string();
+    let recording = Recording::borrowed(&sim.trace, source, ReadReport::default());
+    let outcome = estimate_to_csv(&recording, &sim.truth.axis, &params, &csv, &Cli::default())?;
     // The truth beside the estimate, at the estimate's own positions.
     let model = &sim.truth.friction;
     let mut truth_series: [Vec<Series>; 2] = [Vec::new(), Vec::new()];
@@ -98,15 +96,18 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     let [truth_fwd, truth_bwd] = truth_series;
-    let svg = outcome
-        .plot
-        .svg("Demo lathe Z, estimated vs true", truth_fwd, truth_bwd)?;
-    let json = serde_json::to_string_pretty(&outcome.summary)?;
+    let svg = crate::plot::friction_svg(
+        &outcome.plot,
+        "Demo lathe Z, estimated vs true",
+        truth_fwd,
+        truth_bwd,
+    )?;
+    let json = serde_json::to_string_pretty(&outcome.report)?;
     outcome.csv.commit()?;
     write_atomic(&args.out.join("friction.json"), json.as_bytes())?;
     write_atomic(&args.out.join("friction.svg"), svg.as_bytes())?;
 
-    print_table(&outcome.summary)?;
+    print_table(&outcome.report)?;
     // How close the estimate is to the truth (the twin knows it).
     let text = std::fs::read_to_string(&csv)?;
     let mut acc = [(0.0f64, 0usize); 2];
@@ -322,8 +323,17 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
         &report,
     )?;
     let store = super::history::open_sqlite(&db)?;
-    let thresholds = super::history::load_thresholds(Some(&th_path))?;
-    let t = super::history::axis_trends(&store, "demo lathe", "Z", 5, &detectors, &thresholds)?;
+    let options = detectors.options(5, Some(&th_path));
+    let from_file = options.file_thresholds()?;
+    let front = crate::front::Cli::default();
+    let t = feedscope_app::trend::axis_trend(
+        &store,
+        "demo lathe",
+        Some("Z"),
+        &options,
+        from_file,
+        &front,
+    )?;
     outln!(
         "\ncondition history of the demo axis ({} tests):",
         t.tests.len()

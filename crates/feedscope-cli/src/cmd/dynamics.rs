@@ -180,7 +180,7 @@ fn summary_text(r: &DynamicsReport) -> String {
 }
 
 fn write_file(path: &Path, text: &str) -> Result<()> {
-    write_atomic(path, text.as_bytes())
+    Ok(write_atomic(path, text.as_bytes())?)
 }
 
 fn write_outputs(dir: &Path, r: &DynamicsReport) -> Result<Vec<PathBuf>> {

@@ -8,13 +8,15 @@ use anyhow::{Context, Result};
 use clap::builder::{EnumValueParser, TypedValueParser};
 use clap::{Subcommand, ValueEnum};
 use feedscope::axis::AxisParams;
-use feedscope::history::{IndicatorTrend, LocalParams, Threshold};
+use feedscope::history::LocalParams;
 use feedscope::study::{analyze_test, StrokeStudyParams, TestStudyParams, TrendStudyParams};
 use feedscope::trace::GlitchParams;
+use feedscope_app::trend::{axis_trend, TrendOptions};
 use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use feedscope_store::time::{format_rfc3339, parse_rfc3339};
 use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, TestKind};
 
+use crate::front::Cli;
 use crate::store::{add_err, store_err, StoreSpec};
 use serde::Serialize;
 
@@ -240,45 +242,15 @@ impl Default for DetectorArgs {
 }
 
 impl DetectorArgs {
-    /// The library's settings, or bad input naming the flag.
-    fn study_params(
-        &self,
-        baseline_tests: usize,
-        thresholds: &BTreeMap<String, Threshold>,
-    ) -> Result<TrendStudyParams> {
-        if self.profile_baseline_tests < 2 {
-            return Err(BadInput(format!(
-                "--profile-baseline-tests {}: the profile baseline needs at least 2 stroke \
-                 tests (their scatter sets the limits)",
-                self.profile_baseline_tests
-            ))
-            .into());
-        }
-        if !(self.profile_limit_sigma.is_finite() && self.profile_limit_sigma > 0.0) {
-            return Err(BadInput(format!(
-                "--profile-limit-sigma {}: must be a positive number of σ",
-                self.profile_limit_sigma
-            ))
-            .into());
-        }
-        if !(self.component_false_alarm > 0.0 && self.component_false_alarm < 0.5) {
-            return Err(BadInput(format!(
-                "--component-false-alarm {}: must be a probability in (0, 0.5), e.g. 0.001",
-                self.component_false_alarm
-            ))
-            .into());
-        }
-        Ok(TrendStudyParams {
+    /// The trend request's settings, with the baseline and the thresholds file.
+    pub fn options(&self, baseline_tests: usize, thresholds: Option<&Path>) -> TrendOptions {
+        TrendOptions {
             baseline_tests,
-            thresholds: thresholds.clone(),
-            profiles: LocalParams {
-                baseline_tests: self.profile_baseline_tests,
-                k: self.profile_limit_sigma,
-                ..LocalParams::default()
-            },
-            component_false_alarm_per_test: self.component_false_alarm,
-            ..TrendStudyParams::default()
-        })
+            thresholds: thresholds.map(Path::to_path_buf),
+            profile_baseline_tests: self.profile_baseline_tests,
+            profile_limit_sigma: self.profile_limit_sigma,
+            component_false_alarm: self.component_false_alarm,
+        }
     }
 }
 
@@ -328,37 +300,6 @@ pub fn open_sqlite(path: &Path) -> Result<SqliteStore> {
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct CheckFailed(pub StoreError);
-
-/// The thresholds in force: those of the axis file stored with the tests (`[thresholds]`),
-/// each overridden by the same key of a `--thresholds` file.
-pub fn with_axis_thresholds(
-    store: &dyn Store,
-    machine: &str,
-    axis: &str,
-    from_file: BTreeMap<String, Threshold>,
-) -> Result<BTreeMap<String, Threshold>> {
-    let mut out = BTreeMap::new();
-    if let Some(json) = store
-        .axis_params(machine, axis)
-        .map_err(anyhow::Error::new)?
-    {
-        // Stored by `history add` from a validated axis file; an old or foreign shape simply
-        // carries no thresholds.
-        if let Ok(p) = serde_json::from_str::<feedscope::axis::AxisParams>(&json) {
-            out = p.thresholds;
-        }
-    }
-    out.extend(from_file);
-    Ok(out)
-}
-
-/// Read a thresholds file; unknown indicator keys are bad input.
-pub fn load_thresholds(path: Option<&Path>) -> Result<BTreeMap<String, Threshold>> {
-    match path {
-        None => Ok(BTreeMap::new()),
-        Some(p) => Ok(feedscope_io::thresholds::read(p)?),
-    }
-}
 
 pub(crate) fn axis_name(flag: Option<&str>, axis: &AxisParams, path: &Path) -> String {
     flag.map(str::to_string)
@@ -719,125 +660,25 @@ fn remove(spec: &StoreSpec, a: &RemoveArgs) -> Result<()> {
     Ok(())
 }
 
-/// The trends of an axis and its diagnosis.
-#[derive(Debug, Serialize)]
-pub struct AxisTrends {
-    /// Machine name.
-    pub machine: String,
-    /// Axis name.
-    pub axis: String,
-    /// Tests of the axis in time order.
-    pub tests: Vec<feedscope_store::TestRow>,
-    /// One per indicator with enough tests.
-    pub trends: Vec<IndicatorTrend>,
-    /// Indicators with too few tests for a baseline.
-    pub skipped: Vec<String>,
-    /// The stroke tests' friction compared with their baseline position by position.
-    pub profiles: Option<feedscope::history::ProfileChanges>,
-    /// Diagnosis sentences.
-    pub diagnosis: Vec<String>,
-}
-
-/// Resolve the axis name: given, or the only axis of the machine.
-pub fn resolve_axis(store: &dyn Store, machine: &str, axis: Option<&str>) -> Result<String> {
-    super::series::check_known(store, machine, axis)?;
-    if let Some(a) = axis {
-        return Ok(a.to_string());
-    }
-    let tests = store.list(&Filter {
-        machine: Some(machine.to_string()),
-        axis: None,
-    })?;
-    let mut axes: Vec<&str> = tests.iter().map(|t| t.axis.as_str()).collect();
-    axes.dedup();
-    axes.sort_unstable();
-    axes.dedup();
-    match axes.as_slice() {
-        [one] => Ok(one.to_string()),
-        [] => Err(BadInput(format!("no tests stored for machine {machine:?}")).into()),
-        many => Err(BadInput(format!(
-            "machine {machine:?} has several axes ({}): choose one with --axis-name",
-            many.join(", ")
-        ))
-        .into()),
-    }
-}
-
-/// Trends of every indicator of an axis, from the series in the store.
-pub fn axis_trends(
-    store: &dyn Store,
-    machine: &str,
-    axis: &str,
-    baseline_tests: usize,
-    detectors: &DetectorArgs,
-    thresholds: &BTreeMap<String, Threshold>,
-) -> Result<AxisTrends> {
-    let params = detectors.study_params(baseline_tests, thresholds)?;
-    let tests = store.list(&Filter {
-        machine: Some(machine.to_string()),
-        axis: Some(axis.to_string()),
-    })?;
-    if tests.is_empty() {
-        return Err(BadInput(format!("no tests stored for {machine} {axis}")).into());
-    }
-    let reference = tests.iter().find(|t| t.reference).map(|t| t.id);
-    let series = store.series(machine, axis)?;
-    let profiles = stroke_profiles(store, &tests)?;
-    let study = feedscope::study::axis_study(&series, reference, &profiles, &params)?;
-    Ok(AxisTrends {
-        machine: machine.to_string(),
-        axis: axis.to_string(),
-        tests,
-        trends: study.trends,
-        skipped: study.skipped,
-        profiles: study.profiles,
-        diagnosis: study.diagnosis,
-    })
-}
-
-/// The position-grid friction profiles of the stroke tests, in time order, from their stored
-/// curves; tests stored before the grid existed have none and are left out.
-fn stroke_profiles(
-    store: &dyn Store,
-    tests: &[feedscope_store::TestRow],
-) -> Result<Vec<feedscope::history::ProfileTest>> {
-    let mut out = Vec::new();
-    for t in tests.iter().filter(|t| t.kind == "strokes") {
-        let Some(json) = store.curves(t.id)? else {
-            continue;
-        };
-        let c: feedscope::study::Curves = serde_json::from_str(&json)
-            .with_context(|| format!("reading the stored curves of test {}", t.id))?;
-        if c.grid.is_empty() {
-            continue;
-        }
-        out.push(feedscope::history::ProfileTest {
-            test_id: t.id,
-            time_s: t.time_s,
-            profiles: c.grid,
-        });
-    }
-    Ok(out)
-}
-
 fn trend(spec: &StoreSpec, a: &TrendArgs) -> Result<bool> {
-    let thresholds = load_thresholds(a.thresholds.as_deref())?;
+    let options = a
+        .detectors
+        .options(a.baseline_tests, a.thresholds.as_deref());
+    let front = Cli::default();
+    // Checked, and the thresholds file read, before the store is opened.
+    options.validate(&front)?;
+    let from_file = options.file_thresholds()?;
     let store = spec.open()?;
     let machine = super::series::resolve_machine(&*store, a.machine.as_deref())?;
-    let axis = resolve_axis(&*store, &machine, a.axis_name.as_deref())?;
-    let thresholds = with_axis_thresholds(&*store, &machine, &axis, thresholds)?;
-    let t = axis_trends(
+    let t = axis_trend(
         &*store,
         &machine,
-        &axis,
-        a.baseline_tests,
-        &a.detectors,
-        &thresholds,
+        a.axis_name.as_deref(),
+        &options,
+        from_file,
+        &front,
     )?;
-    let warn = t
-        .trends
-        .iter()
-        .any(|x| x.status != feedscope::history::Status::Ok);
+    let warn = t.needs_attention();
     let mut w = std::io::stdout().lock();
     match a.format {
         Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&t)?)?,

@@ -413,7 +413,7 @@ fn write_output(imported: &Imported, out: &Path) -> Result<()> {
     let mut f = AtomicFile::create(out)?;
     write_trace_csv(imported, &mut *f.writer())
         .with_context(|| format!("writing {}", out.display()))?;
-    f.commit()
+    Ok(f.commit()?)
 }
 
 fn channel_line(s: &mut String, column: &str, c: &ChannelReport) {

@@ -8,7 +8,6 @@ use feedscope::ErrorKind;
 mod analyze;
 mod demo;
 mod dynamics;
-mod effort;
 mod estimate;
 mod export;
 mod fit_stribeck;
@@ -21,6 +20,8 @@ mod report;
 mod series;
 mod simulate;
 mod watch;
+
+pub use series::how_to_add;
 
 /// feedscope: how are the ball-screw feed drives of this machine doing?
 ///

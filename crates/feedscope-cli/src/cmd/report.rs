@@ -3,9 +3,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 
-use super::history::{axis_trends, load_thresholds, resolve_axis, DetectorArgs};
+use super::history::DetectorArgs;
+use crate::front::Cli;
 use crate::output::write_atomic;
 use crate::store::StoreSpec;
+use feedscope_app::trend::axis_trend;
 
 /// Write the condition report of an axis: one self-contained HTML file.
 ///
@@ -61,7 +63,10 @@ pub fn write_report(
     thresholds: Option<&Path>,
     out: &Path,
 ) -> Result<()> {
-    let thresholds = load_thresholds(thresholds)?;
+    let options = detectors.options(baseline_tests, thresholds);
+    let front = Cli::default();
+    options.validate(&front)?;
+    let from_file = options.file_thresholds()?;
     if let Some(db) = spec.sqlite_path() {
         if !db.exists() {
             return Err(super::BadInput(format!("no database at {}", db.display())).into());
@@ -69,18 +74,9 @@ pub fn write_report(
     }
     let store = spec.open()?;
     let machine = &super::series::resolve_machine(&*store, machine)?;
-    let axis = resolve_axis(&*store, machine, axis)?;
-    let thresholds = super::history::with_axis_thresholds(&*store, machine, &axis, thresholds)?;
-    let t = axis_trends(
-        &*store,
-        machine,
-        &axis,
-        baseline_tests,
-        detectors,
-        &thresholds,
-    )?;
+    let t = axis_trend(&*store, machine, axis, &options, from_file, &front)?;
     let html = crate::report::render(&*store, &t, baseline_tests)?;
-    write_atomic(out, html.as_bytes())
+    Ok(write_atomic(out, html.as_bytes())?)
 }
 
 /// Where the database was looked for, in words, when the file is not there: the flag, the

@@ -5,7 +5,7 @@ use std::path::Path;
 use std::time::Duration;
 
 use anyhow::Result;
-use feedscope_store::{AddOutcome, AxisSeries, Filter, NewTest, OpenOptions, Store};
+use feedscope_store::{AddOutcome, Filter, NewTest, OpenOptions, Store};
 
 use super::BadInput;
 
@@ -102,74 +102,6 @@ pub fn resolve_machine(store: &dyn Store, given: Option<&str>) -> Result<String>
                 .join(", ")
         ))
         .into()),
-    }
-}
-
-/// `"a" (3 tests)`.
-fn one(a: &AxisSeries) -> String {
-    format!(
-        "{:?} ({} test{})",
-        a.axis,
-        a.tests,
-        if a.tests == 1 { "" } else { "s" }
-    )
-}
-
-/// Refuse a machine, or an axis of a machine, that the store does not hold, listing those it
-/// does: the machines with their axes, or the machine's axes, saying which one is taken when
-/// `--axis-name` is not given. `Ok` when the names are known (or `axis` is `None` and the
-/// machine is known).
-///
-/// # Errors
-/// [`BadInput`] with that list; store errors.
-pub fn check_known(store: &dyn Store, machine: &str, axis: Option<&str>) -> Result<()> {
-    let all = store.axes()?;
-    if all.is_empty() {
-        return Err(BadInput(format!(
-            "the database holds no tests yet; store one with `{}`",
-            how_to_add(None)
-        ))
-        .into());
-    }
-    let mine: Vec<&AxisSeries> = all.iter().filter(|a| a.machine == machine).collect();
-    if mine.is_empty() {
-        let mut machines: Vec<String> = Vec::new();
-        for a in &all {
-            let axes: Vec<String> = all
-                .iter()
-                .filter(|b| b.machine == a.machine)
-                .map(one)
-                .collect();
-            let line = format!("{:?} (axes {})", a.machine, axes.join(", "));
-            if !machines.contains(&line) {
-                machines.push(line);
-            }
-        }
-        let hint = if machines.len() == 1 {
-            "; it is the only one, the default when --machine is not given".to_string()
-        } else {
-            "; choose one with --machine".to_string()
-        };
-        return Err(BadInput(format!(
-            "no machine {machine:?} in the database; machines stored: {}{hint}",
-            machines.join("; ")
-        ))
-        .into());
-    }
-    match axis {
-        Some(ax) if !mine.iter().any(|a| a.axis == ax) => {
-            let hint = if mine.len() == 1 {
-                "; it is the only one, the default when --axis-name is not given"
-            } else {
-                "; choose one with --axis-name"
-            };
-            Err(BadInput(format!(
-                "machine {machine:?} has no axis {ax:?}; axes stored: {}{hint}",
-                mine.iter().map(|a| one(a)).collect::<Vec<_>>().join(", ")
-            ))
-            .into())
-        }
-        _ => Ok(()),
     }
 }
 

@@ -211,7 +211,7 @@ pub(crate) fn write_outputs_as(
     let result = (|| -> anyhow::Result<()> {
         let create = |name: &str| {
             let p = tmp_name(dir, name);
-            crate::output::register(&p);
+            feedscope_app::output::register(&p);
             std::fs::File::create(&p).with_context(|| format!("creating {}", p.display()))
         };
         if parquet {
@@ -241,7 +241,7 @@ pub(crate) fn write_outputs_as(
         if result.is_err() {
             let _ = std::fs::remove_file(tmp_name(dir, name));
         }
-        crate::output::unregister(&tmp_name(dir, name));
+        feedscope_app::output::unregister(&tmp_name(dir, name));
     }
     if result.is_err() && created {
         let _ = std::fs::remove_dir(dir);

@@ -488,18 +488,15 @@ fn store_test(
 
 /// The axis's trend in one word: the worst indicator status, or why there is none yet.
 fn trend_status(store: &dyn feedscope_store::Store, machine: &str, axis: &str) -> String {
-    let thresholds =
-        match super::history::with_axis_thresholds(store, machine, axis, Default::default()) {
-            Ok(t) => t,
-            Err(e) => return format!("unknown ({e})"),
-        };
-    match super::history::axis_trends(
+    let options = feedscope_app::trend::TrendOptions::default();
+    let front = crate::front::Cli::default();
+    match feedscope_app::trend::axis_trend(
         store,
         machine,
-        axis,
-        feedscope::study::TrendStudyParams::default().baseline_tests,
-        &super::history::DetectorArgs::default(),
-        &thresholds,
+        Some(axis),
+        &options,
+        Default::default(),
+        &front,
     ) {
         Ok(t) if t.trends.is_empty() => "baseline not yet formed".into(),
         Ok(t) => {

@@ -6,9 +6,9 @@ use feedscope::units::MM_MIN_PER_M_S;
 use feedscope_store::{Identified, Store, TestDetail};
 use serde::Serialize;
 
-use crate::cmd::history::AxisTrends;
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
 use feedscope::study::Curves;
+use feedscope_app::trend::AxisTrends;
 
 const TEMPLATE: &str = include_str!("report.html");
 

@@ -1,0 +1,398 @@
+//! The condition trend of an axis from the history store (docs/history.md): every indicator's
+//! series against its baseline, the stroke tests' friction compared position by position with
+//! their baseline, and the diagnosis in words.
+//!
+//! [`TrendOptions`] are the baseline and the detectors' settings, as a user gives them;
+//! [`axis_trend`] finds the axis (given, or the only one of the machine), takes the thresholds
+//! in force (the stored axis file's, each overridden by a thresholds file's) and gives the
+//! [`AxisTrends`] report, the JSON layout of `history trend` and the model of the report page.
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use feedscope::history::{IndicatorTrend, LocalParams, ProfileChanges, ProfileTest, Threshold};
+use feedscope::study::{Curves, TrendStudyParams};
+use feedscope_store::{AxisSeries, Filter, Store, TestRow};
+use serde::{Deserialize, Serialize};
+
+use crate::{AppError, FrontEnd};
+
+/// The baseline and the change detectors' settings (docs/history.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrendOptions {
+    /// Baseline: mean and σ of the first N tests of each indicator; with a reference test
+    /// marked, μ₀ is its value and σ the scatter of these N.
+    pub baseline_tests: usize,
+    /// Thresholds file (TOML): a `[thresholds]` table of indicator = { upper = .., lower = .. },
+    /// each overriding the stored axis file's.
+    pub thresholds: Option<PathBuf>,
+    /// Stroke tests whose friction profiles form the baseline of the position-resolved
+    /// comparison (the first N; at least 2, their scatter sets the limits).
+    pub profile_baseline_tests: usize,
+    /// Flag width of the position-resolved comparison, in σ of the baseline's own
+    /// test-to-test scatter at each position.
+    pub profile_limit_sigma: f64,
+    /// Chance per test that any of the axis's component amplitudes raises a false alarm
+    /// although nothing changed; in (0, 0.5).
+    pub component_false_alarm: f64,
+}
+
+impl Default for TrendOptions {
+    fn default() -> Self {
+        let trend = TrendStudyParams::default();
+        let local = LocalParams::default();
+        Self {
+            baseline_tests: trend.baseline_tests,
+            thresholds: None,
+            profile_baseline_tests: local.baseline_tests,
+            profile_limit_sigma: local.k,
+            component_false_alarm: trend.component_false_alarm_per_test,
+        }
+    }
+}
+
+impl TrendOptions {
+    /// Check the settings without reading anything.
+    ///
+    /// # Errors
+    /// [`AppError::invalid`] naming the field in the front end's spelling.
+    pub fn validate(&self, front: &dyn FrontEnd) -> Result<(), AppError> {
+        self.study_params(BTreeMap::new(), front).map(|_| ())
+    }
+
+    /// The study's settings with `thresholds` in force.
+    ///
+    /// # Errors
+    /// As [`TrendOptions::validate`].
+    pub fn study_params(
+        &self,
+        thresholds: BTreeMap<String, Threshold>,
+        front: &dyn FrontEnd,
+    ) -> Result<TrendStudyParams, AppError> {
+        if self.profile_baseline_tests < 2 {
+            return Err(AppError::invalid(
+                "profile_baseline_tests",
+                format!(
+                    "{} {}: the profile baseline needs at least 2 stroke tests (their scatter \
+                     sets the limits)",
+                    front.name("profile_baseline_tests"),
+                    self.profile_baseline_tests
+                ),
+            ));
+        }
+        if !(self.profile_limit_sigma.is_finite() && self.profile_limit_sigma > 0.0) {
+            return Err(AppError::invalid(
+                "profile_limit_sigma",
+                format!(
+                    "{} {}: must be a positive number of σ",
+                    front.name("profile_limit_sigma"),
+                    self.profile_limit_sigma
+                ),
+            ));
+        }
+        if !(self.component_false_alarm > 0.0 && self.component_false_alarm < 0.5) {
+            return Err(AppError::invalid(
+                "component_false_alarm",
+                format!(
+                    "{} {}: must be a probability in (0, 0.5), e.g. 0.001",
+                    front.name("component_false_alarm"),
+                    self.component_false_alarm
+                ),
+            ));
+        }
+        Ok(TrendStudyParams {
+            baseline_tests: self.baseline_tests,
+            thresholds,
+            profiles: LocalParams {
+                baseline_tests: self.profile_baseline_tests,
+                k: self.profile_limit_sigma,
+                ..LocalParams::default()
+            },
+            component_false_alarm_per_test: self.component_false_alarm,
+            ..TrendStudyParams::default()
+        })
+    }
+
+    /// The thresholds file's thresholds (none without a file).
+    ///
+    /// # Errors
+    /// The reader's error naming the file and the key (an unknown indicator is bad input).
+    pub fn file_thresholds(&self) -> Result<BTreeMap<String, Threshold>, AppError> {
+        match &self.thresholds {
+            None => Ok(BTreeMap::new()),
+            Some(p) => feedscope_io::thresholds::read(p)
+                .map_err(|e| AppError::from_error(e).for_field("thresholds")),
+        }
+    }
+}
+
+/// The trends of an axis and its diagnosis: `history trend --format json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct AxisTrends {
+    /// Machine name.
+    pub machine: String,
+    /// Axis name.
+    pub axis: String,
+    /// Tests of the axis in time order.
+    pub tests: Vec<TestRow>,
+    /// One per indicator with enough tests.
+    pub trends: Vec<IndicatorTrend>,
+    /// Indicators with too few tests for a baseline.
+    pub skipped: Vec<String>,
+    /// The stroke tests' friction compared with their baseline position by position.
+    pub profiles: Option<ProfileChanges>,
+    /// Diagnosis sentences.
+    pub diagnosis: Vec<String>,
+}
+
+impl AxisTrends {
+    /// True when any indicator is not `ok` (drifting, warning or alarm).
+    pub fn needs_attention(&self) -> bool {
+        self.trends
+            .iter()
+            .any(|x| x.status != feedscope::history::Status::Ok)
+    }
+}
+
+/// The trend of `machine`'s axis `axis` (or of its only axis): the thresholds of the stored
+/// axis file, each overridden by the same key of `from_file` (the options' thresholds file,
+/// [`TrendOptions::file_thresholds`], read by the caller before it opens the store).
+///
+/// # Errors
+/// An unknown machine or axis (listing those stored, [`check_known`]); a machine with several
+/// axes and none chosen; settings as [`TrendOptions::study_params`]; store errors.
+pub fn axis_trend(
+    store: &dyn Store,
+    machine: &str,
+    axis: Option<&str>,
+    options: &TrendOptions,
+    from_file: BTreeMap<String, Threshold>,
+    front: &dyn FrontEnd,
+) -> Result<AxisTrends, AppError> {
+    options.validate(front)?;
+    let axis = resolve_axis(store, machine, axis, front)?;
+    let thresholds = with_axis_thresholds(store, machine, &axis, from_file)?;
+    let params = options.study_params(thresholds, front)?;
+    axis_trends(store, machine, &axis, &params)
+}
+
+/// A store error as it is, with its kind as the store says it.
+fn store(e: feedscope_store::StoreError) -> AppError {
+    AppError::from_error(e)
+}
+
+/// The thresholds in force: those of the axis file stored with the tests (`[thresholds]`),
+/// each overridden by the same key of `from_file`.
+///
+/// # Errors
+/// Store errors.
+pub fn with_axis_thresholds(
+    store_: &dyn Store,
+    machine: &str,
+    axis: &str,
+    from_file: BTreeMap<String, Threshold>,
+) -> Result<BTreeMap<String, Threshold>, AppError> {
+    let mut out = BTreeMap::new();
+    if let Some(json) = store_.axis_params(machine, axis).map_err(store)? {
+        // Stored by `history add` from a validated axis file; an old or foreign shape simply
+        // carries no thresholds.
+        if let Ok(p) = serde_json::from_str::<feedscope::axis::AxisParams>(&json) {
+            out = p.thresholds;
+        }
+    }
+    out.extend(from_file);
+    Ok(out)
+}
+
+/// Trends of every indicator of an axis, from the series in the store.
+///
+/// # Errors
+/// Bad input when no test of the axis is stored; the study's and the store's errors.
+pub fn axis_trends(
+    store_: &dyn Store,
+    machine: &str,
+    axis: &str,
+    params: &TrendStudyParams,
+) -> Result<AxisTrends, AppError> {
+    let tests = store_
+        .list(&Filter {
+            machine: Some(machine.to_string()),
+            axis: Some(axis.to_string()),
+        })
+        .map_err(store)?;
+    if tests.is_empty() {
+        return Err(AppError::bad_input(format!(
+            "no tests stored for {machine} {axis}"
+        )));
+    }
+    let reference = tests.iter().find(|t| t.reference).map(|t| t.id);
+    let series = store_.series(machine, axis).map_err(store)?;
+    let profiles = stroke_profiles(store_, &tests)?;
+    let study = feedscope::study::axis_study(&series, reference, &profiles, params)
+        .map_err(AppError::from_error)?;
+    Ok(AxisTrends {
+        machine: machine.to_string(),
+        axis: axis.to_string(),
+        tests,
+        trends: study.trends,
+        skipped: study.skipped,
+        profiles: study.profiles,
+        diagnosis: study.diagnosis,
+    })
+}
+
+/// The position-grid friction profiles of the stroke tests, in time order, from their stored
+/// curves; tests stored before the grid existed have none and are left out.
+fn stroke_profiles(store_: &dyn Store, tests: &[TestRow]) -> Result<Vec<ProfileTest>, AppError> {
+    let mut out = Vec::new();
+    for t in tests.iter().filter(|t| t.kind == "strokes") {
+        let Some(json) = store_.curves(t.id).map_err(store)? else {
+            continue;
+        };
+        let c: Curves = serde_json::from_str(&json).map_err(|e| {
+            AppError::caused(
+                feedscope::ErrorKind::Internal,
+                format!("reading the stored curves of test {}", t.id),
+                e,
+            )
+        })?;
+        if c.grid.is_empty() {
+            continue;
+        }
+        out.push(ProfileTest {
+            test_id: t.id,
+            time_s: t.time_s,
+            profiles: c.grid,
+        });
+    }
+    Ok(out)
+}
+
+/// The axis name: given, or the only axis of the machine.
+///
+/// # Errors
+/// As [`check_known`]; a machine with several axes and none given (naming the `axis_name`
+/// field).
+pub fn resolve_axis(
+    store_: &dyn Store,
+    machine: &str,
+    axis: Option<&str>,
+    front: &dyn FrontEnd,
+) -> Result<String, AppError> {
+    check_known(store_, machine, axis, front)?;
+    if let Some(a) = axis {
+        return Ok(a.to_string());
+    }
+    let tests = store_
+        .list(&Filter {
+            machine: Some(machine.to_string()),
+            axis: None,
+        })
+        .map_err(store)?;
+    let mut axes: Vec<&str> = tests.iter().map(|t| t.axis.as_str()).collect();
+    axes.sort_unstable();
+    axes.dedup();
+    match axes.as_slice() {
+        [one] => Ok(one.to_string()),
+        [] => Err(AppError::bad_input(format!(
+            "no tests stored for machine {machine:?}"
+        ))),
+        many => Err(AppError::invalid(
+            "axis_name",
+            format!(
+                "machine {machine:?} has several axes ({}): choose one with {}",
+                many.join(", "),
+                front.name("axis_name")
+            ),
+        )),
+    }
+}
+
+/// `"a" (3 tests)`.
+fn one(a: &AxisSeries) -> String {
+    format!(
+        "{:?} ({} test{})",
+        a.axis,
+        a.tests,
+        if a.tests == 1 { "" } else { "s" }
+    )
+}
+
+/// Refuse a machine, or an axis of a machine, that the store does not hold, listing those it
+/// does: the machines with their axes, or the machine's axes, saying which one is taken when
+/// the field is not given ([`FrontEnd::default_machine`]). `Ok` when the names are known (or
+/// `axis` is `None` and the machine is known).
+///
+/// # Errors
+/// Bad input with that list, naming the field (`machine`, `axis_name`); an empty store says
+/// how to add a test ([`FrontEnd::how_to_add`]); store errors.
+pub fn check_known(
+    store_: &dyn Store,
+    machine: &str,
+    axis: Option<&str>,
+    front: &dyn FrontEnd,
+) -> Result<(), AppError> {
+    let all = store_.axes().map_err(store)?;
+    if all.is_empty() {
+        return Err(AppError::bad_input(format!(
+            "the database holds no tests yet; store one with {}",
+            front.how_to_add()
+        )));
+    }
+    let mine: Vec<&AxisSeries> = all.iter().filter(|a| a.machine == machine).collect();
+    if mine.is_empty() {
+        let mut machines: Vec<String> = Vec::new();
+        for a in &all {
+            let axes: Vec<String> = all
+                .iter()
+                .filter(|b| b.machine == a.machine)
+                .map(one)
+                .collect();
+            let line = format!("{:?} (axes {})", a.machine, axes.join(", "));
+            if !machines.contains(&line) {
+                machines.push(line);
+            }
+        }
+        let only = &all[0].machine;
+        let hint = if machines.len() > 1 {
+            format!("; choose one with {}", front.name("machine"))
+        } else if front.default_machine().is_none_or(|d| d == only) {
+            format!(
+                "; it is the only one, the default when {} is not given",
+                front.name("machine")
+            )
+        } else {
+            format!(
+                "; it is the only one: give {}",
+                front.spell("machine", only)
+            )
+        };
+        return Err(AppError::invalid(
+            "machine",
+            format!(
+                "no machine {machine:?} in the database; machines stored: {}{hint}",
+                machines.join("; ")
+            ),
+        ));
+    }
+    match axis {
+        Some(ax) if !mine.iter().any(|a| a.axis == ax) => {
+            let hint = if mine.len() == 1 {
+                format!(
+                    "; it is the only one, the default when {} is not given",
+                    front.name("axis_name")
+                )
+            } else {
+                format!("; choose one with {}", front.name("axis_name"))
+            };
+            Err(AppError::invalid(
+                "axis_name",
+                format!(
+                    "machine {machine:?} has no axis {ax:?}; axes stored: {}{hint}",
+                    mine.iter().map(|a| one(a)).collect::<Vec<_>>().join(", ")
+                ),
+            ))
+        }
+        _ => Ok(()),
+    }
+}
