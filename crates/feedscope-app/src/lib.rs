@@ -22,7 +22,8 @@
 //! Section 4.2), [`analyze`] (the friction profile along the travel and its
 //! fluctuation in screw orders, paper 000 Section 4.1), [`identify`] (paper 002, with the comparison against
 //! constant-speed groups) and [`stribeck`] (Stribeck curves from a steady-speed table, paper
-//! 000 Eq. 9 and paper 001 Eq. 15) and [`trend`] (an axis's indicators over its stored tests,
+//! 000 Eq. 9 and paper 001 Eq. 15), [`history`] (a test analysed for the condition history)
+//! and [`trend`] (an axis's indicators over its stored tests,
 //! the position-resolved comparison and the diagnosis).
 //!
 //! Every file a front end writes goes through [`output`]: it appears whole or not at all.
@@ -55,6 +56,7 @@ pub mod analyze;
 pub mod error;
 pub mod estimate;
 pub mod front;
+pub mod history;
 pub mod identify;
 pub mod map;
 pub mod output;

@@ -35,16 +35,6 @@ pub fn remove_temporaries_on_interrupt() {
     });
 }
 
-/// Print on stderr what a trace read warns about: position samples dropped as glitches (one
-/// line: the count, the speed limit, the first few times with their lines or rows) and a last
-/// line without a line end (a cut file), as `warning: SOURCE: ...`. Prints nothing for a clean
-/// read.
-pub fn print_read_warnings(source: &str, report: &feedscope_io::trace::ReadReport) {
-    if let Some(w) = report.warning() {
-        eprintln!("warning: {source}: {w}");
-    }
-}
-
 /// A progress bar on stderr (hidden when stderr is not a terminal).
 pub fn bar(len: u64, what: &str) -> indicatif::ProgressBar {
     let pb = indicatif::ProgressBar::new(len);

@@ -3,20 +3,16 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Duration;
 
-use anyhow::Context;
-use feedscope::study::{analyze_test, StrokeStudyParams, TestAnalysis, TestKind, TestStudyParams};
-use feedscope::trace::GlitchParams;
-use feedscope_io::trace::{read_trace_file_with, ReadOptions};
-use feedscope_store::time::{format_rfc3339, parse_rfc3339};
+use feedscope::study::TestKind;
 use feedscope_store::{AddOutcome, Filter, NewTest, OpenOptions, SqliteStore, Store, StoreError};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use serde_json::{json, Value};
 
 use crate::axis::Axis;
 use crate::convert::to_py;
 use crate::errors::{py_err, to_py as err_to_py, BadInput};
 use crate::front::Keywords;
+use feedscope_app::history::{load_axis, prepare_test, AddOptions, AddReport};
 use feedscope_app::trend::{axis_trend, AxisTrends, TrendOptions};
 
 /// The environment variable of the CLI's busy timeout (seconds), honoured here too.
@@ -44,7 +40,7 @@ pub struct HistoryEntry {
     /// True when the same trace content was already stored (nothing was added).
     #[pyo3(get)]
     duplicate: bool,
-    report: Value,
+    report: AddReport,
 }
 
 #[pymethods]
@@ -52,7 +48,7 @@ impl HistoryEntry {
     /// The indicator values of the test (list of dicts).
     #[getter]
     fn indicators<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.report["indicators"])
+        to_py(py, &self.report.indicators)
     }
     /// `{"id", "duplicate", "indicators"}`.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
@@ -63,7 +59,7 @@ impl HistoryEntry {
             "HistoryEntry(id={}, duplicate={}, {} indicators)",
             self.id,
             if self.duplicate { "True" } else { "False" },
-            self.report["indicators"].as_array().map_or(0, |a| a.len())
+            self.report.indicators.len()
         )
     }
 }
@@ -211,94 +207,42 @@ impl History {
                 )))
             }
         };
-        let interval_mm = interval_mm.unwrap_or(StrokeStudyParams::default().interval_mm);
-        if !(interval_mm.is_finite() && interval_mm > 0.0) {
-            return Err(py_err(BadInput(
-                "interval_mm must be a positive length".into(),
-            )));
-        }
-        let time_given = match time {
-            Some(s) => Some(parse_rfc3339(s).ok_or_else(|| {
-                py_err(BadInput(format!(
-                    "time {s:?} is not an RFC 3339 time such as 2026-11-21T14:30:00Z"
-                )))
-            })?),
-            None => None,
+        let options = AddOptions {
+            kind,
+            time: time.map(str::to_string),
+            machine: machine.to_string(),
+            axis_name,
+            program,
+            compensation,
+            reference,
+            interval_mm: interval_mm.unwrap_or(AddOptions::default().interval_mm),
         };
-        // The triangle test identifies J and B: its axis file may leave them out.
-        let (mut axis_params, default_name) = if let Ok(a) = axis.cast::<Axis>() {
+        options.validate(&Keywords).map_err(py_err)?;
+        let (axis_params, label) = if let Ok(a) = axis.cast::<Axis>() {
             let a = a.get().inner.clone();
-            let name = a.name.clone();
-            (a, name)
+            let label = options.axis_label(&a, None);
+            (a, label)
         } else if let Ok(path) = axis.extract::<PathBuf>() {
-            let a = match kind {
-                TestKind::Triangle => feedscope_io::axis::load_for_identification(&path),
-                _ => feedscope_io::axis::load(&path),
-            }
-            .map_err(py_err)?;
-            let name = a
-                .name
-                .clone()
-                .or_else(|| path.file_stem().map(|s| s.to_string_lossy().into_owned()));
-            (a, name)
+            let a = load_axis(kind, &path).map_err(py_err)?;
+            let label = options.axis_label(&a, Some(&path));
+            (a, label)
         } else {
             return Err(PyTypeError::new_err(
                 "axis must be an Axis or the path of an axis file",
             ));
         };
-        let axis_label = axis_name
-            .or(default_name)
-            .unwrap_or_else(|| "axis".to_string());
-        let machine = machine.to_string();
         let db = self.path.clone();
         let outcome = py.detach(|| -> anyhow::Result<(NewTest, AddOutcome)> {
-            let bytes =
-                std::fs::read(&trace).with_context(|| format!("reading {}", trace.display()))?;
-            let time_s = match time_given {
-                Some(t) => t,
-                None => std::fs::metadata(&trace)?
-                    .modified()?
-                    .duration_since(std::time::UNIX_EPOCH)
-                    .map_or(0.0, |d| d.as_secs_f64()),
-            };
-            let (tr, _report) = read_trace_file_with(
-                &trace,
-                &ReadOptions::default(),
-                &GlitchParams::for_axis(&axis_params),
-            )?;
-            let params = TestStudyParams {
-                strokes: StrokeStudyParams {
-                    interval_mm,
-                    ..StrokeStudyParams::default()
-                },
-                ..TestStudyParams::default()
-            };
-            let analysis = analyze_test(&tr, &axis_params, kind, &params)
-                .with_context(|| format!("analysing {}", trace.display()))?;
-            if let TestAnalysis::Triangle(tri) = &analysis {
-                axis_params.resolve_identified(tri.identification.fit.j_total_kgm2);
-            }
-            let mut t = NewTest::from_analysis(&analysis, &axis_params, &bytes);
-            t.machine = machine;
-            t.axis = axis_label;
-            t.time_s = time_s;
-            t.time_utc = format_rfc3339(time_s);
-            t.source = trace.display().to_string();
-            t.program = program;
-            t.reference = reference;
-            t.compensation_ref = compensation;
+            let t = prepare_test(&trace, axis_params, label, &options, &Keywords)?.test;
             let outcome = self.with_store(|s| s.add(&t).map_err(|e| store_err(e, &db)))?;
             Ok((t, outcome))
         });
         let (t, outcome) = outcome.map_err(err_to_py)?;
-        let (id, duplicate) = match outcome {
-            AddOutcome::Added(id) => (id, false),
-            AddOutcome::Duplicate(id) => (id, true),
-        };
+        let report = AddReport::new(&t, outcome);
         Ok(HistoryEntry {
-            id,
-            duplicate,
-            report: json!({"id": id, "duplicate": duplicate, "indicators": t.indicators}),
+            id: report.id,
+            duplicate: report.duplicate,
+            report,
         })
     }
 

@@ -9,11 +9,11 @@ use clap::builder::{EnumValueParser, TypedValueParser};
 use clap::{Subcommand, ValueEnum};
 use feedscope::axis::AxisParams;
 use feedscope::history::LocalParams;
-use feedscope::study::{analyze_test, StrokeStudyParams, TestStudyParams, TrendStudyParams};
-use feedscope::trace::GlitchParams;
+use feedscope::study::{StrokeStudyParams, TrendStudyParams};
+use feedscope_app::history::{
+    analyse_for_store, load_axis, prepare_test, AddOptions, AddReport, AddRequest, TestMeta,
+};
 use feedscope_app::trend::{axis_trend, TrendOptions};
-use feedscope_io::trace::{read_trace_file_with, ReadOptions};
-use feedscope_store::time::{format_rfc3339, parse_rfc3339};
 use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, TestKind};
 
 use crate::front::Cli;
@@ -301,64 +301,43 @@ pub fn open_sqlite(path: &Path) -> Result<SqliteStore> {
 #[error("{0}")]
 pub struct CheckFailed(pub StoreError);
 
-pub(crate) fn axis_name(flag: Option<&str>, axis: &AxisParams, path: &Path) -> String {
-    flag.map(str::to_string)
-        .or_else(|| axis.name.clone())
-        .unwrap_or_else(|| {
-            path.file_stem()
-                .map_or("axis".into(), |s| s.to_string_lossy().into_owned())
-        })
+impl AddArgs {
+    fn request(&self) -> AddRequest {
+        AddRequest {
+            trace: self.trace.clone(),
+            axis: self.axis.clone(),
+            options: AddOptions {
+                kind: self.kind,
+                time: self.time.clone(),
+                machine: self.machine.clone(),
+                axis_name: self.axis_name.clone(),
+                program: self.program.clone(),
+                compensation: self.compensation.clone(),
+                reference: self.reference,
+                interval_mm: self.interval_mm,
+            },
+        }
+    }
 }
 
 fn add(spec: &StoreSpec, a: &AddArgs) -> Result<()> {
+    let request = a.request();
+    let front = Cli::default();
     // Validate cheap things before the expensive analysis.
-    if !(a.interval_mm.is_finite() && a.interval_mm > 0.0) {
-        return Err(BadInput("--interval-mm must be a positive length".into()).into());
-    }
-    let time_given = match &a.time {
-        Some(s) => Some(parse_rfc3339(s).ok_or_else(|| {
-            BadInput(format!(
-                "--time {s:?} is not an RFC 3339 time such as 2026-11-21T14:30:00Z"
-            ))
-        })?),
-        None => None,
-    };
-    // The triangle test identifies J and B: its axis file may leave them out.
-    let mut axis = match a.kind {
-        TestKind::Triangle => feedscope_io::axis::load_for_identification(&a.axis)?,
-        _ => feedscope_io::axis::load(&a.axis)?,
-    };
-    let bytes =
-        std::fs::read(&a.trace).with_context(|| format!("reading {}", a.trace.display()))?;
-    let time_s = match time_given {
-        Some(t) => t,
-        None => std::fs::metadata(&a.trace)?
-            .modified()?
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0.0, |d| d.as_secs_f64()),
-    };
+    request.validate(&front)?;
+    let axis = load_axis(a.kind, &a.axis)?;
     // An existing store is opened (and so checked) before the analysis; a new SQLite file is
     // only made once the test has been analysed, so that a refused add leaves no database.
     let early = match spec.sqlite_path() {
         Some(db) if !db.exists() => None,
         _ => Some(spec.open()?),
     };
-    let (trace, report) = read_trace_file_with(
-        &a.trace,
-        &ReadOptions::default(),
-        &GlitchParams::for_axis(&axis),
-    )?;
-    crate::output::print_read_warnings(&a.trace.display().to_string(), &report);
-    let meta = TestMeta {
-        machine: a.machine.clone(),
-        axis: axis_name(a.axis_name.as_deref(), &axis, &a.axis),
-        time_s,
-        source: a.trace.display().to_string(),
-        program: a.program.clone(),
-        reference: a.reference,
-        compensation: a.compensation.clone(),
-    };
-    let t = analyse_for_store(&trace, &mut axis, a.kind, a.interval_mm, &bytes, meta)?;
+    let label = request.options.axis_label(&axis, Some(&a.axis));
+    let analysed = prepare_test(&a.trace, axis, label, &request.options, &front)?;
+    for line in &analysed.verdict {
+        eprintln!("{line}");
+    }
+    let t = analysed.test;
     let mut store = match early {
         Some(s) => s,
         None => spec.open()?,
@@ -370,21 +349,19 @@ fn add(spec: &StoreSpec, a: &AddArgs) -> Result<()> {
     if let Err(e) = super::series::announce_add(&*store, &t, outcome, time_from) {
         eprintln!("warning: stored, but its series could not be counted: {e:#}");
     }
-    let (id, dup) = match outcome {
-        AddOutcome::Added(id) => (id, false),
-        AddOutcome::Duplicate(id) => (id, true),
-    };
+    let report = AddReport::new(&t, outcome);
     match a.format {
-        Format::Json => outln!(
-            "{}",
-            serde_json::json!({"id": id, "duplicate": dup, "indicators": t.indicators})
-        ),
+        Format::Json => outln!("{}", serde_json::to_string(&report)?),
         Format::Text => {
-            if dup {
-                outln!("already stored as test {id} (same trace content); nothing added");
+            if report.duplicate {
+                outln!(
+                    "already stored as test {} (same trace content); nothing added",
+                    report.id
+                );
             } else {
                 outln!(
-                    "stored test {id}: {} {} {} at {}, {} indicators",
+                    "stored test {}: {} {} {} at {}, {} indicators",
+                    report.id,
                     t.machine,
                     t.axis,
                     t.kind.as_str(),
@@ -395,18 +372,6 @@ fn add(spec: &StoreSpec, a: &AddArgs) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// What `history add` stores with a test besides its analysis.
-pub struct TestMeta {
-    pub machine: String,
-    pub axis: String,
-    /// Test time (s since the Unix epoch, UTC).
-    pub time_s: f64,
-    pub source: String,
-    pub program: Option<String>,
-    pub reference: bool,
-    pub compensation: Option<String>,
 }
 
 /// The analyse-and-store step of `history add`, shared with `feedscope watch`: analyse the
@@ -423,54 +388,12 @@ pub fn analyse_and_store(
     bytes: &[u8],
     meta: TestMeta,
 ) -> Result<(AddOutcome, NewTest)> {
-    let t = analyse_for_store(trace, axis, kind, interval_mm, bytes, meta)?;
-    let outcome = store.add(&t).map_err(|e| add_err(e, spec))?;
-    Ok((outcome, t))
-}
-
-/// The analysis of a test as [`analyse_and_store`] stores it, without the store.
-fn analyse_for_store(
-    trace: &feedscope::trace::Trace,
-    axis: &mut AxisParams,
-    kind: TestKind,
-    interval_mm: f64,
-    bytes: &[u8],
-    meta: TestMeta,
-) -> Result<NewTest> {
-    let params = TestStudyParams {
-        strokes: StrokeStudyParams {
-            interval_mm,
-            ..StrokeStudyParams::default()
-        },
-        ..TestStudyParams::default()
-    };
-    let analysis = analyze_test(trace, axis, kind, &params)
-        .with_context(|| format!("analysing {}", meta.source))?;
-    if let feedscope::study::TestAnalysis::Strokes(st) = &analysis {
-        eprintln!("{}", st.verdict.headline());
-        if !st.withheld.is_empty() {
-            let which: Vec<String> = st.withheld.iter().map(|w| w.stroke.to_string()).collect();
-            eprintln!(
-                "verdict: {} stroke(s) give no indicator, their data support no profile \
-                 (strokes {}; `feedscope estimate` says why)",
-                st.withheld.len(),
-                which.join(", ")
-            );
-        }
+    let analysed = analyse_for_store(trace, axis, kind, interval_mm, bytes, meta)?;
+    for line in &analysed.verdict {
+        eprintln!("{line}");
     }
-    if let feedscope::study::TestAnalysis::Triangle(tri) = &analysis {
-        axis.resolve_identified(tri.identification.fit.j_total_kgm2);
-    }
-    let mut t = NewTest::from_analysis(&analysis, axis, bytes);
-    t.machine = meta.machine;
-    t.axis = meta.axis;
-    t.time_s = meta.time_s;
-    t.time_utc = format_rfc3339(meta.time_s);
-    t.source = meta.source;
-    t.program = meta.program;
-    t.reference = meta.reference;
-    t.compensation_ref = meta.compensation;
-    Ok(t)
+    let outcome = store.add(&analysed.test).map_err(|e| add_err(e, spec))?;
+    Ok((outcome, analysed.test))
 }
 
 fn list(spec: &StoreSpec, a: &ListArgs) -> Result<()> {

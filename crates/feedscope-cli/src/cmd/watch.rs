@@ -19,9 +19,10 @@ use feedscope_live::{Event, GapReason, Source};
 use feedscope_store::time::format_rfc3339;
 use feedscope_store::{AddOutcome, TestKind};
 
-use super::history::{analyse_and_store, KindArg, TestMeta};
+use super::history::{analyse_and_store, KindArg};
 use super::BadInput;
 use crate::store::StoreSpec;
+use feedscope_app::history::TestMeta;
 
 /// Watch a running control: recognise the planned tests and store each in the history.
 ///
@@ -273,7 +274,8 @@ fn watch(
 ) -> Result<()> {
     let spec = StoreSpec::resolve(w.db.as_deref(), w.store.as_deref())?;
     let mut store = spec.open()?;
-    let axis_name = super::history::axis_name(w.axis_name.as_deref(), &axis, &w.axis_file);
+    let axis_name =
+        feedscope_app::history::axis_label(w.axis_name.as_deref(), &axis, Some(&w.axis_file));
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = stop.clone();

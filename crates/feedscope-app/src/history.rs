@@ -1,0 +1,314 @@
+//! A test analysed for the condition history (docs/history.md): a stroke test estimated and
+//! analysed (paper 000), or a triangle test identified (paper 002), and the result made the
+//! row the store keeps, with its indicators and report curves.
+//!
+//! [`AddOptions`] are what a user says about the test (kind, time, machine, axis name, program,
+//! compensation, reference); [`prepare_test`] reads a trace file and analyses it,
+//! [`analyse_for_store`] analyses a trace already read (a live gateway's); the front end stores
+//! the [`NewTest`] and reports an [`AddReport`] (`history add --format json`).
+use std::path::{Path, PathBuf};
+
+use feedscope::axis::AxisParams;
+use feedscope::study::{analyze_test, StrokeStudyParams, TestAnalysis, TestKind, TestStudyParams};
+use feedscope::trace::{GlitchParams, Trace};
+use feedscope_io::trace::{read_trace_file_with, ReadOptions};
+use feedscope_store::time::{format_rfc3339, parse_rfc3339};
+use feedscope_store::{AddOutcome, IndicatorRow, NewTest};
+use serde::{Deserialize, Serialize};
+
+use crate::output::io_error;
+use crate::{AppError, FrontEnd};
+
+/// What a user says about a test to store.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AddOptions {
+    /// Kind of test: constant-feed strokes or the triangular wave.
+    pub kind: TestKind,
+    /// Test time, RFC 3339 (e.g. 2026-11-21T14:30:00Z); default: the trace file's
+    /// modification time.
+    pub time: Option<String>,
+    /// Machine name.
+    pub machine: String,
+    /// Axis name; default: the axis file's `name`, else its file stem.
+    pub axis_name: Option<String>,
+    /// NC program the test ran (stored as given: a file name or an id).
+    pub program: Option<String>,
+    /// Compensation table in force during the test (stored as given).
+    pub compensation: Option<String>,
+    /// This test is the axis's reference (baseline) test.
+    pub reference: bool,
+    /// Width of the position intervals of the mean-friction indicators (mm), aligned at 0.
+    pub interval_mm: f64,
+}
+
+impl Default for AddOptions {
+    fn default() -> Self {
+        Self {
+            kind: TestKind::Strokes,
+            time: None,
+            machine: "machine".to_string(),
+            axis_name: None,
+            program: None,
+            compensation: None,
+            reference: false,
+            interval_mm: StrokeStudyParams::default().interval_mm,
+        }
+    }
+}
+
+impl AddOptions {
+    /// Check the options; the test time they give (s since the Unix epoch), when they give one.
+    ///
+    /// # Errors
+    /// [`AppError::invalid`] naming the field: an interval that is not a positive length, a
+    /// time that is not RFC 3339.
+    pub fn validate(&self, front: &dyn FrontEnd) -> Result<Option<f64>, AppError> {
+        if !(self.interval_mm.is_finite() && self.interval_mm > 0.0) {
+            return Err(AppError::invalid(
+                "interval_mm",
+                format!("{} must be a positive length", front.name("interval_mm")),
+            ));
+        }
+        match &self.time {
+            Some(s) => parse_rfc3339(s).map(Some).ok_or_else(|| {
+                AppError::invalid(
+                    "time",
+                    format!(
+                        "{} {s:?} is not an RFC 3339 time such as 2026-11-21T14:30:00Z",
+                        front.name("time")
+                    ),
+                )
+            }),
+            None => Ok(None),
+        }
+    }
+
+    /// The axis name the test is stored under: the option, else the axis file's `name`, else
+    /// the file's stem (`axis` without a file).
+    pub fn axis_label(&self, axis: &AxisParams, file: Option<&Path>) -> String {
+        axis_label(self.axis_name.as_deref(), axis, file)
+    }
+}
+
+/// The axis name of a test: `given`, else the axis's `name`, else the stem of its `file`,
+/// else `axis`.
+pub fn axis_label(given: Option<&str>, axis: &AxisParams, file: Option<&Path>) -> String {
+    given
+        .map(str::to_string)
+        .or_else(|| axis.name.clone())
+        .or_else(|| {
+            file.and_then(Path::file_stem)
+                .map(|s| s.to_string_lossy().into_owned())
+        })
+        .unwrap_or_else(|| "axis".into())
+}
+
+/// Read the axis file a test of `kind` needs: a triangle test identifies J and B, so its axis
+/// file may leave them out.
+///
+/// # Errors
+/// The reader's error, naming the file and the key.
+pub fn load_axis(kind: TestKind, path: &Path) -> Result<AxisParams, AppError> {
+    match kind {
+        TestKind::Triangle => feedscope_io::axis::load_for_identification(path),
+        _ => feedscope_io::axis::load(path),
+    }
+    .map_err(|e| AppError::from_error(e).for_field("axis"))
+}
+
+/// What a store keeps with a test besides its analysis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TestMeta {
+    pub machine: String,
+    pub axis: String,
+    /// Test time (s since the Unix epoch, UTC).
+    pub time_s: f64,
+    /// The trace's source (a path as given, or a live gateway's name for it).
+    pub source: String,
+    pub program: Option<String>,
+    pub reference: bool,
+    pub compensation: Option<String>,
+}
+
+/// A test analysed and ready to store.
+#[derive(Debug, Clone)]
+pub struct Analysed {
+    /// The row to store, with its indicators and curves.
+    pub test: NewTest,
+    /// What the data support, in lines for the user: the verdict's headline and the strokes
+    /// that give no indicator (stroke tests; none for a triangle test).
+    pub verdict: Vec<String>,
+}
+
+/// Analyse `trace` as its kind asks and make it the row a store keeps (`bytes` are the
+/// trace's content, whose hash finds duplicates). A triangle test's identified inertia fills
+/// in what the axis file left out.
+///
+/// # Errors
+/// The analysis's errors, under "analysing SOURCE".
+pub fn analyse_for_store(
+    trace: &Trace,
+    axis: &mut AxisParams,
+    kind: TestKind,
+    interval_mm: f64,
+    bytes: &[u8],
+    meta: TestMeta,
+) -> Result<Analysed, AppError> {
+    let params = TestStudyParams {
+        strokes: StrokeStudyParams {
+            interval_mm,
+            ..StrokeStudyParams::default()
+        },
+        ..TestStudyParams::default()
+    };
+    let analysis = analyze_test(trace, axis, kind, &params)
+        .map_err(|e| AppError::within(format!("analysing {}", meta.source), e))?;
+    let mut verdict = Vec::new();
+    if let TestAnalysis::Strokes(st) = &analysis {
+        verdict.push(st.verdict.headline());
+        if !st.withheld.is_empty() {
+            let which: Vec<String> = st.withheld.iter().map(|w| w.stroke.to_string()).collect();
+            verdict.push(format!(
+                "verdict: {} stroke(s) give no indicator, their data support no profile \
+                 (strokes {}; `feedscope estimate` says why)",
+                st.withheld.len(),
+                which.join(", ")
+            ));
+        }
+    }
+    if let TestAnalysis::Triangle(tri) = &analysis {
+        axis.resolve_identified(tri.identification.fit.j_total_kgm2);
+    }
+    let mut t = NewTest::from_analysis(&analysis, axis, bytes);
+    t.machine = meta.machine;
+    t.axis = meta.axis;
+    t.time_s = meta.time_s;
+    t.time_utc = format_rfc3339(meta.time_s);
+    t.source = meta.source;
+    t.program = meta.program;
+    t.reference = meta.reference;
+    t.compensation_ref = meta.compensation;
+    Ok(Analysed { test: t, verdict })
+}
+
+/// Read the trace file `trace` (its bytes identify duplicates; without a time in the options
+/// the test time is its modification time) and analyse it for the store. The reader's warning
+/// goes to [`FrontEnd::notice`].
+///
+/// # Errors
+/// As [`AddOptions::validate`]; reading the trace (naming the file and line); the analysis.
+pub fn prepare_test(
+    trace: &Path,
+    mut axis: AxisParams,
+    axis_label: String,
+    options: &AddOptions,
+    front: &dyn FrontEnd,
+) -> Result<Analysed, AppError> {
+    let time_given = options.validate(front)?;
+    let reading = |e| io_error(format!("reading {}", trace.display()), e);
+    let bytes = std::fs::read(trace).map_err(reading)?;
+    let time_s = match time_given {
+        Some(t) => t,
+        None => std::fs::metadata(trace)
+            .and_then(|m| m.modified())
+            .map_err(reading)?
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0.0, |d| d.as_secs_f64()),
+    };
+    let source = trace.display().to_string();
+    let (samples, read) = read_trace_file_with(
+        trace,
+        &ReadOptions::default(),
+        &GlitchParams::for_axis(&axis),
+    )
+    .map_err(AppError::from_error)?;
+    if let Some(w) = read.warning() {
+        front.notice(&format!("{source}: {w}"));
+    }
+    let meta = TestMeta {
+        machine: options.machine.clone(),
+        axis: axis_label,
+        time_s,
+        source,
+        program: options.program.clone(),
+        reference: options.reference,
+        compensation: options.compensation.clone(),
+    };
+    analyse_for_store(
+        &samples,
+        &mut axis,
+        options.kind,
+        options.interval_mm,
+        &bytes,
+        meta,
+    )
+}
+
+/// What storing a test did: `history add --format json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct AddReport {
+    /// Test id in the store.
+    pub id: i64,
+    /// The same trace content was already stored for the axis and kind (nothing was added).
+    pub duplicate: bool,
+    /// The test's indicators (name, value in its unit, standard error, unit).
+    pub indicators: Vec<IndicatorRow>,
+}
+
+impl AddReport {
+    /// The report of storing `test` with `outcome`.
+    pub fn new(test: &NewTest, outcome: AddOutcome) -> Self {
+        let (id, duplicate) = match outcome {
+            AddOutcome::Added(id) => (id, false),
+            AddOutcome::Duplicate(id) => (id, true),
+        };
+        Self {
+            id,
+            duplicate,
+            indicators: test.indicators.clone(),
+        }
+    }
+}
+
+/// A test to add from files: the trace and the axis file.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AddRequest {
+    /// Trace file of the test (CSV or Parquet).
+    pub trace: PathBuf,
+    /// Axis parameters (TOML or JSON).
+    pub axis: PathBuf,
+    /// What the user says about the test.
+    #[serde(flatten)]
+    pub options: AddOptions,
+}
+
+impl AddRequest {
+    /// Check the request without reading anything.
+    ///
+    /// # Errors
+    /// [`AppError::invalid`] naming the field.
+    pub fn validate(&self, front: &dyn FrontEnd) -> Result<(), AppError> {
+        for (field, p) in [("trace", &self.trace), ("axis", &self.axis)] {
+            if p.as_os_str().is_empty() {
+                return Err(AppError::invalid(
+                    field,
+                    format!("{} names no file", front.name(field)),
+                ));
+            }
+        }
+        self.options.validate(front).map(|_| ())
+    }
+
+    /// Read the axis file and the trace and analyse the test for the store.
+    ///
+    /// # Errors
+    /// As [`AddRequest::validate`], [`load_axis`] and [`prepare_test`].
+    pub fn prepare(&self, front: &dyn FrontEnd) -> Result<Analysed, AppError> {
+        self.validate(front)?;
+        let axis = load_axis(self.options.kind, &self.axis)?;
+        let label = self.options.axis_label(&axis, Some(&self.axis));
+        prepare_test(&self.trace, axis, label, &self.options, front)
+    }
+}
