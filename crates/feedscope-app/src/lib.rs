@@ -26,7 +26,8 @@
 //! and [`trend`] (an axis's indicators over its stored tests,
 //! the position-resolved comparison and the diagnosis).
 //!
-//! Every file a front end writes goes through [`output`]: it appears whole or not at all.
+//! Every file a front end writes goes through [`output`]: it appears whole or not at all; every
+//! history store a front end opens is named and opened through [`store`].
 //!
 //! # Example
 //! Identify J and the Stribeck curve from a triangular-wave test run on the twin:
@@ -61,6 +62,7 @@ pub mod identify;
 pub mod map;
 pub mod output;
 pub mod recording;
+pub mod store;
 pub mod stribeck;
 pub mod trend;
 

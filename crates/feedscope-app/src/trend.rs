@@ -11,7 +11,7 @@ use std::path::PathBuf;
 
 use feedscope::history::{IndicatorTrend, LocalParams, ProfileChanges, ProfileTest, Threshold};
 use feedscope::study::{Curves, TrendStudyParams};
-use feedscope_store::{AxisSeries, Filter, Store, TestRow};
+use feedscope_store::{AxisSeries, Filter, Store, TestKind, TestRow};
 use serde::{Deserialize, Serialize};
 
 use crate::{AppError, FrontEnd};
@@ -245,7 +245,7 @@ pub fn axis_trends(
 /// curves; tests stored before the grid existed have none and are left out.
 fn stroke_profiles(store_: &dyn Store, tests: &[TestRow]) -> Result<Vec<ProfileTest>, AppError> {
     let mut out = Vec::new();
-    for t in tests.iter().filter(|t| t.kind == "strokes") {
+    for t in tests.iter().filter(|t| t.kind == TestKind::Strokes) {
         let Some(json) = store_.curves(t.id).map_err(store)? else {
             continue;
         };

@@ -8,7 +8,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
-use feedscope_store::{PgStore, Store, StoreError};
+pub use feedscope_app::store::StoreSpec;
+use feedscope_app::store::{open_options, store_error};
+use feedscope_store::{Store, StoreError};
 
 use crate::cmd::BadInput;
 
@@ -19,96 +21,55 @@ pub const DB_VAR: &str = "FEEDSCOPE_DB";
 /// The SQLite file when nothing says where the store is.
 const DEFAULT_DB: &str = "feedscope.db";
 
-/// A history store, parsed from the command line or the environment before anything is
-/// opened.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum StoreSpec {
-    /// An SQLite file.
-    Sqlite(PathBuf),
-    /// A PostgreSQL database: the URL as given (with its password, if any).
-    Postgres(String),
+/// The store of the flags and the environment: `--store`, `--db`, [`STORE_VAR`], [`DB_VAR`],
+/// `feedscope.db`, the first one given.
+///
+/// # Errors
+/// [`BadInput`] when both `--db` and `--store` are given.
+pub fn resolve(db: Option<&Path>, store: Option<&str>) -> Result<StoreSpec> {
+    let env = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty());
+    Ok(match (db, store) {
+        (Some(d), Some(s)) => {
+            return Err(BadInput(format!(
+                "--db {} and --store {} both say where the history is; give one",
+                d.display(),
+                StoreSpec::parse(s).describe()
+            ))
+            .into())
+        }
+        (None, Some(s)) => StoreSpec::parse(s),
+        (Some(d), None) => StoreSpec::Sqlite(d.to_path_buf()),
+        (None, None) => match (env(STORE_VAR), env(DB_VAR)) {
+            (Some(s), _) => StoreSpec::parse(&s.to_string_lossy()),
+            (None, Some(d)) => StoreSpec::Sqlite(PathBuf::from(d)),
+            (None, None) => StoreSpec::Sqlite(PathBuf::from(DEFAULT_DB)),
+        },
+    })
 }
 
-impl StoreSpec {
-    /// `postgres://…` and `postgresql://…` (any case of the scheme) name a PostgreSQL
-    /// database; anything else is an SQLite file's path.
-    pub fn parse(spec: &str) -> Self {
-        let lower = spec.get(..13).unwrap_or(spec).to_ascii_lowercase();
-        if lower.starts_with("postgres://") || lower.starts_with("postgresql://") {
-            StoreSpec::Postgres(spec.to_string())
-        } else {
-            StoreSpec::Sqlite(PathBuf::from(spec))
-        }
-    }
-
-    /// The store of the flags and the environment: `--store`, `--db`, [`STORE_VAR`],
-    /// [`DB_VAR`], `feedscope.db`, the first one given.
-    ///
-    /// # Errors
-    /// [`BadInput`] when both `--db` and `--store` are given.
-    pub fn resolve(db: Option<&Path>, store: Option<&str>) -> Result<Self> {
-        let env = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty());
-        Ok(match (db, store) {
-            (Some(d), Some(s)) => {
-                return Err(BadInput(format!(
-                    "--db {} and --store {} both say where the history is; give one",
-                    d.display(),
-                    StoreSpec::parse(s).describe()
-                ))
-                .into())
-            }
-            (None, Some(s)) => StoreSpec::parse(s),
-            (Some(d), None) => StoreSpec::Sqlite(d.to_path_buf()),
-            (None, None) => match (env(STORE_VAR), env(DB_VAR)) {
-                (Some(s), _) => StoreSpec::parse(&s.to_string_lossy()),
-                (None, Some(d)) => StoreSpec::Sqlite(PathBuf::from(d)),
-                (None, None) => StoreSpec::Sqlite(PathBuf::from(DEFAULT_DB)),
-            },
-        })
-    }
-
-    /// The store in messages: the SQLite file's path, or the URL with its password replaced
-    /// by `***`.
-    pub fn describe(&self) -> String {
-        match self {
-            StoreSpec::Sqlite(p) => p.display().to_string(),
-            StoreSpec::Postgres(url) => feedscope_store::postgres::redact(url),
-        }
-    }
-
-    /// The SQLite file, if the store is one.
-    pub fn sqlite_path(&self) -> Option<&Path> {
-        match self {
-            StoreSpec::Sqlite(p) => Some(p),
-            StoreSpec::Postgres(_) => None,
-        }
-    }
-
+/// How the command line opens a store: [`open_options`] with the wait said on stderr.
+pub trait Open {
     /// Open the store (creating or migrating its schema).
     ///
     /// # Errors
-    /// As [`feedscope_store::SqliteStore::open_with`] and [`PgStore::open`], each naming the store: a bad URL
-    /// or a database that is not feedscope's is bad input (exit code 2), a server that
-    /// cannot be reached is not (exit code 1).
-    pub fn open(&self) -> Result<Box<dyn Store>> {
-        Ok(self.open_versioned()?.0)
+    /// As [`StoreSpec::open_versioned`]; a bad busy timeout.
+    fn open(&self) -> Result<Box<dyn Store>> {
+        Ok(self.open_with_version()?.0)
     }
 
     /// [`open`](Self::open), with the schema version of the store.
-    pub fn open_versioned(&self) -> Result<(Box<dyn Store>, i64)> {
-        match self {
-            StoreSpec::Sqlite(p) => {
-                let s = crate::cmd::history::open_sqlite(p)?;
-                let v = s.schema_version().map_err(|e| store_err(e, self))?;
-                Ok((Box::new(s) as Box<dyn Store>, v))
-            }
-            StoreSpec::Postgres(url) => {
-                let s = PgStore::open(url).map_err(|e| store_err(e, self))?;
-                let v = s.schema_version().map_err(|e| store_err(e, self))?;
-                Ok((Box::new(s) as Box<dyn Store>, v))
-            }
-        }
+    fn open_with_version(&self) -> Result<(Box<dyn Store>, i64)>;
+}
+
+impl Open for StoreSpec {
+    fn open_with_version(&self) -> Result<(Box<dyn Store>, i64)> {
+        Ok(StoreSpec::open_versioned(self, &cli_open_options()?)?)
     }
+}
+
+/// [`open_options`] with the wait said on stderr.
+pub fn cli_open_options() -> Result<feedscope_store::OpenOptions> {
+    Ok(open_options(Some(Box::new(|m: &str| eprintln!("{m}"))))?)
 }
 
 /// Open the history store that `--db` and `--store` (or the environment) name.
@@ -116,44 +77,21 @@ impl StoreSpec {
 /// # Errors
 /// As [`StoreSpec::resolve`] and [`StoreSpec::open`].
 pub fn open_store(db: Option<&Path>, store: Option<&str>) -> Result<Box<dyn Store>> {
-    StoreSpec::resolve(db, store)?.open()
+    resolve(db, store)?.open()
 }
 
 /// The store that `--db` and `--store` (or the environment) name, for messages (its password
 /// hidden); both flags together are described as the `--store` one.
 pub fn describe(db: Option<&Path>, store: Option<&str>) -> String {
-    match StoreSpec::resolve(db, store) {
+    match resolve(db, store) {
         Ok(s) => s.describe(),
         Err(_) => store.map_or_else(String::new, |s| StoreSpec::parse(s).describe()),
     }
 }
 
-/// A store error with the store named once: the variants whose message names it stand
-/// alone, the others get the store as context. The exit code follows the error's kind.
+/// A store error with the store named once ([`feedscope_app::store::store_error`]).
 pub fn store_err(e: StoreError, spec: &StoreSpec) -> anyhow::Error {
-    let name = spec.describe();
-    match (&e, spec) {
-        (
-            StoreError::NotADatabase { .. }
-            | StoreError::Foreign { .. }
-            | StoreError::ForeignSchema { .. }
-            | StoreError::BadAddress { .. }
-            | StoreError::NewerSchema { .. }
-            | StoreError::Corrupt { .. }
-            | StoreError::NoFolder { .. }
-            | StoreError::Busy { .. }
-            | StoreError::CommitUnknown { .. },
-            _,
-        ) => anyhow::Error::new(e),
-        (StoreError::NoSuchTest(_), _) => anyhow::Error::new(e).context(name),
-        (_, StoreSpec::Postgres(_)) => {
-            anyhow::Error::new(e).context(format!("PostgreSQL store {name}"))
-        }
-        (StoreError::Backend(_), StoreSpec::Sqlite(_)) if e.is_bad_input() => {
-            anyhow::Error::new(e).context(name)
-        }
-        _ => anyhow::Error::new(e).context(format!("database {name}")),
-    }
+    store_error(e, spec).into()
 }
 
 /// A failed [`Store::add`] of `history add` (and `watch`) as the user needs it: a commit whose
@@ -181,37 +119,12 @@ mod tests {
     use super::*;
 
     #[test]
-    fn specs_are_urls_or_paths() {
-        assert_eq!(
-            StoreSpec::parse("postgres://u@h/db"),
-            StoreSpec::Postgres("postgres://u@h/db".into())
-        );
-        assert_eq!(
-            StoreSpec::parse("PostgreSQL://u@h/db"),
-            StoreSpec::Postgres("PostgreSQL://u@h/db".into())
-        );
-        assert_eq!(
-            StoreSpec::parse("history.db"),
-            StoreSpec::Sqlite("history.db".into())
-        );
-        assert_eq!(
-            StoreSpec::parse("postgres.db"),
-            StoreSpec::Sqlite("postgres.db".into())
-        );
-        assert_eq!(
-            StoreSpec::parse("postgres://ann:secret@h/db").describe(),
-            "postgres://ann:***@h/db"
-        );
-    }
-
-    #[test]
     fn flags_beat_the_environment_and_do_not_go_together() {
-        let d = StoreSpec::resolve(Some(Path::new("a.db")), None).unwrap();
+        let d = resolve(Some(Path::new("a.db")), None).unwrap();
         assert_eq!(d, StoreSpec::Sqlite("a.db".into()));
-        let s = StoreSpec::resolve(None, Some("postgres://u@h/x")).unwrap();
+        let s = resolve(None, Some("postgres://u@h/x")).unwrap();
         assert_eq!(s, StoreSpec::Postgres("postgres://u@h/x".into()));
-        let e =
-            StoreSpec::resolve(Some(Path::new("a.db")), Some("postgres://u:pw@h/x")).unwrap_err();
+        let e = resolve(Some(Path::new("a.db")), Some("postgres://u:pw@h/x")).unwrap_err();
         assert_eq!(crate::cmd::exit_code(&e), 2);
         assert!(!e.to_string().contains("pw@"), "{e}");
         assert_eq!(

@@ -1,32 +1,23 @@
 //! `feedscope.History`: the condition history (SQLite), as `feedscope history add|list|trend`.
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-use std::time::Duration;
 
 use feedscope::study::TestKind;
-use feedscope_store::{AddOutcome, Filter, NewTest, OpenOptions, SqliteStore, Store, StoreError};
+use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
 use crate::axis::Axis;
 use crate::convert::to_py;
-use crate::errors::{py_err, to_py as err_to_py, BadInput};
+use crate::errors::{py_err, to_py as err_to_py};
 use crate::front::Keywords;
 use feedscope_app::history::{load_axis, prepare_test, AddOptions, AddReport};
+use feedscope_app::store::{open_options, store_error, StoreSpec};
 use feedscope_app::trend::{axis_trend, AxisTrends, TrendOptions};
 
-/// The environment variable of the CLI's busy timeout (seconds), honoured here too.
-const BUSY_TIMEOUT_VAR: &str = "FEEDSCOPE_BUSY_TIMEOUT_S";
-
-/// A store error with the CLI's context (`store_err` of `cmd/history.rs`).
+/// A store error with the store named once, as the binary says it.
 fn store_err(e: StoreError, path: &Path) -> anyhow::Error {
-    match &e {
-        StoreError::Backend(_) | StoreError::NoSuchTest(_) if e.is_bad_input() => {
-            anyhow::Error::new(e).context(path.display().to_string())
-        }
-        _ if e.is_bad_input() => anyhow::Error::new(e),
-        _ => anyhow::Error::new(e).context(format!("database {}", path.display())),
-    }
+    store_error(e, &StoreSpec::Sqlite(path.to_path_buf())).into()
 }
 
 /// What `History.add` stored: `id`, `duplicate` (the same trace content was stored before),
@@ -155,18 +146,9 @@ impl History {
 impl History {
     #[new]
     fn new(path: PathBuf) -> PyResult<Self> {
-        let timeout = match std::env::var(BUSY_TIMEOUT_VAR).ok() {
-            None => 30.0,
-            Some(v) => match v.trim().parse::<f64>() {
-                Ok(s) if (0.0..=86_400.0).contains(&s) => s,
-                _ => {
-                    return Err(py_err(BadInput(format!(
-                        "{BUSY_TIMEOUT_VAR}={v:?} is not a number of seconds from 0 to 86400"
-                    ))))
-                }
-            },
-        };
-        let opts = OpenOptions::default().busy_timeout(Duration::from_secs_f64(timeout));
+        // The binary's busy timeout (FEEDSCOPE_BUSY_TIMEOUT_S); a wait is not said (no
+        // terminal to say it on), only its end if the lock never comes.
+        let opts = open_options(None).map_err(py_err)?;
         let store =
             SqliteStore::open_with(&path, &opts).map_err(|e| err_to_py(store_err(e, &path)))?;
         Ok(Self {

@@ -30,7 +30,7 @@
 //! assert_eq!(store.add(&test)?, AddOutcome::Duplicate(id));
 //! let rows = store.list(&Filter::default())?;
 //! assert_eq!(rows.len(), 1);
-//! assert_eq!(rows[0].kind, "triangle");
+//! assert_eq!(rows[0].kind, TestKind::Triangle);
 //! assert_eq!(store.get(id)?.test.source, "week-01.csv");
 //! # Ok(())
 //! # }
@@ -437,8 +437,8 @@ pub struct TestRow {
     pub time_utc: String,
     /// Test time (s since the Unix epoch).
     pub time_s: f64,
-    /// `strokes` or `triangle`.
-    pub kind: String,
+    /// Kind of test (`strokes` or `triangle` in JSON).
+    pub kind: TestKind,
     /// Source trace.
     pub source: String,
     /// SHA-256 of the trace.

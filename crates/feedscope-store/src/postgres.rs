@@ -864,7 +864,7 @@ fn test_row(r: &Row) -> Result<TestRow, StoreError> {
         axis: col(r, 2)?,
         time_utc: col(r, 3)?,
         time_s: col(r, 4)?,
-        kind: col(r, 5)?,
+        kind: label(r, 5)?,
         source: col(r, 6)?,
         content_sha256: col(r, 7)?,
         program: col(r, 8)?,

@@ -562,7 +562,7 @@ fn test_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<TestRow> {
         axis: r.get(2)?,
         time_utc: r.get(3)?,
         time_s: r.get(4)?,
-        kind: r.get(5)?,
+        kind: label(r, 5)?,
         source: r.get(6)?,
         content_sha256: r.get(7)?,
         program: r.get(8)?,
@@ -1013,7 +1013,7 @@ mod tests {
         let d = s.get(id).unwrap();
         assert_eq!(d.test.machine, "m");
         assert_eq!(d.test.axis, "Z");
-        assert_eq!(d.test.kind, "triangle");
+        assert_eq!(d.test.kind, TestKind::Triangle);
         assert_eq!(d.test.time_utc, t.time_utc);
         assert_eq!(d.test.time_s.to_bits(), t.time_s.to_bits());
         assert_eq!(d.test.content_sha256, t.content_sha256);
@@ -1183,7 +1183,7 @@ mod tests {
         );
         let s = open(&dir);
         assert_eq!(s.schema_version().unwrap(), SCHEMA_VERSION);
-        assert_eq!(s.get(id).unwrap().test.kind, "strokes");
+        assert_eq!(s.get(id).unwrap().test.kind, TestKind::Strokes);
     }
 
     #[test]
@@ -1367,6 +1367,29 @@ mod tests {
     }
 
     /// Damage that the quick check does not see is still the user's wrong file (exit code 2):
+    /// A test kind that is neither `strokes` nor `triangle` (written by something else) is
+    /// damage, refused as the row is read, not a row a front end compares as text.
+    #[test]
+    fn an_unknown_test_kind_is_damage() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("h.db");
+        open(&dir)
+            .add(&new_test("Z", 2, TestKind::Strokes, 1))
+            .unwrap();
+        let rows = open(&dir).list(&Filter::default()).unwrap();
+        assert_eq!(rows[0].kind, TestKind::Strokes);
+        // The schema's CHECK refuses it; another writer that ignores checks does not.
+        let raw = Connection::open(&path).unwrap();
+        assert!(raw.execute("UPDATE tests SET kind = 'spiral'", []).is_err());
+        raw.pragma_update(None, "ignore_check_constraints", true)
+            .unwrap();
+        raw.execute("UPDATE tests SET kind = 'spiral'", []).unwrap();
+        drop(raw);
+        let e = open(&dir).list(&Filter::default()).unwrap_err();
+        assert!(e.is_bad_input(), "{e:?}");
+        assert!(format!("{e}").contains("spiral"), "{e}");
+    }
+
     /// a header whose version was reset, a table missing, a value of the wrong type.
     #[test]
     fn damage_past_the_quick_check_is_bad_input() {

@@ -52,7 +52,7 @@ impl fmt::Display for Segment {
 pub struct LabelError {
     /// The text read.
     pub text: String,
-    /// `segment` or `cause`.
+    /// `segment`, `cause` or `test kind`.
     pub what: &'static str,
     /// The forms accepted.
     pub expected: &'static str,

@@ -17,6 +17,7 @@ use feedscope_app::trend::{axis_trend, TrendOptions};
 use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, TestKind};
 
 use crate::front::Cli;
+use crate::store::Open as _;
 use crate::store::{add_err, store_err, StoreSpec};
 use serde::Serialize;
 
@@ -518,7 +519,7 @@ fn export(spec: &StoreSpec, a: &ExportArgs) -> Result<()> {
                 machine: &d.test.machine,
                 axis: &d.test.axis,
                 time_utc: &d.test.time_utc,
-                kind: &d.test.kind,
+                kind: d.test.kind.as_str(),
                 indicator: &i.name,
                 value: i.value,
                 std_error: i.std_error,
@@ -732,7 +733,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         return migrate(a);
     }
-    let spec = StoreSpec::resolve(args.db.as_deref(), args.store.as_deref())?;
+    let spec = crate::store::resolve(args.db.as_deref(), args.store.as_deref())?;
     let db = &spec;
     match &args.command {
         HistoryCommand::Migrate(_) => unreachable!("handled above"),
@@ -758,7 +759,7 @@ pub fn run(args: Args) -> Result<()> {
             Ok(())
         }
         HistoryCommand::Check => {
-            let (store, version) = spec.open_versioned()?;
+            let (store, version) = spec.open_with_version()?;
             store.check().map_err(|e| match e {
                 StoreError::Corrupt { .. } => anyhow::Error::new(CheckFailed(e)),
                 e => store_err(e, &spec),
@@ -825,16 +826,8 @@ fn migrate(a: &MigrateArgs) -> Result<()> {
                 p
             }
         };
-        let kind = match r.kind.as_str() {
-            "strokes" => TestKind::Strokes,
-            "triangle" => TestKind::Triangle,
-            other => {
-                return Err(src_err(StoreError::Corrupt {
-                    path: from.describe(),
-                    detail: format!("test {} has the unknown kind {other:?}", r.id),
-                }))
-            }
-        };
+        // An unknown kind is refused as the row is read (a damaged store).
+        let kind = r.kind;
         let t = NewTest {
             machine: r.machine.clone(),
             axis: r.axis.clone(),

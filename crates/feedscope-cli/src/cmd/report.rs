@@ -6,6 +6,7 @@ use anyhow::Result;
 use super::history::DetectorArgs;
 use crate::front::Cli;
 use crate::output::write_atomic;
+use crate::store::Open as _;
 use crate::store::StoreSpec;
 use feedscope_app::trend::axis_trend;
 
@@ -107,7 +108,7 @@ fn no_database(flag: Option<&Path>, store_flag: bool, db: &Path) -> super::BadIn
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let spec = StoreSpec::resolve(args.db.as_deref(), args.store.as_deref())?;
+    let spec = crate::store::resolve(args.db.as_deref(), args.store.as_deref())?;
     if let Some(db) = spec.sqlite_path() {
         if !db.exists() {
             return Err(no_database(args.db.as_deref(), args.store.is_some(), db).into());

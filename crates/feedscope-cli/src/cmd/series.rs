@@ -2,7 +2,6 @@
 //! among them, and which one `history add` started or added to; and how every command opens
 //! the store ([`store_options`]: the busy timeout and what is said while waiting).
 use std::path::Path;
-use std::time::Duration;
 
 use anyhow::Result;
 use feedscope_store::{AddOutcome, Filter, NewTest, OpenOptions, Store};
@@ -20,56 +19,13 @@ pub fn how_to_add(db: Option<&Path>) -> String {
     )
 }
 
-/// The environment variable that sets how long a command waits for another process's write
-/// lock on the history database, in seconds.
-pub const BUSY_TIMEOUT_VAR: &str = "FEEDSCOPE_BUSY_TIMEOUT_S";
-
-/// The busy timeout when [`BUSY_TIMEOUT_VAR`] is not set.
-const DEFAULT_BUSY_TIMEOUT_S: f64 = 30.0;
-
-/// The busy timeout given by the value of [`BUSY_TIMEOUT_VAR`] (`None`: not set).
+/// How every command opens an SQLite history: the app's `open_options` with the wait said
+/// on stderr.
 ///
 /// # Errors
-/// [`BadInput`] naming the variable when the value is not a number of seconds from 0 to
-/// one day.
-fn busy_timeout(value: Option<&str>) -> Result<Duration> {
-    let Some(v) = value else {
-        return Ok(Duration::from_secs_f64(DEFAULT_BUSY_TIMEOUT_S));
-    };
-    match v.trim().parse::<f64>() {
-        Ok(s) if (0.0..=86_400.0).contains(&s) => Ok(Duration::from_secs_f64(s)),
-        _ => Err(BadInput(format!(
-            "{BUSY_TIMEOUT_VAR}={v:?} is not a number of seconds from 0 to 86400"
-        ))
-        .into()),
-    }
-}
-
-/// What a command says on stderr when it starts waiting for another process's lock.
-fn waiting_message(db: &Path, up_to: Duration) -> String {
-    format!(
-        "the history database {} is busy (another process, probably another feedscope, is \
-         writing to it); waiting up to {} s (set {BUSY_TIMEOUT_VAR} to change this)",
-        db.display(),
-        up_to.as_secs_f64()
-    )
-}
-
-/// How every command opens the history store: the busy timeout from [`BUSY_TIMEOUT_VAR`]
-/// (default 30 s), one line on stderr when a wait for another process's lock lasts, and the
-/// variable named in the error when the wait ends without the lock.
-///
-/// # Errors
-/// [`BadInput`] when [`BUSY_TIMEOUT_VAR`] holds no valid number of seconds.
+/// Bad input when `FEEDSCOPE_BUSY_TIMEOUT_S` holds no valid number of seconds.
 pub fn store_options() -> Result<OpenOptions> {
-    let value = std::env::var(BUSY_TIMEOUT_VAR).ok();
-    let timeout = busy_timeout(value.as_deref())?;
-    Ok(OpenOptions::default()
-        .busy_timeout(timeout)
-        .on_wait(|db, up_to| eprintln!("{}", waiting_message(db, up_to)))
-        .busy_hint(format!(
-            "to wait longer, set {BUSY_TIMEOUT_VAR} (e.g. {BUSY_TIMEOUT_VAR}=300)"
-        )))
+    crate::store::cli_open_options()
 }
 
 /// The default of `--machine` in `history add` (and of `history trend` and `report` among
@@ -149,23 +105,6 @@ pub fn announce_add(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
-
-    #[test]
-    fn busy_timeout_from_the_environment_value() {
-        assert_eq!(busy_timeout(None).unwrap(), Duration::from_secs(30));
-        assert_eq!(
-            busy_timeout(Some(" 2.5")).unwrap(),
-            Duration::from_millis(2500)
-        );
-        assert_eq!(busy_timeout(Some("0")).unwrap(), Duration::ZERO);
-        for bad in ["", "soon", "-1", "NaN", "inf", "1e9"] {
-            let e = busy_timeout(Some(bad)).unwrap_err();
-            assert!(e.is::<BadInput>(), "{bad}: {e:#}");
-            assert!(e.to_string().contains(BUSY_TIMEOUT_VAR), "{e}");
-        }
-    }
-
     /// A lock held too long is not the input's fault (exit 1); a bad timeout value is (2).
     #[test]
     fn exit_codes_of_a_busy_store() {
@@ -176,19 +115,7 @@ mod tests {
         };
         let e = anyhow::Error::new(busy).context("database h.db");
         assert_eq!(super::super::exit_code(&e), 1);
-        assert_eq!(
-            super::super::exit_code(&busy_timeout(Some("soon")).unwrap_err()),
-            2
-        );
-    }
-
-    #[test]
-    fn the_waiting_message_says_who_how_long_and_how_to_change_it() {
-        let m = waiting_message(Path::new("h.db"), Duration::from_secs(30));
-        assert_eq!(
-            m,
-            "the history database h.db is busy (another process, probably another feedscope, \
-             is writing to it); waiting up to 30 s (set FEEDSCOPE_BUSY_TIMEOUT_S to change this)"
-        );
+        let bad = feedscope_app::store::busy_timeout(Some("soon")).unwrap_err();
+        assert_eq!(super::super::exit_code(&bad.into()), 2);
     }
 }

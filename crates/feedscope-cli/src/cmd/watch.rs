@@ -21,6 +21,7 @@ use feedscope_store::{AddOutcome, TestKind};
 
 use super::history::{analyse_and_store, KindArg};
 use super::BadInput;
+use crate::store::Open as _;
 use crate::store::StoreSpec;
 use feedscope_app::history::TestMeta;
 
@@ -272,7 +273,7 @@ fn watch(
     axis: feedscope::axis::AxisParams,
     effort: EffortHints,
 ) -> Result<()> {
-    let spec = StoreSpec::resolve(w.db.as_deref(), w.store.as_deref())?;
+    let spec = crate::store::resolve(w.db.as_deref(), w.store.as_deref())?;
     let mut store = spec.open()?;
     let axis_name =
         feedscope_app::history::axis_label(w.axis_name.as_deref(), &axis, Some(&w.axis_file));

@@ -672,7 +672,10 @@ pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Resul
         .iter()
         .map(|x| store.get(x.id))
         .collect::<Result<_, _>>()?;
-    let latest_strokes = details.iter().rev().find(|d| d.test.kind == "strokes");
+    let latest_strokes = details
+        .iter()
+        .rev()
+        .find(|d| d.test.kind == feedscope_store::TestKind::Strokes);
     let curves: Option<(Curves, &TestDetail)> = match latest_strokes {
         Some(d) => store
             .curves(d.test.id)?
@@ -759,7 +762,7 @@ pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Resul
         .map(|d| TestLine {
             id: d.test.id,
             time: d.test.time_utc.clone(),
-            kind: d.test.kind.clone(),
+            kind: d.test.kind.to_string(),
             source: d.test.source.clone(),
             reference: d.test.reference,
             summary: match &d.identified {

@@ -204,6 +204,29 @@ impl TestKind {
     }
 }
 
+/// [`TestKind::as_str`], padded to a width when one is given (`{:<8}`).
+impl std::fmt::Display for TestKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.as_str())
+    }
+}
+
+/// The inverse of [`TestKind::as_str`].
+impl std::str::FromStr for TestKind {
+    type Err = crate::label::LabelError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "strokes" => Ok(TestKind::Strokes),
+            "triangle" => Ok(TestKind::Triangle),
+            _ => Err(crate::label::LabelError {
+                text: s.to_string(),
+                what: "test kind",
+                expected: "`strokes` or `triangle`",
+            }),
+        }
+    }
+}
+
 /// Settings of [`analyze_test`]: those of each kind of test.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct TestStudyParams {

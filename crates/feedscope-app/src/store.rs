@@ -1,0 +1,231 @@
+//! Where the condition history is kept and how a front end opens it: a PostgreSQL URL or an
+//! SQLite file ([`StoreSpec`]), the busy timeout every opening of an SQLite file honours
+//! ([`BUSY_TIMEOUT_VAR`]), and store errors with the store named once ([`store_error`]). A
+//! password in a URL never appears in a message: [`StoreSpec::describe`] shows it as `***`.
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use feedscope::ErrorKind;
+use feedscope_store::{OpenOptions, PgStore, SqliteStore, Store, StoreError};
+
+use crate::AppError;
+
+/// A history store, parsed before anything is opened.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum StoreSpec {
+    /// An SQLite file.
+    Sqlite(PathBuf),
+    /// A PostgreSQL database: the URL as given (with its password, if any).
+    Postgres(String),
+}
+
+impl StoreSpec {
+    /// `postgres://…` and `postgresql://…` (any case of the scheme) name a PostgreSQL
+    /// database; anything else is an SQLite file's path.
+    pub fn parse(spec: &str) -> Self {
+        let lower = spec.get(..13).unwrap_or(spec).to_ascii_lowercase();
+        if lower.starts_with("postgres://") || lower.starts_with("postgresql://") {
+            StoreSpec::Postgres(spec.to_string())
+        } else {
+            StoreSpec::Sqlite(PathBuf::from(spec))
+        }
+    }
+
+    /// The store in messages: the SQLite file's path, or the URL with its password replaced
+    /// by `***`.
+    pub fn describe(&self) -> String {
+        match self {
+            StoreSpec::Sqlite(p) => p.display().to_string(),
+            StoreSpec::Postgres(url) => feedscope_store::postgres::redact(url),
+        }
+    }
+
+    /// The SQLite file, if the store is one.
+    pub fn sqlite_path(&self) -> Option<&Path> {
+        match self {
+            StoreSpec::Sqlite(p) => Some(p),
+            StoreSpec::Postgres(_) => None,
+        }
+    }
+
+    /// Open the store (creating or migrating its schema), with its schema version; an
+    /// SQLite file with `options` ([`open_options`]).
+    ///
+    /// # Errors
+    /// As [`SqliteStore::open_with`] and [`PgStore::open`], each naming the store
+    /// ([`store_error`]): a bad URL or a database that is not feedscope's is bad input, a
+    /// server that cannot be reached is not.
+    pub fn open_versioned(&self, options: &OpenOptions) -> Result<(Box<dyn Store>, i64), AppError> {
+        match self {
+            StoreSpec::Sqlite(p) => {
+                let s = SqliteStore::open_with(p, options).map_err(|e| store_error(e, self))?;
+                let v = s.schema_version().map_err(|e| store_error(e, self))?;
+                Ok((Box::new(s) as Box<dyn Store>, v))
+            }
+            StoreSpec::Postgres(url) => {
+                let s = PgStore::open(url).map_err(|e| store_error(e, self))?;
+                let v = s.schema_version().map_err(|e| store_error(e, self))?;
+                Ok((Box::new(s) as Box<dyn Store>, v))
+            }
+        }
+    }
+}
+
+/// The environment variable that sets how long an opening waits for another process's write
+/// lock on an SQLite history, in seconds (default 30).
+pub const BUSY_TIMEOUT_VAR: &str = "FEEDSCOPE_BUSY_TIMEOUT_S";
+
+/// The busy timeout when [`BUSY_TIMEOUT_VAR`] is not set.
+const DEFAULT_BUSY_TIMEOUT_S: f64 = 30.0;
+
+/// The busy timeout given by the value of [`BUSY_TIMEOUT_VAR`] (`None`: not set).
+///
+/// # Errors
+/// Bad input naming the variable when the value is not a number of seconds from 0 to one
+/// day.
+pub fn busy_timeout(value: Option<&str>) -> Result<Duration, AppError> {
+    let Some(v) = value else {
+        return Ok(Duration::from_secs_f64(DEFAULT_BUSY_TIMEOUT_S));
+    };
+    match v.trim().parse::<f64>() {
+        Ok(s) if (0.0..=86_400.0).contains(&s) => Ok(Duration::from_secs_f64(s)),
+        _ => Err(AppError::bad_input(format!(
+            "{BUSY_TIMEOUT_VAR}={v:?} is not a number of seconds from 0 to 86400"
+        ))),
+    }
+}
+
+/// What is said when an opening starts waiting for another process's lock.
+pub fn waiting_message(db: &Path, up_to: Duration) -> String {
+    format!(
+        "the history database {} is busy (another process, probably another feedscope, is \
+         writing to it); waiting up to {} s (set {BUSY_TIMEOUT_VAR} to change this)",
+        db.display(),
+        up_to.as_secs_f64()
+    )
+}
+
+/// Where a front end says a line while the work goes on (the command line: stderr).
+pub type Say = Box<dyn Fn(&str) + Send + Sync>;
+
+/// How every front end opens an SQLite history: the busy timeout from [`BUSY_TIMEOUT_VAR`]
+/// (default 30 s), `say` told [`waiting_message`] when a wait for another process's lock
+/// lasts, and the variable named in the error when the wait ends without the lock.
+///
+/// # Errors
+/// Bad input when [`BUSY_TIMEOUT_VAR`] holds no valid number of seconds.
+pub fn open_options(say: Option<Say>) -> Result<OpenOptions, AppError> {
+    let value = std::env::var(BUSY_TIMEOUT_VAR).ok();
+    let mut options = OpenOptions::default()
+        .busy_timeout(busy_timeout(value.as_deref())?)
+        .busy_hint(format!(
+            "to wait longer, set {BUSY_TIMEOUT_VAR} (e.g. {BUSY_TIMEOUT_VAR}=300)"
+        ));
+    if let Some(say) = say {
+        options = options.on_wait(move |db, up_to| say(&waiting_message(db, up_to)));
+    }
+    Ok(options)
+}
+
+/// A store error with the store named once: the variants whose message names it stand
+/// alone, the others get the store as context. The kind is the store's.
+pub fn store_error(e: StoreError, spec: &StoreSpec) -> AppError {
+    let name = spec.describe();
+    let kind = e.kind();
+    match (&e, spec) {
+        (
+            StoreError::NotADatabase { .. }
+            | StoreError::Foreign { .. }
+            | StoreError::ForeignSchema { .. }
+            | StoreError::BadAddress { .. }
+            | StoreError::NewerSchema { .. }
+            | StoreError::Corrupt { .. }
+            | StoreError::NoFolder { .. }
+            | StoreError::Busy { .. }
+            | StoreError::CommitUnknown { .. },
+            _,
+        ) => AppError::from_error(e),
+        (StoreError::NoSuchTest(_), _) => AppError::caused(kind, name, e),
+        (_, StoreSpec::Postgres(_)) => {
+            AppError::caused(kind, format!("PostgreSQL store {name}"), e)
+        }
+        (StoreError::Backend(_), StoreSpec::Sqlite(_)) if e.is_bad_input() => {
+            AppError::caused(ErrorKind::BadInput, name, e)
+        }
+        _ => AppError::caused(kind, format!("database {name}"), e),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn specs_are_urls_or_paths() {
+        assert_eq!(
+            StoreSpec::parse("postgres://u@h/db"),
+            StoreSpec::Postgres("postgres://u@h/db".into())
+        );
+        assert_eq!(
+            StoreSpec::parse("PostgreSQL://u@h/db"),
+            StoreSpec::Postgres("PostgreSQL://u@h/db".into())
+        );
+        assert_eq!(
+            StoreSpec::parse("history.db"),
+            StoreSpec::Sqlite("history.db".into())
+        );
+        assert_eq!(
+            StoreSpec::parse("postgres.db"),
+            StoreSpec::Sqlite("postgres.db".into())
+        );
+        assert_eq!(
+            StoreSpec::parse("postgres://ann:secret@h/db").describe(),
+            "postgres://ann:***@h/db"
+        );
+    }
+
+    #[test]
+    fn busy_timeout_from_the_environment_value() {
+        assert_eq!(busy_timeout(None).unwrap(), Duration::from_secs(30));
+        assert_eq!(
+            busy_timeout(Some(" 2.5")).unwrap(),
+            Duration::from_millis(2500)
+        );
+        assert_eq!(busy_timeout(Some("0")).unwrap(), Duration::ZERO);
+        for bad in ["", "soon", "-1", "NaN", "inf", "1e9"] {
+            let e = busy_timeout(Some(bad)).unwrap_err();
+            assert_eq!(e.kind(), ErrorKind::BadInput, "{bad}: {e}");
+            assert!(e.to_string().contains(BUSY_TIMEOUT_VAR), "{e}");
+        }
+    }
+
+    #[test]
+    fn the_waiting_message_says_who_how_long_and_how_to_change_it() {
+        let m = waiting_message(Path::new("h.db"), Duration::from_secs(30));
+        assert_eq!(
+            m,
+            "the history database h.db is busy (another process, probably another feedscope, \
+             is writing to it); waiting up to 30 s (set FEEDSCOPE_BUSY_TIMEOUT_S to change this)"
+        );
+    }
+
+    /// A store error keeps its kind and names the store once.
+    #[test]
+    fn store_errors_name_the_store_once() {
+        let sqlite = StoreSpec::Sqlite("h.db".into());
+        let e = store_error(StoreError::NoSuchTest(7), &sqlite);
+        assert_eq!(e.kind(), ErrorKind::BadInput);
+        assert_eq!(e.to_string(), "h.db");
+        let busy = StoreError::Busy {
+            path: "h.db".into(),
+            waited_s: 30.0,
+            hint: None,
+        };
+        let e = store_error(busy, &sqlite);
+        assert_eq!(e.kind(), ErrorKind::Io);
+        assert!(e.to_string().contains("h.db"), "{e}");
+        let pg = StoreSpec::Postgres("postgres://u:pw@h/x".into());
+        let e = store_error(StoreError::Io(std::io::ErrorKind::Other.into()), &pg);
+        assert_eq!(e.to_string(), "PostgreSQL store postgres://u:***@h/x");
+    }
+}
