@@ -290,7 +290,7 @@ fn weekly_history(out: &Path, seed: u64, weeks: usize) -> Result<()> {
         .collect::<Result<_>>()?;
     pb.finish_and_clear();
     tests.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
-    let mut store = SqliteStore::open_with(&db, &super::series::store_options()?)
+    let mut store = SqliteStore::open_with(&db, &crate::store::cli_open_options()?)
         .map_err(anyhow::Error::new)?;
     for t in &tests {
         store.add(t).map_err(anyhow::Error::new)?;

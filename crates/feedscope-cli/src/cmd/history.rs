@@ -292,7 +292,7 @@ pub enum ExportFormat {
 /// Open an SQLite store with the busy timeout of every command; a foreign or damaged file is
 /// bad input (exit 2).
 pub fn open_sqlite(path: &Path) -> Result<SqliteStore> {
-    SqliteStore::open_with(path, &super::series::store_options()?)
+    SqliteStore::open_with(path, &crate::store::cli_open_options()?)
         .map_err(|e| store_err(e, &StoreSpec::Sqlite(path.to_path_buf())))
 }
 

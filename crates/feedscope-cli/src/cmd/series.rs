@@ -1,10 +1,9 @@
 //! The machine/axis series of the history store in words: which ones exist when a name is not
-//! among them, and which one `history add` started or added to; and how every command opens
-//! the store ([`store_options`]: the busy timeout and what is said while waiting).
+//! among them, and which one `history add` started or added to.
 use std::path::Path;
 
 use anyhow::Result;
-use feedscope_store::{AddOutcome, Filter, NewTest, OpenOptions, Store};
+use feedscope_store::{AddOutcome, Filter, NewTest, Store};
 
 use super::BadInput;
 
@@ -17,15 +16,6 @@ pub fn how_to_add(db: Option<&Path>) -> String {
         "feedscope history{db} add TRACE --axis AXIS.toml --kind strokes|triangle \
          [--machine NAME]"
     )
-}
-
-/// How every command opens an SQLite history: the app's `open_options` with the wait said
-/// on stderr.
-///
-/// # Errors
-/// Bad input when `FEEDSCOPE_BUSY_TIMEOUT_S` holds no valid number of seconds.
-pub fn store_options() -> Result<OpenOptions> {
-    crate::store::cli_open_options()
 }
 
 /// The default of `--machine` in `history add` (and of `history trend` and `report` among
