@@ -26,7 +26,7 @@ use feedscope_io::test_set::{estimate_set, read_index};
 use feedscope_io::trace::ReadOptions;
 use serde::{Deserialize, Serialize};
 
-use crate::stribeck::Note;
+use feedscope::diag::Diagnostic;
 use crate::{AppError, FrontEnd};
 
 /// Map a test set given as files.
@@ -663,7 +663,7 @@ pub struct PositionFit {
     /// `stribeck`, `coulomb-viscous` or `coulomb`; `None` when the fit failed.
     pub model: Option<&'static str>,
     /// Richer models refused, in the order tried, and why.
-    pub reductions: Vec<Note>,
+    pub reductions: Vec<Diagnostic>,
     /// F_c (N).
     pub fc_n: Option<PositionEstimate>,
     /// F_s (N).
@@ -679,7 +679,7 @@ pub struct PositionFit {
     /// |PPOCM| of every measured feed at the position (N).
     pub friction_n: Vec<f64>,
     /// The fit's warnings.
-    pub warnings: Vec<Note>,
+    pub warnings: Vec<Diagnostic>,
     /// Falls of friction with feed where the curve rises.
     pub nonconventional: Vec<Fall>,
     /// Why the fit failed.
@@ -698,7 +698,7 @@ impl PositionFit {
             position_mm: p.position_mm,
             model: f.map(|f| f.model.code()),
             reductions: f
-                .map(|f| f.reductions.iter().map(Note::from).collect())
+                .map(|f| f.reductions.iter().map(Diagnostic::from).collect())
                 .unwrap_or_default(),
             fc_n: f.map(|f| est(f.params.fc_n, u.map(|u| &u.fc_n), 1.0)),
             fs_n: hump.map(|f| est(f.params.fs_n, u.and_then(|u| u.fs_n.as_ref()), 1.0)),
@@ -720,7 +720,7 @@ impl PositionFit {
             residual_rms_n: f.map(|f| f.residual_rms_n),
             friction_n: p.friction_n.clone(),
             warnings: f
-                .map(|f| f.warnings.iter().map(Note::from).collect())
+                .map(|f| f.warnings.iter().map(Diagnostic::from).collect())
                 .unwrap_or_default(),
             nonconventional: p
                 .nonconventional

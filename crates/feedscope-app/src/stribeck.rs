@@ -7,10 +7,11 @@
 use std::path::PathBuf;
 
 use feedscope::axis::AxisParams;
+use feedscope::diag::Diagnostic;
 use feedscope::estimate::Direction;
 use feedscope::stribeck::{
-    detect_nonconventional, DeltaMode, FitWarning, NonConventional, NonConventionalParams,
-    ParamEstimate, Reduction, StribeckFit, StribeckFitParams, StribeckFitter, StribeckParams,
+    detect_nonconventional, DeltaMode, NonConventional, NonConventionalParams,
+    ParamEstimate, StribeckFit, StribeckFitParams, StribeckFitter, StribeckParams,
     Termination, M_S_PER_MM_MIN,
 };
 use feedscope::ErrorKind;
@@ -315,33 +316,6 @@ pub struct Uncertainty {
     pub delta: Option<Estimate>,
 }
 
-/// A warning or a refused model: a stable code and the text printed on stderr.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Note {
-    /// Stable code.
-    pub code: &'static str,
-    /// The text.
-    pub message: String,
-}
-
-impl From<&FitWarning> for Note {
-    fn from(w: &FitWarning) -> Self {
-        Note {
-            code: w.code(),
-            message: w.to_string(),
-        }
-    }
-}
-
-impl From<&Reduction> for Note {
-    fn from(r: &Reduction) -> Self {
-        Note {
-            code: r.code(),
-            message: r.to_string(),
-        }
-    }
-}
-
 /// A feed range where the friction falls faster than the model (paper 001).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Range {
@@ -391,7 +365,7 @@ pub struct DirectionFit {
     /// `stribeck`, `coulomb-viscous` or `coulomb`.
     pub model: &'static str,
     /// Richer models refused, in the order tried, and why.
-    pub reductions: Vec<Note>,
+    pub reductions: Vec<Diagnostic>,
     /// Points fitted.
     pub points: usize,
     /// Lowest feed (mm/min).
@@ -413,7 +387,7 @@ pub struct DirectionFit {
     /// Condition number of the fit's Jacobian.
     pub condition_number: Option<f64>,
     /// What the result does not support.
-    pub warnings: Vec<Note>,
+    pub warnings: Vec<Diagnostic>,
     /// The non-conventional check.
     pub nonconventional: NonConv,
     /// The points, by feed.
@@ -449,7 +423,7 @@ impl DirectionFit {
         Self {
             direction: direction.as_str(),
             model: fit.model.code(),
-            reductions: fit.reductions.iter().map(Note::from).collect(),
+            reductions: fit.reductions.iter().map(Diagnostic::from).collect(),
             points: fit.points,
             feed_min_mm_min: fit.min_speed_m_s * mm,
             feed_max_mm_min: fit.max_speed_m_s * mm,
@@ -473,7 +447,7 @@ impl DirectionFit {
             iterations: fit.iterations,
             termination: fit.termination,
             condition_number: fit.condition_number,
-            warnings: fit.warnings.iter().map(Note::from).collect(),
+            warnings: fit.warnings.iter().map(Diagnostic::from).collect(),
             nonconventional: NonConv {
                 noise_n: nc.noise_n,
                 threshold_n: nc.threshold_n,

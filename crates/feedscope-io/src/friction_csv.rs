@@ -594,7 +594,7 @@ fn unknown_summary(stroke: usize, direction: Direction, summary_name: &str) -> S
         program_line: None,
         programmed_feed_mm_min: None,
         warnings: vec![feedscope::diag::Diagnostic::new(
-            "no-summary",
+            feedscope::diag::Code::NoSummary,
             format!("no summary {summary_name} found: the aliasing limit is unknown"),
         )],
     }
@@ -603,6 +603,7 @@ fn unknown_summary(stroke: usize, direction: Direction, summary_name: &str) -> S
 #[cfg(test)]
 mod tests {
     use super::*;
+    use feedscope::diag::Code;
 
     /// Two short strokes on the grid of a 10 mm lead at 1024 points per lead.
     fn strokes() -> Vec<StrokeFriction> {
@@ -651,7 +652,7 @@ mod tests {
             assert_eq!(g.summary.direction, w.summary.direction);
             assert!(g.summary.feed_mm_min.is_nan());
             assert_eq!(g.summary.warnings.len(), 1);
-            assert_eq!(g.summary.warnings[0].code, "no-summary");
+            assert_eq!(g.summary.warnings[0].code, Code::NoSummary);
             assert_eq!(
                 g.summary.warnings[0].message,
                 "no summary f.json found: the aliasing limit is unknown"

@@ -33,7 +33,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::diag::Diagnostic;
+use crate::diag::{Code, Diagnostic};
 
 /// Fewest leads of travel for a profile along it.
 pub const PROFILE_MIN_LEADS: f64 = 1.0;
@@ -142,7 +142,7 @@ pub struct StrokeVerdict {
 pub fn judge_stroke(e: &StrokeEvidence) -> StrokeVerdict {
     let mut reasons = Vec::new();
     let mut support = Support::Causes;
-    let mut cap = |level: Support, code: &str, message: String, reasons: &mut Vec<Diagnostic>| {
+    let mut cap = |level: Support, code: Code, message: String, reasons: &mut Vec<Diagnostic>| {
         if level < support {
             support = level;
         }
@@ -151,7 +151,7 @@ pub fn judge_stroke(e: &StrokeEvidence) -> StrokeVerdict {
     if e.process_load {
         cap(
             Support::MeanLevel,
-            "process-load",
+            Code::ProcessLoad,
             "the effort may hold process (cutting) load: only the mean motor force, an upper \
              bound of friction, is reported"
                 .into(),
@@ -161,7 +161,7 @@ pub fn judge_stroke(e: &StrokeEvidence) -> StrokeVerdict {
     if e.length_leads.is_nan() || e.length_leads < PROFILE_MIN_LEADS {
         cap(
             Support::MeanLevel,
-            "stroke-too-short",
+            Code::StrokeTooShort,
             format!(
                 "the stroke spans {:.2} leads: a profile needs at least {PROFILE_MIN_LEADS}",
                 e.length_leads
@@ -173,7 +173,7 @@ pub fn judge_stroke(e: &StrokeEvidence) -> StrokeVerdict {
     if e.floor_n.is_nan() || e.floor_n > limit {
         cap(
             Support::MeanLevel,
-            "floor-above-profile-limit",
+            Code::FloorAboveProfileLimit,
             format!(
                 "predicted noise floor {:.1} N RMS is {:.0} % of the mean level {:.1} N: a \
                  profile needs at most {:.0} % (finer effort or position resolution, faster \
@@ -189,7 +189,7 @@ pub fn judge_stroke(e: &StrokeEvidence) -> StrokeVerdict {
     if e.length_leads.is_nan() || e.length_leads < ORDERS_MIN_LEADS {
         cap(
             Support::Profile,
-            "too-few-leads-for-orders",
+            Code::TooFewLeadsForOrders,
             format!(
                 "the stroke spans {:.2} leads: an order spectrum needs at least \
                  {ORDERS_MIN_LEADS}",
@@ -201,7 +201,7 @@ pub fn judge_stroke(e: &StrokeEvidence) -> StrokeVerdict {
     if e.max_order.is_nan() || e.max_order < ORDERS_MIN_ORDER {
         cap(
             Support::Profile,
-            "orders-not-resolved",
+            Code::OrdersNotResolved,
             format!(
                 "the highest trusted order is {:.2} (raw samples per lead / 2.5): the shaft \
                  order 1 is not resolved; sample faster or feed slower",
@@ -213,7 +213,7 @@ pub fn judge_stroke(e: &StrokeEvidence) -> StrokeVerdict {
     if e.length_leads.is_nan() || e.length_leads < CAUSES_MIN_LEADS {
         cap(
             Support::Orders,
-            "too-few-leads-for-causes",
+            Code::TooFewLeadsForCauses,
             format!(
                 "the stroke spans {:.2} leads: the order resolution {:.2} cannot tell \
                  kinematic causes apart (at least {CAUSES_MIN_LEADS} leads)",
@@ -224,15 +224,15 @@ pub fn judge_stroke(e: &StrokeEvidence) -> StrokeVerdict {
         );
     }
     // Keep only the reasons that bind: those at or below the level reached.
-    reasons.retain(|r| reason_level(&r.code) <= support);
+    reasons.retain(|r| reason_level(r.code) <= support);
     StrokeVerdict { support, reasons }
 }
 
 /// The level a reason code caps at (for keeping the binding reasons only).
-fn reason_level(code: &str) -> Support {
+fn reason_level(code: Code) -> Support {
     match code {
-        "too-few-leads-for-orders" | "orders-not-resolved" => Support::Profile,
-        "too-few-leads-for-causes" => Support::Orders,
+        Code::TooFewLeadsForOrders | Code::OrdersNotResolved => Support::Profile,
+        Code::TooFewLeadsForCauses => Support::Orders,
         _ => Support::MeanLevel,
     }
 }
@@ -312,7 +312,7 @@ mod tests {
         assert_eq!(judge_stroke(&ev(30.0, 20.0, 10.0)).support, Support::Causes);
         let v = judge_stroke(&ev(30.0, 20.0, 10.01));
         assert_eq!(v.support, Support::MeanLevel);
-        assert_eq!(v.reasons[0].code, "floor-above-profile-limit");
+        assert_eq!(v.reasons[0].code, Code::FloorAboveProfileLimit);
         assert_eq!(judge_stroke(&ev(3.99, 20.0, 1.0)).support, Support::Orders);
         assert_eq!(judge_stroke(&ev(4.0, 20.0, 1.0)).support, Support::Causes);
         assert_eq!(judge_stroke(&ev(1.99, 20.0, 1.0)).support, Support::Profile);
@@ -330,7 +330,7 @@ mod tests {
         let v = judge_stroke(&p);
         assert_eq!(v.support, Support::MeanLevel);
         assert_eq!(v.reasons.len(), 1);
-        assert_eq!(v.reasons[0].code, "process-load");
+        assert_eq!(v.reasons[0].code, Code::ProcessLoad);
     }
 
     #[test]
@@ -338,8 +338,8 @@ mod tests {
         // Too short for causes and orders unresolved: the binding limit is the order one.
         let v = judge_stroke(&ev(3.0, 0.5, 1.0));
         assert_eq!(v.support, Support::Profile);
-        let codes: Vec<&str> = v.reasons.iter().map(|r| r.code.as_str()).collect();
-        assert_eq!(codes, ["orders-not-resolved"]);
+        let codes: Vec<Code> = v.reasons.iter().map(|r| r.code).collect();
+        assert_eq!(codes, [Code::OrdersNotResolved]);
     }
 
     #[test]

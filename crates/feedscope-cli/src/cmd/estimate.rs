@@ -8,6 +8,7 @@ use clap::ValueEnum;
 use feedscope::estimate::{
     EffortSign, Move, MoveKind, PositionSmoothing, StrokeSummary, TimeOfPosition,
 };
+use feedscope::diag::Code;
 use feedscope::spline::EndCondition;
 use feedscope::verdict::FrictionSign;
 use feedscope_app::estimate::{
@@ -430,12 +431,12 @@ fn feed_text(f: f64) -> String {
 /// Warnings of a stroke about its friction profile (its spectrum, its noise against the
 /// variation along it): moot for a stroke whose data support only its mean level, where the
 /// profile is withheld anyway.
-const PROFILE_WARNINGS: [&str; 5] = [
-    "few-samples-per-lead",
-    "position-smoothed-below-order",
-    "noise-floor-high",
-    "feed-change-unresolved",
-    "position-not-monotone",
+const PROFILE_WARNINGS: [Code; 5] = [
+    Code::FewSamplesPerLead,
+    Code::PositionSmoothedBelowOrder,
+    Code::NoiseFloorHigh,
+    Code::FeedChangeUnresolved,
+    Code::PositionNotMonotone,
 ];
 
 /// The strokes' warnings as lines for the terminal: one per stroke and warning, except that a
@@ -443,24 +444,19 @@ const PROFILE_WARNINGS: [&str; 5] = [
 /// warning repeated on more than [`WARNING_REPEATS_SHOWN`] strokes, is one line that counts
 /// the strokes, lists them and quotes the first. The JSON summary keeps every one.
 fn stroke_warnings(strokes: &[StrokeSummary]) -> Vec<String> {
-    let key = |s: &StrokeSummary, code: &'_ str| {
-        (
-            mean_only(s) && PROFILE_WARNINGS.contains(&code),
-            code.to_string(),
-        )
-    };
-    let mut by_code: std::collections::BTreeMap<(bool, String), Vec<&StrokeSummary>> =
+    let key = |s: &StrokeSummary, code: Code| (mean_only(s) && PROFILE_WARNINGS.contains(&code), code);
+    let mut by_code: std::collections::BTreeMap<(bool, Code), Vec<&StrokeSummary>> =
         std::collections::BTreeMap::new();
     for s in strokes {
         for w in &s.warnings {
-            by_code.entry(key(s, &w.code)).or_default().push(s);
+            by_code.entry(key(s, w.code)).or_default().push(s);
         }
     }
     let mut lines = Vec::new();
     let mut collapsed = Vec::new();
     for s in strokes {
         for w in &s.warnings {
-            let k = key(s, &w.code);
+            let k = key(s, w.code);
             let moot = k.0;
             let group = &by_code[&k];
             if !moot && group.len() <= WARNING_REPEATS_SHOWN {
@@ -523,12 +519,12 @@ fn mean_only(s: &StrokeSummary) -> bool {
 /// stroke's message.
 fn verdict_reasons(
     strokes: &[StrokeSummary],
-) -> std::collections::BTreeMap<String, (usize, String)> {
+) -> std::collections::BTreeMap<Code, (usize, String)> {
     let mut by_code = std::collections::BTreeMap::new();
     for s in strokes {
         for r in s.verdict.iter().flat_map(|v| &v.reasons) {
             by_code
-                .entry(r.code.clone())
+                .entry(r.code)
                 .or_insert((0, format!("stroke {}: {}", s.stroke, r.message)))
                 .0 += 1;
         }

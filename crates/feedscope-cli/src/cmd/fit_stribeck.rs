@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use feedscope::compensation::{DriveConversion, FrictionCurve};
+use feedscope::diag::Code;
 use feedscope::stribeck::{DeltaMode, FrictionModel, M_S_PER_MM_MIN};
 use feedscope_app::stribeck::{
     Estimate, FitStribeckOptions, FitStribeckRequest, StribeckReport as Report,
@@ -209,13 +210,13 @@ fn print_models(report: &Report) {
 }
 
 /// What to measure when a Stribeck curve was refused (shared by `map`, which has δ = 2).
-pub(crate) fn advice(code: &str, delta_free: bool) -> &'static str {
+pub(crate) fn advice(code: Code, delta_free: bool) -> &'static str {
     match (code, delta_free) {
-        ("too-few-feeds", true) => {
+        (Code::TooFewFeeds, true) => {
             "for a Stribeck curve, measure at least 4 distinct feeds per direction (5 with \
              --delta free), several of them below the expected Stribeck velocity"
         }
-        ("too-few-feeds", false) => {
+        (Code::TooFewFeeds, false) => {
             "for a Stribeck curve, measure at least 4 distinct feeds per direction, several of \
              them below the expected Stribeck velocity"
         }

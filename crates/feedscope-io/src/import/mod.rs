@@ -650,13 +650,13 @@ fn sampling_warnings(report: &mut ImportReport, trace: &Trace) {
         });
     if p.is_empty() || hi - lo <= 0.0 {
         report.warnings.push(feedscope::diag::Diagnostic::new(
-            "position-never-moves",
+            feedscope::diag::Code::PositionNeverMoves,
             "the position never moves in this trace; `feedscope estimate` needs strokes",
         ));
     }
     if trace.effort.value.iter().all(|&v| v == 0.0) {
         report.warnings.push(feedscope::diag::Diagnostic::new(
-            "effort-all-zero",
+            feedscope::diag::Code::EffortAllZero,
             format!(
                 "the effort ({}) is zero in every sample: nothing to estimate friction from",
                 report.effort.source_key
@@ -671,7 +671,7 @@ fn sampling_warnings(report: &mut ImportReport, trace: &Trace) {
         // Nyquist: a sampling interval dt resolves frequencies below 1/(2 dt); in screw
         // orders at feed v and lead p that is order < p / (2 v dt).
         report.warnings.push(feedscope::diag::Diagnostic::new(
-            "slow-sampling",
+            feedscope::diag::Code::SlowSampling,
             format!(
                 "median sampling interval {dt:.3} s resolves only frequencies below {:.2} Hz \
              (screw orders below lead / (2 × feed × {dt:.3} s)): mean friction per stroke, \

@@ -29,7 +29,7 @@ use std::path::Path;
 use super::devices::{Category, DeviceModel, Shape};
 use super::{read_text, shorten, split_lines, ChannelReport, ImportError, ImportReport, Imported};
 use super::{LineEndings, Timestamp};
-use feedscope::diag::Diagnostic;
+use feedscope::diag::{Code, Diagnostic};
 use feedscope::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 
 /// Data items named in full in a message; the rest are counted.
@@ -631,7 +631,7 @@ pub fn axis_items(
     match it(pos).units.as_deref() {
         Some("MILLIMETER") => {}
         None => warnings.push(Diagnostic::new(
-            "position-units-assumed",
+            Code::PositionUnitsAssumed,
             format!(
                 "{} declares no units; taken as MILLIMETER (the MTConnect unit of POSITION)",
                 it(pos).key()
@@ -773,7 +773,7 @@ impl ShdrLog {
             }
         }
         warnings.push(Diagnostic::new(
-            "load-whole-percent",
+            Code::LoadWholePercent,
             format!(
                 "load is integer percent: torque is quantised in steps of 1 % = {:.4} N·m",
                 scale / 100.0
@@ -781,14 +781,14 @@ impl ShdrLog {
         ));
         if effort.value.iter().all(|&v| v >= 0.0) {
             warnings.push(Diagnostic::new(
-                "load-unsigned",
+                Code::LoadUnsigned,
                 "the load is never negative: drives usually report its magnitude, so the torque \
                  sign (and the sign of friction on backward strokes) is lost",
             ));
         }
         if self.segments.len() > 1 {
             warnings.push(Diagnostic::new(
-                "pieced-recording",
+                Code::PiecedRecording,
                 format!(
                     "the log is pieced together from {} recordings (time jumps back at lines {}); \
                  samples were put in time order, with gaps between the recordings",
@@ -804,7 +804,7 @@ impl ShdrLog {
         for (rep, what) in [(&prep, "position"), (&lrep, "load")] {
             if rep.interleaved {
                 warnings.push(Diagnostic::new(
-                    "recordings-interleave",
+                    Code::RecordingsInterleave,
                     format!(
                         "{what}: recordings of the log overlap in time and their samples \
                      interleave; check the trace before estimating"
@@ -815,7 +815,7 @@ impl ShdrLog {
         let t0_lag = prep.span_s.0.min(lrep.span_s.0);
         if t0_lag > 3600.0 {
             warnings.push(Diagnostic::new(
-                "first-line-long-before",
+                Code::FirstLineLongBefore,
                 format!(
                     "the first line of the log is {:.1} h before the first sample of this axis \
                  (a state dump?); --time-origin trace starts the trace at its first sample",
@@ -847,7 +847,7 @@ impl ShdrLog {
             .max_by(|a, b| a.1.total_cmp(&b.1));
         if let Some((key, top)) = &spindle {
             warnings.push(Diagnostic::new(
-                "process-load",
+                Code::ProcessLoad,
                 format!(
                 "a spindle turns in this log ({key} up to {top:.0}/min): the program may cut, so \
                  the load may hold process forces besides friction; only mean levels are \
@@ -1122,7 +1122,7 @@ mod tests {
             .report
             .warnings
             .iter()
-            .any(|w| w.code == "pieced-recording" && w.message.contains("2 recordings")));
+            .any(|w| w.code == Code::PiecedRecording && w.message.contains("2 recordings")));
     }
 
     #[test]

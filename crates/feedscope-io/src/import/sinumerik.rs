@@ -90,7 +90,7 @@ use std::path::Path;
 
 use super::units::{self, EffortUnit, PositionUnit};
 use super::{shorten, ChannelReport, ImportError, ImportReport, Imported, Timestamp};
-use feedscope::diag::Diagnostic;
+use feedscope::diag::{Code, Diagnostic};
 use feedscope::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 
 /// Values of at least this magnitude are the control's mark of an invalid sample (the largest
@@ -1365,7 +1365,7 @@ impl Sink for ConvertSink<'_> {
                 match f.signals.iter().position(|s| s.name == def.name) {
                     Some(k) => slots[k] = Some(slot),
                     None => self.notes.push(Diagnostic::new(
-                        "signal-missing-in-frame",
+                        Code::SignalMissingInFrame,
                         format!(
                             "data frame {} (from line {line}) does not record {}: no samples \
                              from it",
@@ -1512,7 +1512,7 @@ pub fn parse_sinumerik<R: BufRead>(
     for (def, st) in [(&pdef, &pstats), (&edef, &estats)] {
         if st.invalid > 0 {
             warnings.push(Diagnostic::new(
-                "invalid-samples-dropped",
+                Code::InvalidSamplesDropped,
                 format!(
                     "{} of {} samples of {} were the control's invalid mark (|value| ≥ 9.2e18) \
                      and were dropped, first at t = {} s",
@@ -1531,7 +1531,7 @@ pub fn parse_sinumerik<R: BufRead>(
             let have = st.written + st.restored;
             if listing.frames.len() == 1 && have != n {
                 warnings.push(Diagnostic::new(
-                    "datapoint-count-mismatch",
+                    Code::DatapointCountMismatch,
                     format!(
                         "{} declares {n} samples, the records hold {} and {} repeats were \
                          restored ({have}): samples may be missing",
@@ -1544,7 +1544,7 @@ pub fn parse_sinumerik<R: BufRead>(
         }
         if st.irregular_gaps > 0 {
             warnings.push(Diagnostic::new(
-                "irregular-gaps",
+                Code::IrregularGaps,
                 format!(
                     "{} gaps in {} are not a whole number of its {} s interval: left as gaps",
                     st.irregular_gaps,
@@ -1557,7 +1557,7 @@ pub fn parse_sinumerik<R: BufRead>(
     let drop_outs: u64 = listing.frames.iter().filter_map(|f| f.drop_outs).sum();
     if drop_outs > 0 {
         warnings.push(Diagnostic::new(
-            "drop-outs",
+            Code::DropOuts,
             format!("the control reports {drop_outs} data drop-outs (samples it lost)"),
         ));
     }
@@ -1622,7 +1622,7 @@ pub fn parse_sinumerik<R: BufRead>(
     // A servo trace resolves its band; the generic slow-sampling note is for polled logs.
     report
         .warnings
-        .retain(|w| !(w.code == "slow-sampling" && fast_trace(&trace)));
+        .retain(|w| !(w.code == Code::SlowSampling && fast_trace(&trace)));
     Ok(SinumerikImport {
         imported: Imported { trace, report },
         position: (pdef, pstats),

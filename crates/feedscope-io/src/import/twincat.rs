@@ -81,7 +81,7 @@ use std::path::Path;
 
 use super::units::{self, EffortUnit, PositionUnit};
 use super::{shorten, ChannelReport, ImportError, ImportReport, Imported, Timestamp};
-use feedscope::diag::Diagnostic;
+use feedscope::diag::{Code, Diagnostic};
 use feedscope::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 
 /// Seconds from 1601-01-01 (the FILETIME epoch) to 1970-01-01.
@@ -943,7 +943,7 @@ pub fn parse_twincat<R: BufRead>(
         (Some(u), file) => {
             if let Some(f) = file.filter(|f| PositionUnit::from_symbol(f) != Some(u)) {
                 warnings.push(Diagnostic::new(
-                    "unit-overridden",
+                    Code::UnitOverridden,
                     format!(
                         "channel `{}` declares `{f}`; --position-unit {} was used",
                         pc.name,
@@ -982,7 +982,7 @@ pub fn parse_twincat<R: BufRead>(
         (Some(u), file) => {
             if let Some(f) = file.filter(|f| EffortUnit::from_symbol(f) != Some(u)) {
                 warnings.push(Diagnostic::new(
-                    "unit-overridden",
+                    Code::UnitOverridden,
                     format!(
                         "channel `{}` declares `{f}`; --effort-unit {} was used",
                         ec.name,
@@ -1064,7 +1064,7 @@ pub fn parse_twincat<R: BufRead>(
         }
         if let Some(s) = c.scaling() {
             warnings.push(Diagnostic::new(
-                "scaled-channel",
+                Code::ScaledChannel,
                 format!(
                     "channel `{}` declares {s}: its values are taken as exported (TwinCAT \
                      Scope scales them on export by default; an export without \"scale values\" \
@@ -1128,7 +1128,7 @@ pub fn parse_twincat<R: BufRead>(
     super::sampling_warnings(&mut report, &trace);
     report
         .warnings
-        .retain(|w| !(w.code == "slow-sampling" && super::sinumerik::fast_trace(&trace)));
+        .retain(|w| !(w.code == Code::SlowSampling && super::sinumerik::fast_trace(&trace)));
     let (position, effort) = (pc.clone(), ec.clone());
     let mut full = vec![ChannelCounts::default(); h.channels.len()];
     full[p] = counts[0].clone();

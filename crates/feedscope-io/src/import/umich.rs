@@ -13,7 +13,7 @@ use std::path::Path;
 
 use super::LineEndings;
 use super::{read_text, shorten, split_lines, ChannelReport, ImportError, ImportReport, Imported};
-use feedscope::diag::Diagnostic;
+use feedscope::diag::{Code, Diagnostic};
 use feedscope::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 
 /// Which current column becomes `current_a`.
@@ -243,12 +243,12 @@ impl UmichTable {
         };
         crep.finish(&effort);
         let mut warnings = vec![Diagnostic::new(
-            "three-significant-figures",
+            Code::ThreeSignificantFigures,
             "values carry 3 significant figures: positions of 100-999 mm are quantised to 1 mm",
         )];
         if params.current == CurrentColumn::Output {
             warnings.push(Diagnostic::new(
-                "output-current-not-torque",
+                Code::OutputCurrentNotTorque,
                 "OutputCurrent in the UMich files stays near 328 A whatever the axis does; \
                  CurrentFeedback is the torque current",
             ));

@@ -58,7 +58,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::axis::AxisParams;
-use crate::diag::Diagnostic;
+use crate::diag::{Code, Diagnostic};
 use crate::spline::{CubicSpline, EndCondition, Piece, PieceTable, SplineError};
 use crate::trace::{EffortKind, Trace};
 use crate::verdict::{judge_stroke, DataVerdict, FrictionSign, StrokeEvidence, StrokeVerdict};
@@ -771,7 +771,7 @@ fn recording_reasons(
     {
         let (df, db) = means.damping_means_n();
         out.push(Diagnostic::new(
-            "damping-exceeds-drive-force",
+            Code::DampingExceedsDriveForce,
             format!(
                 "friction pushes the table along in both directions (mean {:.1} N on forward \
                  strokes, {:+.1} N on backward ones) only because the axis file's damping \
@@ -798,7 +798,7 @@ fn recording_reasons(
              towards +z): estimate with `--effort-sign negated`"
         };
         out.push(Diagnostic::new(
-            "effort-sign-reversed",
+            Code::EffortSignReversed,
             format!(
                 "friction pushes the table along in both directions (mean {:.1} N on forward \
                  strokes, {:+.1} N on backward ones, where friction opposes the motion): {hint}; \
@@ -811,13 +811,13 @@ fn recording_reasons(
     }
     if friction_sign(trace, params) == FrictionSign::FromDirection {
         out.push(Diagnostic::new(
-            "effort-unsigned",
+            Code::EffortUnsigned,
             "the effort is a magnitude: friction takes the sign of the direction of motion; \
              a force that assists the motion (gravity on a vertical axis) cannot be told apart",
         ));
     } else if backward_positive && effort_never_negative {
         out.push(Diagnostic::new(
-            "effort-maybe-unsigned",
+            Code::EffortMaybeUnsigned,
             "the effort is never negative and backward strokes have positive friction: if the \
              effort is a magnitude (a drive load), say so with `--effort-sign magnitude` (or \
              import it with `feedscope import`, which records it)",
@@ -825,7 +825,7 @@ fn recording_reasons(
     }
     if let Some(q) = f.effort_quantum {
         out.push(Diagnostic::new(
-            "effort-quantised",
+            Code::EffortQuantised,
             format!(
                 "the effort is recorded in steps of {q:.4} {}: its rounding enters every \
                  standard error",
@@ -838,14 +838,14 @@ fn recording_reasons(
     }
     if f.process_load == Some(true) {
         out.push(Diagnostic::new(
-            "process-load",
+            Code::ProcessLoad,
             "the recording is of production work: the effort may hold cutting load, so only \
              each stroke's mean motor force is reported, as an upper bound of friction",
         ));
     }
     if let Some(n) = f.recordings.filter(|&n| n > 1) {
         out.push(Diagnostic::new(
-            "pieced-recording",
+            Code::PiecedRecording,
             format!("the trace is pieced together from {n} recordings"),
         ));
     }
@@ -1353,7 +1353,7 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     }
     if walk.non_monotone {
         warnings.push(Diagnostic::new(
-            "position-not-monotone",
+            Code::PositionNotMonotone,
             "the position spline is not monotone somewhere in this stroke (noisy or coarsely \
              quantised position at a low feed); t(z) took the nearest solution",
         ));
@@ -1399,7 +1399,7 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
         // even its sign: the table would print it like any other mean.
         if mean.is_nan() || mean.abs() <= MEAN_RESOLVED_SE * se {
             warnings.push(Diagnostic::new(
-                "mean-not-resolved",
+                Code::MeanNotResolved,
                 format!(
                     "the mean friction {mean:.2} N lies within {MEAN_RESOLVED_SE} standard \
                      errors ({se:.2} N) of zero: this stroke does not resolve its friction \
@@ -1412,7 +1412,7 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
     let feed_mm_min = feed_m_s * 60e3;
     if spl < 8.0 {
         warnings.push(Diagnostic::new(
-            "few-samples-per-lead",
+            Code::FewSamplesPerLead,
             format!(
                 "only {spl:.1} raw samples per lead: fluctuation above order {:.1} cannot be \
              trusted; sample faster or feed slower (below {:.0} mm/min for 8 samples per lead)",
@@ -1427,7 +1427,7 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
             let (highest, cause) = highest_expected_order(axis);
             if order < highest {
                 warnings.push(Diagnostic::new(
-                    "position-smoothed-below-order",
+                    Code::PositionSmoothedBelowOrder,
                     format!(
                         "the position is smoothed above {:.1} Hz, order {order:.1} at this feed: \
                      the table acceleration of higher orders is not resolved, so their \
@@ -1455,7 +1455,7 @@ pub fn estimate_stroke_pieces<E: From<EstimateError>>(
             "holds all of the friction variation along this stroke".to_string()
         };
         warnings.push(Diagnostic::new(
-            "noise-floor-high",
+            Code::NoiseFloorHigh,
             format!(
                 "predicted noise floor {:.2} N RMS (position quantisation {:.2}, effort noise \
              {:.2}, inertia {:.2}) {share}: the profile is only good to about ±{:.1} N",
@@ -2345,7 +2345,7 @@ fn feed_changes_unresolved(
     }
     let peak = found.iter().map(|c| c.peak_inertia_n).fold(0.0, f64::max);
     Diagnostic::new(
-        "feed-change-unresolved",
+        Code::FeedChangeUnresolved,
         format!(
             "the feed changed inside the stroke faster than the position smoothing resolves \
              (cut-off {fc:.1} Hz) at {}: the effort shows the inertia of each change at once, \

@@ -1,6 +1,7 @@
 use std::path::Path;
 
 use super::*;
+use crate::diag::Code;
 use crate::estimate::{Direction, StrokeFriction, StrokeSummary};
 use crate::units::feed_mm_min_to_m_s;
 
@@ -467,7 +468,7 @@ fn two_feed_profile_gives_the_line_through_the_ppocm() {
             assert!((fit.params.fc_n - fc).abs() < 1e-9, "{fit:?}");
             assert!((fit.params.sigma_n_s_per_m - sigma).abs() < 1e-9 * sigma);
             let r = &fit.reductions[0];
-            assert_eq!(r.code(), "too-few-feeds");
+            assert_eq!(r.code(), Code::TooFewFeeds);
             assert!(r.to_string().contains("2 (600 and 3000 mm/min)"), "{r}");
             assert!(p.error.is_none());
         }

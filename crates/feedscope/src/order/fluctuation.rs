@@ -9,7 +9,7 @@ use super::peaks::{find_peaks, PeakParams};
 use super::spectrum::{SpectrumAnalyzer, Window};
 use super::OrderError;
 use super::{Cause, Segment};
-use crate::diag::Diagnostic;
+use crate::diag::{Code, Diagnostic};
 use crate::stroke::StrokeView;
 
 /// How the travel is split into segments for the spectra.
@@ -367,7 +367,7 @@ pub fn analyze_fluctuation(
     }
     if !skipped.is_empty() {
         warnings.push(Diagnostic::new(
-            "segments-skipped",
+            Code::SegmentsSkipped,
             format!(
                 "{} segment(s) with fewer than 16 samples skipped (first: {})",
                 skipped.len(),
@@ -433,7 +433,7 @@ pub fn analyze_fluctuation(
     warnings.extend(aliasing_warnings(stroke, kinematic, &components));
     if unresolved > 0 {
         warnings.push(Diagnostic::new(
-            "components-unresolved",
+            Code::ComponentsUnresolved,
             format!(
                 "{unresolved} significant component(s) left `{}`: their segment \
                  spans fewer than {SEGMENT_CAUSE_MIN_LEADS} leads (order resolution coarser \
@@ -482,7 +482,7 @@ fn aliasing_warnings(
             _ => format!("feed at most {:.3} x the present feed", 1.0 / factor),
         };
         out.push(Diagnostic::new(
-            "kinematic-order-above-trusted",
+            Code::KinematicOrderAboveTrusted,
             format!(
                 "highest kinematic order {:.2} ({}) exceeds the highest trusted order \
                  {limit:.2} (raw samples per lead / 2): sample at least {factor:.2} x faster \
@@ -494,7 +494,7 @@ fn aliasing_warnings(
     let untrusted = components.iter().filter(|c| !c.trusted).count();
     if untrusted > 0 {
         out.push(Diagnostic::new(
-            "components-above-trusted",
+            Code::ComponentsAboveTrusted,
             format!(
                 "{untrusted} significant component(s) above the trusted order {limit:.2} are \
                  flagged trusted = false: they may be aliases of higher orders"

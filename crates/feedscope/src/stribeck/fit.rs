@@ -35,6 +35,7 @@
 
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
+use crate::diag::Code;
 
 use super::{StribeckError, StribeckParams, M_S_PER_MM_MIN};
 
@@ -211,17 +212,17 @@ pub enum FitWarning {
 }
 
 impl FitWarning {
-    /// Stable kebab-case identifier of the warning.
-    pub fn code(&self) -> &'static str {
+    /// Its code in the diagnostics catalogue.
+    pub fn code(&self) -> Code {
         match self {
-            Self::FewPoints { .. } => "few-points",
-            Self::NoDataBelowTwiceVs { .. } => "no-data-below-twice-vs",
-            Self::AllSpeedsFarAboveVs { .. } => "all-speeds-far-above-vs",
-            Self::NoDataAboveThreeVs { .. } => "no-data-above-three-vs",
-            Self::StdErrorExceedsValue { .. } => "std-error-exceeds-value",
-            Self::AtBound { .. } => "at-bound",
-            Self::IllConditioned { .. } => "ill-conditioned",
-            Self::NotConverged { .. } => "not-converged",
+            Self::FewPoints { .. } => Code::FewPoints,
+            Self::NoDataBelowTwiceVs { .. } => Code::NoDataBelowTwiceVs,
+            Self::AllSpeedsFarAboveVs { .. } => Code::AllSpeedsFarAboveVs,
+            Self::NoDataAboveThreeVs { .. } => Code::NoDataAboveThreeVs,
+            Self::StdErrorExceedsValue { .. } => Code::StdErrorExceedsValue,
+            Self::AtBound { .. } => Code::AtBound,
+            Self::IllConditioned { .. } => Code::IllConditioned,
+            Self::NotConverged { .. } => Code::NotConverged,
         }
     }
 }

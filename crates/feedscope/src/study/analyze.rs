@@ -2,7 +2,7 @@
 //! Table 2 order scan, the IAFV, the FFS and its spectra in screw orders; the single polynomial
 //! of the best scanned order (the paper's dotted line); Table 2 averaged per direction.
 use crate::axis::AxisParams;
-use crate::diag::Diagnostic;
+use crate::diag::{Code, Diagnostic};
 use crate::estimate::{estimate, EstimateParams, StrokeFriction, StrokeSummary};
 use crate::order::SpectrumAnalyzer;
 use crate::profile::{
@@ -185,7 +185,7 @@ fn mixed_feeds(s: &StrokeSummary) -> Option<Diagnostic> {
     let mixed = lo < (1.0 - MIXED_FEED_FRACTION) * f || hi > (1.0 + MIXED_FEED_FRACTION) * f;
     mixed.then(|| {
         Diagnostic::new(
-            "feed-varies-along-stroke",
+            Code::FeedVariesAlongStroke,
             format!(
                 "the feed varied from {lo:.1} to {hi:.1} mm/min along this stroke (mean {f:.1}; \
                  an override turned or a modulated feed): the mean profile (IAFV) mixes the \

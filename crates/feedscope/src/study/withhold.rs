@@ -3,7 +3,7 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use crate::diag::Diagnostic;
+use crate::diag::{Code, Diagnostic};
 use crate::estimate::StrokeFriction;
 use crate::order::Cause;
 use crate::profile::StrokeAnalysis;
@@ -91,7 +91,7 @@ pub(crate) fn apply(a: &mut StrokeAnalysis, support: Support) {
     let fl = &mut a.fluctuation;
     if support < Support::Orders && !fl.components.is_empty() {
         fl.warnings.push(Diagnostic::new(
-            "components-withheld",
+            Code::ComponentsWithheld,
             format!(
                 "{} significant component(s) withheld: the data verdict of this stroke is \
                  `{}` (no fluctuation orders)",
@@ -111,7 +111,7 @@ pub(crate) fn apply(a: &mut StrokeAnalysis, support: Support) {
         }
         if n > 0 {
             fl.warnings.push(Diagnostic::new(
-                "causes-withheld",
+                Code::CausesWithheld,
                 format!(
                     "{n} component cause(s) withheld (`{}`): the data verdict of \
                      this stroke is `{}` (too few leads to tell kinematic orders apart)",

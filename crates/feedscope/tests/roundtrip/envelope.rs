@@ -10,6 +10,7 @@
 //! not, it must say so: its `max_order` is below the truth's highest order. Under an override
 //! every change of it is listed (`feed-change-unresolved`) and the bound holds away from them;
 //! on a quiet drive (floor a few % of the fluctuation) it is 10 % with no allowance for noise.
+use feedscope::diag::Code;
 use feedscope::estimate::{estimate, Direction, EstimateParams};
 use feedscope::sim::{FeedOverride, RampShape, SamplingMode, SimConfig, StrokeConfig};
 use feedscope::trace::EffortKind;
@@ -237,7 +238,7 @@ fn unresolved_feed_changes_mm(s: &feedscope::estimate::StrokeFriction) -> Vec<f6
         .summary
         .warnings
         .iter()
-        .find(|w| w.code == "feed-change-unresolved")
+        .find(|w| w.code == Code::FeedChangeUnresolved)
     else {
         return Vec::new();
     };

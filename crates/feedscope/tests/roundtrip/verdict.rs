@@ -9,6 +9,7 @@
 //! limit so that what is tested is the limit, not the noise of the floor's estimate.
 use std::f64::consts::PI;
 
+use feedscope::diag::Code;
 use feedscope::estimate::{estimate, Direction, Estimate, EstimateError, EstimateParams};
 use feedscope::sim::{DynamicsMode, FrictionParams, SimConfig, SimOutput, StrokeConfig};
 use feedscope::verdict::{
@@ -71,7 +72,7 @@ fn codes(s: &feedscope::estimate::StrokeFriction) -> Vec<String> {
         .expect("judged")
         .reasons
         .iter()
-        .map(|r| r.code.clone())
+        .map(|r| r.code.to_string())
         .collect()
 }
 
@@ -453,7 +454,7 @@ fn process_load_caps_every_stroke_at_the_mean_level() {
     }
     assert_eq!(e.verdict.support, Support::MeanLevel);
     assert_eq!(e.verdict.strokes_per_level, [e.strokes.len(), 0, 0, 0]);
-    assert!(e.verdict.reasons.iter().any(|r| r.code == "process-load"));
+    assert!(e.verdict.reasons.iter().any(|r| r.code == Code::ProcessLoad));
 }
 
 /// An effort without information: all zero, or one value across strokes of both
@@ -499,7 +500,7 @@ fn effort_counted_against_the_position_is_caught_and_turned() {
     let params = EstimateParams::default();
     let right = est(&out);
     let codes = |e: &Estimate| -> Vec<String> {
-        e.verdict.reasons.iter().map(|r| r.code.clone()).collect()
+        e.verdict.reasons.iter().map(|r| r.code.to_string()).collect()
     };
     assert!(!codes(&right).contains(&"effort-sign-reversed".to_string()));
     let mut neg = out.trace.clone();
@@ -513,7 +514,7 @@ fn effort_counted_against_the_position_is_caught_and_turned() {
         .verdict
         .reasons
         .iter()
-        .find(|r| r.code == "effort-sign-reversed");
+        .find(|r| r.code == Code::EffortSignReversed);
     assert!(said.unwrap().message.contains("--effort-sign negated"));
     let turned = EstimateParams {
         effort_sign: feedscope::estimate::EffortSign::Negated,
@@ -534,7 +535,7 @@ fn effort_counted_against_the_position_is_caught_and_turned() {
         .verdict
         .reasons
         .iter()
-        .find(|r| r.code == "effort-sign-reversed")
+        .find(|r| r.code == Code::EffortSignReversed)
         .expect("caught");
     assert!(
         said.message.contains("--effort-sign signed"),

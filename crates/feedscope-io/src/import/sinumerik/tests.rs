@@ -69,11 +69,11 @@ fn axis_7_position_and_current_with_repeats_restored_and_the_invalid_mark_droppe
     let w = &imp.imported.report.warnings;
     assert!(
         w.iter()
-            .any(|d| d.code == "invalid-samples-dropped" && d.message.contains("1 of 9")),
+            .any(|d| d.code == Code::InvalidSamplesDropped && d.message.contains("1 of 9")),
         "{w:?}"
     );
     assert!(
-        !w.iter().any(|d| d.code == "datapoint-count-mismatch"),
+        !w.iter().any(|d| d.code == Code::DatapointCountMismatch),
         "{w:?}"
     );
     // Time zero from the frame header, kept exactly.
@@ -97,7 +97,7 @@ fn axis_7_position_and_current_with_repeats_restored_and_the_invalid_mark_droppe
         imp.imported.report.effort.source_key
     );
     // A 2 ms trace is not slow.
-    assert!(!w.iter().any(|d| d.code == "slow-sampling"), "{w:?}");
+    assert!(!w.iter().any(|d| d.code == Code::SlowSampling), "{w:?}");
 }
 
 #[test]

@@ -22,6 +22,7 @@
 //! parameter for the degrees of freedom. Standard errors from s²·(AᵀA)⁻¹ on the free columns.
 
 use serde::{Deserialize, Serialize};
+use crate::diag::Code;
 
 use super::M_S_PER_MM_MIN;
 
@@ -134,17 +135,17 @@ pub enum Undetermined {
 }
 
 impl Undetermined {
-    /// Stable kebab-case identifier.
-    pub fn code(&self) -> &'static str {
+    /// Its code in the diagnostics catalogue.
+    pub fn code(&self) -> Code {
         match self {
-            Self::TooFewSpeeds { .. } => "too-few-feeds",
-            Self::SingularJacobian => "singular-jacobian",
-            Self::IllConditioned { .. } => "ill-conditioned",
-            Self::NonFinite { .. } => "non-finite",
-            Self::AbsurdMagnitude { .. } => "absurd-magnitude",
-            Self::AbsurdUncertainty { .. } => "absurd-uncertainty",
-            Self::VsOutsideData { .. } => "vs-outside-data",
-            Self::StaticBelowCoulomb { .. } => "static-below-coulomb",
+            Self::TooFewSpeeds { .. } => Code::TooFewFeeds,
+            Self::SingularJacobian => Code::SingularJacobian,
+            Self::IllConditioned { .. } => Code::IllConditioned,
+            Self::NonFinite { .. } => Code::NonFinite,
+            Self::AbsurdMagnitude { .. } => Code::AbsurdMagnitude,
+            Self::AbsurdUncertainty { .. } => Code::AbsurdUncertainty,
+            Self::VsOutsideData { .. } => Code::VsOutsideData,
+            Self::StaticBelowCoulomb { .. } => Code::StaticBelowCoulomb,
         }
     }
 }
@@ -250,8 +251,8 @@ pub struct Reduction {
 }
 
 impl Reduction {
-    /// Stable kebab-case identifier: the reason's.
-    pub fn code(&self) -> &'static str {
+    /// Its code in the diagnostics catalogue: the reason's.
+    pub fn code(&self) -> Code {
         self.reason.code()
     }
 }

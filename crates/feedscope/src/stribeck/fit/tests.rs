@@ -629,7 +629,7 @@ fn two_feeds_give_the_exact_coulomb_viscous_line() {
         assert_eq!(needed, want);
         let r = fit.reductions.last().unwrap();
         assert_eq!(r.refused, FrictionModel::Stribeck);
-        assert_eq!(r.code(), "too-few-feeds");
+        assert_eq!(r.code(), Code::TooFewFeeds);
         assert_eq!(
             r.to_string(),
             "a Stribeck curve (4 parameters) is not determined: it needs at least 4 distinct \
@@ -692,7 +692,7 @@ fn one_feed_gives_a_coulomb_level() {
     // sample std 2 N over √3
     let u = fit.uncertainty.unwrap();
     assert!((u.fc_n.std_error - 2.0 / 3f64.sqrt()).abs() < 1e-12);
-    let refused: Vec<(FrictionModel, &str)> = fit
+    let refused: Vec<(FrictionModel, Code)> = fit
         .reductions
         .iter()
         .map(|r| (r.refused, r.code()))
@@ -700,8 +700,8 @@ fn one_feed_gives_a_coulomb_level() {
     assert_eq!(
         refused,
         [
-            (FrictionModel::Stribeck, "too-few-feeds"),
-            (FrictionModel::CoulombViscous, "too-few-feeds")
+            (FrictionModel::Stribeck, Code::TooFewFeeds),
+            (FrictionModel::CoulombViscous, Code::TooFewFeeds)
         ]
     );
 }
@@ -759,7 +759,7 @@ fn no_hump_gives_the_line() {
     let fit = fit_stribeck(&v, &f, &StribeckFitParams::default()).unwrap();
     assert_eq!(fit.model, FrictionModel::CoulombViscous, "{fit:?}");
     assert_eq!(fit.reductions.len(), 1);
-    assert_eq!(fit.reductions[0].code(), "singular-jacobian");
+    assert_eq!(fit.reductions[0].code(), Code::SingularJacobian);
     assert!((fit.params.fc_n - 200.0).abs() < 1e-9);
     assert!((fit.params.sigma_n_s_per_m - 3000.0).abs() < 1e-6);
 }
@@ -817,7 +817,7 @@ fn undetermined_delta_falls_back_to_fixed() {
     assert!(
         matches!(
             fit.reductions[0].code(),
-            "ill-conditioned" | "absurd-uncertainty"
+            Code::IllConditioned | Code::AbsurdUncertainty
         ),
         "{:?}",
         fit.reductions
