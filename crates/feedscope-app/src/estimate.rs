@@ -10,6 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use feedscope::axis::AxisParams;
+use feedscope::diag::Diagnostic;
 use feedscope::estimate::stream::{StreamEstimator, Streamed};
 use feedscope::estimate::{
     estimate_pieces_streaming, estimate_streaming, Direction, EffortSign, EstimateError,
@@ -317,7 +318,7 @@ pub struct EstimateReport {
     pub params: EstimateParams,
     pub strokes: Vec<StrokeSummary>,
     pub moves: Vec<Move>,
-    pub notes: Vec<String>,
+    pub notes: Vec<Diagnostic>,
     pub zones: Vec<Zone>,
     pub skipped: Vec<String>,
     pub ignored_rows: u64,

@@ -5,6 +5,7 @@
 //! [`IdentifyRequest`] names the files; [`identify_recordings`] takes traces already held
 //! (the Python module's path). Both give an [`Identified`]: the [`IdentifyReport`], which is
 //! `ident.json`, and the kernel-averaged series of the fit for plots and arrays.
+use feedscope::diag::{Code, Diagnostic};
 use std::path::PathBuf;
 
 use feedscope::axis::AxisParams;
@@ -172,11 +173,11 @@ pub fn identify_recordings(
         )
     })?;
     let lead_m = axis.lead_m();
-    let mut warnings: Vec<String> = test.read_warning().into_iter().collect();
+    let mut warnings: Vec<Diagnostic> = test.read_diagnostics();
     warnings.extend(id.warnings.iter().cloned());
     let compare = match groups {
         Some(g) => {
-            warnings.extend(g.read_warning());
+            warnings.extend(g.read_diagnostics());
             let fitted =
                 fit_groups(&g.trace, axis, params, &EstimateParams::default()).map_err(|e| {
                     AppError::caused(
@@ -186,11 +187,11 @@ pub fn identify_recordings(
                     )
                 })?;
             if fitted.fit.vs_at_bound {
-                warnings.push(
+                warnings.push(Diagnostic::new(
+                    Code::VsAtBound,
                     "groups: the Stribeck velocity ended at a search bound (not resolved by \
-                     the feeds of the groups)"
-                        .to_string(),
-                );
+                     the feeds of the groups)",
+                ));
             }
             let f = &id.fit;
             let pct = |a: f64, b: f64| 100.0 * (a - b) / b;
@@ -255,7 +256,7 @@ pub struct IdentifyReport {
     /// The settings of the fit.
     pub params: IdentParams,
     /// What the result does not support, or what the readers dropped.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Diagnostic>,
     /// The comparison with the constant-speed groups, when asked for.
     pub compare: Option<Comparison>,
 }

@@ -26,8 +26,8 @@ use feedscope_io::test_set::{estimate_set, read_index};
 use feedscope_io::trace::ReadOptions;
 use serde::{Deserialize, Serialize};
 
-use feedscope::diag::Diagnostic;
 use crate::{AppError, FrontEnd};
+use feedscope::diag::Diagnostic;
 
 /// Map a test set given as files.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

@@ -4,6 +4,7 @@ use std::borrow::Cow;
 use std::path::Path;
 
 use feedscope::axis::AxisParams;
+use feedscope::diag::Diagnostic;
 use feedscope::trace::{EffortKind, GlitchParams, Trace};
 use feedscope::ErrorKind;
 use feedscope_io::trace::{read_trace_file_with, ReadOptions, ReadReport, TraceError};
@@ -79,9 +80,18 @@ impl<'a> Recording<'a> {
         }
     }
 
-    /// The reader's warning, prefixed with the source, for a report's warnings.
+    /// The reader's warning, prefixed with the source, for a front end's notice.
     pub fn read_warning(&self) -> Option<String> {
         self.read.warning().map(|w| format!("{}: {w}", self.source))
+    }
+
+    /// The reader's diagnostics, each message prefixed with the source, for a report.
+    pub fn read_diagnostics(&self) -> Vec<Diagnostic> {
+        let mut d = self.read.diagnostics();
+        for w in &mut d {
+            w.message = format!("{}: {}", self.source, w.message);
+        }
+        d
     }
 }
 

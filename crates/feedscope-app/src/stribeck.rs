@@ -10,9 +10,8 @@ use feedscope::axis::AxisParams;
 use feedscope::diag::Diagnostic;
 use feedscope::estimate::Direction;
 use feedscope::stribeck::{
-    detect_nonconventional, DeltaMode, NonConventional, NonConventionalParams,
-    ParamEstimate, StribeckFit, StribeckFitParams, StribeckFitter, StribeckParams,
-    Termination, M_S_PER_MM_MIN,
+    detect_nonconventional, DeltaMode, NonConventional, NonConventionalParams, ParamEstimate,
+    StribeckFit, StribeckFitParams, StribeckFitter, StribeckParams, Termination, M_S_PER_MM_MIN,
 };
 use feedscope::ErrorKind;
 use feedscope_io::stribeck_table::{

@@ -133,6 +133,16 @@ catalogue! {
         /// The first line of the log is long before this axis's first sample (a state dump?);
         /// `--time-origin trace` starts the trace at its first sample.
         FirstLineLongBefore = "first-line-long-before",
+        /// Position samples that jump further than the axis can move between two samples
+        /// (a glitch of the control or the log) were dropped on reading; the message names the
+        /// first ones.
+        PositionGlitchesDropped = "position-glitches-dropped",
+        /// Effort samples far outside the drive's range (a glitch) were dropped on reading; the
+        /// message names the first ones.
+        EffortGlitchesDropped = "effort-glitches-dropped",
+        /// The file's last line has no line end: it may have been cut off while being written
+        /// or copied; it was read as it stands, and the recording may end early.
+        LastLineUnterminated = "last-line-unterminated",
     }
     "Estimating friction" {
         /// Friction comes out pushing the table along in both directions only because the axis
@@ -182,6 +192,18 @@ catalogue! {
         /// turned, a modulated feed): the mean profile mixes the friction of these feeds where
         /// friction depends on the feed; the orders are not affected.
         FeedVariesAlongStroke = "feed-varies-along-stroke",
+        /// Without a rapid rate in the axis file, the much faster moves were taken for rapids
+        /// and left out; set `rapid_rate_mm_min` (or give the program) to be sure.
+        RapidsInferred = "rapids-inferred",
+        /// A measuring move ran at a feed more than 5 % from the one its program block
+        /// programs (a feed override?).
+        FeedNotAsProgrammed = "feed-not-as-programmed",
+        /// Moves of the trace match no block of the program: they are taken for jogging and
+        /// left out.
+        MovesNotInProgram = "moves-not-in-program",
+        /// Programmed moves were not found in the trace (the recording starts late or ends
+        /// early, or the program is not the one that ran).
+        BlocksNotFound = "blocks-not-found",
     }
     "Fluctuation orders" {
         /// Segments too short for a spectrum (fewer than 16 samples) were skipped.
@@ -217,6 +239,23 @@ catalogue! {
         /// The stroke spans too few leads for an order resolution that tells kinematic causes
         /// apart: orders without causes.
         TooFewLeadsForCauses = "too-few-leads-for-causes",
+    }
+    "Identification" {
+        /// The identified Stribeck velocity ended at a bound of its search: the test does not
+        /// resolve it; slower or faster levels are needed.
+        VsAtBound = "vs-at-bound",
+        /// The identified static torque is below the Coulomb torque: no Stribeck drop was
+        /// found, and v_s is meaningless.
+        NoStribeckDrop = "no-stribeck-drop",
+        /// A parameter's standard error is above half its value (the inertia J with too little
+        /// acceleration, or v_s): it is poorly identified.
+        PoorlyIdentified = "poorly-identified",
+        /// The trace is sampled coarsely: the inertia rests on few accelerating rows; its
+        /// standard error says how well.
+        CoarseSampling = "coarse-sampling",
+        /// Position and effort have different timestamps: the effort was interpolated to the
+        /// position times.
+        EffortInterpolated = "effort-interpolated",
     }
     "Friction fits" {
         /// No more points than parameters: no residual degrees of freedom, so no standard
@@ -324,7 +363,9 @@ pub fn catalogue_markdown() -> String {
     for c in Code::ALL {
         if c.section() != section {
             section = c.section();
-            out.push_str(&format!("\n## {section}\n\n| code | meaning |\n|---|---|\n"));
+            out.push_str(&format!(
+                "\n## {section}\n\n| code | meaning |\n|---|---|\n"
+            ));
         }
         out.push_str(&format!(
             "| `{}` | {} |\n",
@@ -405,8 +446,9 @@ mod tests {
             let s = c.as_str();
             assert!(seen.insert(s), "{s} twice");
             assert!(
-                s.split('-')
-                    .all(|w| !w.is_empty() && w.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit())),
+                s.split('-').all(|w| !w.is_empty()
+                    && w.bytes()
+                        .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit())),
                 "{s} is not kebab-case"
             );
             assert_eq!(Code::parse(s), *c);

@@ -5,10 +5,10 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::ValueEnum;
+use feedscope::diag::Code;
 use feedscope::estimate::{
     EffortSign, Move, MoveKind, PositionSmoothing, StrokeSummary, TimeOfPosition,
 };
-use feedscope::diag::Code;
 use feedscope::spline::EndCondition;
 use feedscope::verdict::FrictionSign;
 use feedscope_app::estimate::{
@@ -444,7 +444,8 @@ const PROFILE_WARNINGS: [Code; 5] = [
 /// warning repeated on more than [`WARNING_REPEATS_SHOWN`] strokes, is one line that counts
 /// the strokes, lists them and quotes the first. The JSON summary keeps every one.
 fn stroke_warnings(strokes: &[StrokeSummary]) -> Vec<String> {
-    let key = |s: &StrokeSummary, code: Code| (mean_only(s) && PROFILE_WARNINGS.contains(&code), code);
+    let key =
+        |s: &StrokeSummary, code: Code| (mean_only(s) && PROFILE_WARNINGS.contains(&code), code);
     let mut by_code: std::collections::BTreeMap<(bool, Code), Vec<&StrokeSummary>> =
         std::collections::BTreeMap::new();
     for s in strokes {
@@ -517,9 +518,7 @@ fn mean_only(s: &StrokeSummary) -> bool {
 
 /// The binding reasons of the strokes' verdicts, by code: how many strokes and the first
 /// stroke's message.
-fn verdict_reasons(
-    strokes: &[StrokeSummary],
-) -> std::collections::BTreeMap<Code, (usize, String)> {
+fn verdict_reasons(strokes: &[StrokeSummary]) -> std::collections::BTreeMap<Code, (usize, String)> {
     let mut by_code = std::collections::BTreeMap::new();
     for s in strokes {
         for r in s.verdict.iter().flat_map(|v| &v.reasons) {

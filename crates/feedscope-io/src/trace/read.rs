@@ -3,6 +3,7 @@
 //! with (enough samples, motion, the position screened for glitches). Nothing here reads a
 //! file; the readers call it, never the other way round.
 
+use feedscope::diag::{Code, Diagnostic};
 use feedscope::trace::glitch::{remove_samples, screen_effort, screen_position, GlitchParams};
 use feedscope::trace::{Channel, EffortKind, Trace, MIN_SAMPLES};
 use feedscope::units::feed_m_s_to_mm_min;
@@ -414,10 +415,11 @@ pub struct DroppedEffort {
 const SHOWN_DROPPED: usize = 5;
 
 impl ReadReport {
-    /// What the read warns about, in one line for people: [`ReadReport::glitch_warning`],
-    /// [`ReadReport::effort_glitch_warning`] and a last line without a line end. `None` for a
-    /// clean read.
-    pub fn warning(&self) -> Option<String> {
+    /// What the read warns about, as diagnostics: [`ReadReport::glitch_warning`]
+    /// (`position-glitches-dropped`), [`ReadReport::effort_glitch_warning`]
+    /// (`effort-glitches-dropped`) and a last line without a line end
+    /// (`last-line-unterminated`). Empty for a clean read.
+    pub fn diagnostics(&self) -> Vec<Diagnostic> {
         let cut = self.unterminated_last_line.map(|l| {
             format!(
                 "the last line (line {l}) has no line end: the file may have been cut off \
@@ -425,10 +427,20 @@ impl ReadReport {
                  stands; the recording may end early)"
             )
         });
-        let parts: Vec<String> = [self.glitch_warning(), self.effort_glitch_warning(), cut]
-            .into_iter()
-            .flatten()
-            .collect();
+        [
+            (Code::PositionGlitchesDropped, self.glitch_warning()),
+            (Code::EffortGlitchesDropped, self.effort_glitch_warning()),
+            (Code::LastLineUnterminated, cut),
+        ]
+        .into_iter()
+        .filter_map(|(code, m)| m.map(|m| Diagnostic::new(code, m)))
+        .collect()
+    }
+
+    /// What the read warns about, in one line for people: the messages of
+    /// [`ReadReport::diagnostics`]. `None` for a clean read.
+    pub fn warning(&self) -> Option<String> {
+        let parts: Vec<String> = self.diagnostics().into_iter().map(|d| d.message).collect();
         (!parts.is_empty()).then(|| parts.join("; "))
     }
 

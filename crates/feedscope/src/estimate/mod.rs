@@ -457,7 +457,7 @@ pub struct Estimate {
     /// Strokes found but not estimated, with the reason.
     pub skipped: Vec<String>,
     /// What the move classification wants a user to know (inferred rapids, program match).
-    pub notes: Vec<String>,
+    pub notes: Vec<Diagnostic>,
     /// What the recording supports, over all its strokes.
     pub verdict: DataVerdict,
 }
@@ -472,7 +472,7 @@ pub struct Outline {
     /// Strokes found but not estimated, with the reason.
     pub skipped: Vec<String>,
     /// Notes of the move classification.
-    pub notes: Vec<String>,
+    pub notes: Vec<Diagnostic>,
     /// What the recording supports, over all its strokes.
     pub verdict: DataVerdict,
 }
@@ -519,7 +519,7 @@ pub struct Plan {
     /// Every move with its kind; `strokes` holds the numbers of its spans.
     pub moves: Vec<Move>,
     /// Notes of the classification.
-    pub notes: Vec<String>,
+    pub notes: Vec<Diagnostic>,
 }
 
 /// The fastest plateau feed a move of `axis` can have (mm/min) and where the bound comes
@@ -578,7 +578,7 @@ pub fn plan(
     for m in &moves {
         check_feed_plausible(m, axis)?;
     }
-    let mut notes: Vec<String> = note.into_iter().collect();
+    let mut notes: Vec<Diagnostic> = note.into_iter().collect();
     if !params.program.is_empty() {
         notes.extend(moves::label_with_program(&mut moves, &params.program));
     }

@@ -20,6 +20,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::segment::MoveSpan;
+use crate::diag::{Code, Diagnostic};
 use crate::stroke::Direction;
 use crate::trace::Channel;
 use crate::units::feed_m_s_to_mm_min;
@@ -133,7 +134,7 @@ pub(crate) fn classify(
     position: &Channel,
     moves: &[MoveSpan],
     rapid_rate_mm_min: Option<f64>,
-) -> (Vec<Move>, Option<String>) {
+) -> (Vec<Move>, Option<Diagnostic>) {
     // Rapids are told by their top speed: a long rapid spends much of its time on its ramps,
     // which pull the plateau (a median) below the rapid rate.
     let mut note = None;
@@ -152,10 +153,13 @@ pub(crate) fn classify(
                 && any_other
                 && fastest >= INFERRED_RAPID_RATIO * others
             {
-                note = Some(format!(
+                note = Some(Diagnostic::new(
+                    Code::RapidsInferred,
+                    format!(
                     "moves at about {fastest:.0} mm/min, more than {INFERRED_RAPID_RATIO}× faster \
                      than any other (at most {others:.0} mm/min), were taken for rapids and left \
                      out; set rapid_rate_mm_min in the axis file (or give --program) to be sure"
+                ),
                 ));
                 Some(fast_cut)
             } else {
@@ -260,7 +264,7 @@ const MATCH_TOLERANCE_MM: f64 = 0.5;
 /// rapid and a matched G1 a measuring stroke (or a positioning move when it held no steady
 /// feed); a measured move that no block explains is a jog. Returns warnings: blocks never
 /// found in the trace, and feeds that differ from the programmed one (override).
-pub(crate) fn label_with_program(moves: &mut [Move], steps: &[ProgrammedMove]) -> Vec<String> {
+pub(crate) fn label_with_program(moves: &mut [Move], steps: &[ProgrammedMove]) -> Vec<Diagnostic> {
     let mut warnings = Vec::new();
     let mut next = 0usize;
     let mut unmatched_blocks = Vec::new();
@@ -296,10 +300,13 @@ pub(crate) fn label_with_program(moves: &mut [Move], steps: &[ProgrammedMove]) -
         };
         if let (false, Some(f), Some(feed)) = (step.rapid, step.feed_mm_min, m.feed_mm_min) {
             if m.kind == MoveKind::Measuring && (feed / f - 1.0).abs() > 0.05 {
-                warnings.push(format!(
+                warnings.push(Diagnostic::new(
+                    Code::FeedNotAsProgrammed,
+                    format!(
                     "the move ending at {:.3} mm ran at {:.1} mm/min, not the {:.1} mm/min that \
                      line {} programs (feed override?)",
                     m.end_mm, feed, f, step.line
+                ),
                 ));
             }
         }
@@ -311,8 +318,9 @@ pub(crate) fn label_with_program(moves: &mut [Move], steps: &[ProgrammedMove]) -
     }
     let jogs = matched.iter().filter(|&&ok| !ok).count();
     if jogs > 0 {
-        warnings.push(format!(
-            "{jogs} move(s) match no block of the program and are called jog (left out)"
+        warnings.push(Diagnostic::new(
+            Code::MovesNotInProgram,
+            format!("{jogs} move(s) match no block of the program and are called jog (left out)"),
         ));
     }
     if !unmatched_blocks.is_empty() {
@@ -321,15 +329,18 @@ pub(crate) fn label_with_program(moves: &mut [Move], steps: &[ProgrammedMove]) -
             .take(8)
             .map(|l| l.to_string())
             .collect();
-        warnings.push(format!(
-            "{} programmed move(s) were not found in the trace (lines {}{})",
-            unmatched_blocks.len(),
-            shown.join(", "),
-            if unmatched_blocks.len() > 8 {
-                ", …"
-            } else {
-                ""
-            }
+        warnings.push(Diagnostic::new(
+            Code::BlocksNotFound,
+            format!(
+                "{} programmed move(s) were not found in the trace (lines {}{})",
+                unmatched_blocks.len(),
+                shown.join(", "),
+                if unmatched_blocks.len() > 8 {
+                    ", …"
+                } else {
+                    ""
+                }
+            ),
         ));
     }
     warnings

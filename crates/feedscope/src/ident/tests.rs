@@ -419,7 +419,11 @@ fn asynchronous_channels_are_interpolated() {
     c.sampling.effort.start_offset_ms = 2.0;
     let out = simulate_profile(&c, &triangle(), &mut |_| {}).unwrap();
     let id = identify(&out.trace, &c.axis, &IdentParams::default()).unwrap();
-    assert!(id.warnings.iter().any(|w| w.contains("interpolated")));
+    assert!(id
+        .warnings
+        .iter()
+        .any(|w| w.code == crate::diag::Code::EffortInterpolated
+            && w.message.contains("interpolated")));
     check(&id, &c, "async 4 ms");
 }
 

@@ -8,6 +8,7 @@ use super::kernel::kernel_series;
 use super::model::{ForceSide, Regressors, TorqueFit};
 use super::{check_params, IdentError, IdentParams};
 use crate::axis::AxisParams;
+use crate::diag::{Code, Diagnostic};
 use crate::lugre::sign;
 use crate::trace::{EffortKind, Trace};
 use crate::units::{feed_m_s_to_mm_min, feed_mm_min_to_m_s};
@@ -43,7 +44,7 @@ pub struct Identification {
     /// Model torque at each sample, hat-averaged like the measured one (N·m).
     pub computed_torque_nm: Vec<f64>,
     /// Things the user should know (unresolved v_s, large standard errors, …).
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Diagnostic>,
 }
 
 /// Identify J, T_c, T_s, v_s, σ (and T_0) from one trace of position and torque or current.
@@ -336,20 +337,23 @@ pub fn identify(
         .collect();
     let mut warnings = fit_warnings(&fit);
     if h > COARSE_SAMPLING_S {
-        warnings.push(format!(
+        warnings.push(Diagnostic::new(
+            Code::CoarseSampling,
+            format!(
             "sampling every {:.0} ms: J rests on {} accelerating rows from acceleration phases \
              of up to {:.0} ms; its standard error says how well",
             1e3 * h,
             selection.busy_kept,
             1e3 * selection.longest_phase_s
+        ),
         ));
     }
     if !synchronous {
-        warnings.push(
+        warnings.push(Diagnostic::new(
+            Code::EffortInterpolated,
             "position and effort have different timestamps: the torque was interpolated to the \
-             position times"
-                .to_string(),
-        );
+             position times",
+        ));
     }
     let p = axis.lead_m();
     let axis_j = axis.inertia_kgm2 + axis.table_mass_kg * (p / (2.0 * PI)).powi(2);
@@ -510,24 +514,36 @@ fn position_quantum(z: &[f64]) -> f64 {
     }
 }
 
-fn fit_warnings(fit: &TorqueFit) -> Vec<String> {
+fn fit_warnings(fit: &TorqueFit) -> Vec<Diagnostic> {
     let mut w = Vec::new();
     if fit.vs_at_bound {
-        w.push(format!(
+        w.push(Diagnostic::new(
+            Code::VsAtBound,
+            format!(
             "the Stribeck velocity ended at a bound of its search ({:.3} mm/min): the test does \
              not resolve it; slower or faster levels are needed",
             fit.vs_mm_min
+        ),
         ));
     }
     if fit.ts_nm < fit.tc_nm {
-        w.push("T_s < T_c: no Stribeck drop was found; v_s is meaningless".to_string());
+        w.push(Diagnostic::new(
+            Code::NoStribeckDrop,
+            "T_s < T_c: no Stribeck drop was found; v_s is meaningless",
+        ));
     }
     let rel = |x: f64, se: f64| se > 0.5 * x.abs();
     if rel(fit.j_total_kgm2, fit.std_error.j_total_kgm2) {
-        w.push("J has a standard error above 50 %: too little acceleration".to_string());
+        w.push(Diagnostic::new(
+            Code::PoorlyIdentified,
+            "J has a standard error above 50 %: too little acceleration",
+        ));
     }
     if rel(fit.vs_mm_min, fit.std_error.vs_mm_min) {
-        w.push("v_s has a standard error above 50 %".to_string());
+        w.push(Diagnostic::new(
+            Code::PoorlyIdentified,
+            "v_s has a standard error above 50 %",
+        ));
     }
     w
 }

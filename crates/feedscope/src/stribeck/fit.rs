@@ -33,9 +33,9 @@
 //! Paper 000 Eq. 9 and Section 4.2.1 (fitted with MATLAB `fminsearch` there); paper 001
 //! Eq. 3; Marquardt, J. SIAM 11 (1963) 431-441.
 
+use crate::diag::Code;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
-use crate::diag::Code;
 
 use super::{StribeckError, StribeckParams, M_S_PER_MM_MIN};
 

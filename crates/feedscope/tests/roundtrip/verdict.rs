@@ -454,7 +454,11 @@ fn process_load_caps_every_stroke_at_the_mean_level() {
     }
     assert_eq!(e.verdict.support, Support::MeanLevel);
     assert_eq!(e.verdict.strokes_per_level, [e.strokes.len(), 0, 0, 0]);
-    assert!(e.verdict.reasons.iter().any(|r| r.code == Code::ProcessLoad));
+    assert!(e
+        .verdict
+        .reasons
+        .iter()
+        .any(|r| r.code == Code::ProcessLoad));
 }
 
 /// An effort without information: all zero, or one value across strokes of both
@@ -500,7 +504,11 @@ fn effort_counted_against_the_position_is_caught_and_turned() {
     let params = EstimateParams::default();
     let right = est(&out);
     let codes = |e: &Estimate| -> Vec<String> {
-        e.verdict.reasons.iter().map(|r| r.code.to_string()).collect()
+        e.verdict
+            .reasons
+            .iter()
+            .map(|r| r.code.to_string())
+            .collect()
     };
     assert!(!codes(&right).contains(&"effort-sign-reversed".to_string()));
     let mut neg = out.trace.clone();

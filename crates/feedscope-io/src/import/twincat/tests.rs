@@ -305,7 +305,8 @@ fn scaled_channels_warn() {
     let w = &imp.imported.report.warnings;
     assert!(
         w.iter()
-            .any(|d| d.code == Code::ScaledChannel && d.message.contains("declares ScaleFactor 0,01")),
+            .any(|d| d.code == Code::ScaledChannel
+                && d.message.contains("declares ScaleFactor 0,01")),
         "{w:?}"
     );
 }

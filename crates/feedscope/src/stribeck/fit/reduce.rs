@@ -21,8 +21,8 @@
 //! (F_c ≥ 0, σ ≥ 0) over the active sets, exactly; a variable held at its bound is not a
 //! parameter for the degrees of freedom. Standard errors from s²·(AᵀA)⁻¹ on the free columns.
 
-use serde::{Deserialize, Serialize};
 use crate::diag::Code;
+use serde::{Deserialize, Serialize};
 
 use super::M_S_PER_MM_MIN;
 
