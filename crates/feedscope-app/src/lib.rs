@@ -15,7 +15,9 @@
 //! against a [`FrontEnd`] (progress, and how the user spells a field: `--effort torque` on the
 //! command line, `effort="torque"` in Python) and returns a report that derives `Serialize`
 //! and *is* the JSON layout the front ends write or return. Errors are one type,
-//! [`AppError`], whose [`kind`](AppError::kind) a front end maps to an exit code or a status.
+//! [`AppError`], whose [`kind`](AppError::kind) a front end maps to an exit code or a status;
+//! a finding the user asked to be alerted to is an [`Outcome`], not an error. Every warning
+//! carries a code of the catalogue in [`feedscope::diag`].
 //!
 //! Use cases here so far: [`estimate`] (friction along the travel, paper 000 Eq. 5, streamed
 //! while the file is read), [`map`] (the friction map F(z, v) of a test set, paper 000
@@ -60,6 +62,7 @@ pub mod front;
 pub mod history;
 pub mod identify;
 pub mod map;
+pub mod outcome;
 pub mod output;
 pub mod recording;
 pub mod store;
@@ -68,4 +71,5 @@ pub mod trend;
 
 pub use error::AppError;
 pub use front::{FrontEnd, Quiet};
+pub use outcome::Outcome;
 pub use recording::Recording;

@@ -943,7 +943,13 @@ impl Mapped {
                 r.run.feed_mm_min,
                 r.run.repeat,
                 r.strokes.len(),
-                clean(&r.warnings.join(" | "))
+                clean(
+                    &r.warnings
+                        .iter()
+                        .map(|w| w.message.as_str())
+                        .collect::<Vec<_>>()
+                        .join(" | ")
+                )
             );
         }
         for r in &self.estimate.failed {

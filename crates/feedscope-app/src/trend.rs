@@ -152,6 +152,31 @@ impl AxisTrends {
             .iter()
             .any(|x| x.status != feedscope::history::Status::Ok)
     }
+
+    /// [`Outcome::Attention`](crate::Outcome) naming the indicators that are not `ok` (worst
+    /// first), else [`Outcome::Done`](crate::Outcome): what `--fail-on-warning` ends with.
+    pub fn outcome(&self) -> crate::Outcome {
+        let mut bad: Vec<&IndicatorTrend> = self
+            .trends
+            .iter()
+            .filter(|x| x.status != feedscope::history::Status::Ok)
+            .collect();
+        if bad.is_empty() {
+            return crate::Outcome::Done;
+        }
+        bad.sort_by_key(|x| x.status);
+        let names: Vec<String> = bad
+            .iter()
+            .map(|x| format!("{} {}", x.indicator.name(), x.status.as_str()))
+            .collect();
+        crate::Outcome::Attention(format!(
+            "{} indicator(s) of {}/{} not ok: {}",
+            bad.len(),
+            self.machine,
+            self.axis,
+            names.join(", ")
+        ))
+    }
 }
 
 /// The trend of `machine`'s axis `axis` (or of its only axis): the thresholds of the stored

@@ -97,9 +97,17 @@ fn a_rise_after_the_baseline_is_flagged_and_a_steady_axis_is_not() {
         .find(|t| t.indicator.name() == "fc_n")
         .unwrap();
     assert_eq!(fc.status, Status::ThresholdCrossed);
+    // What --fail-on-warning ends with: the indicators not ok, the crossed threshold first.
+    match z.outcome() {
+        feedscope_app::Outcome::Attention(s) => {
+            assert!(s.contains("of lathe/Z not ok: fc_n threshold"), "{s}")
+        }
+        o => panic!("{o:?}"),
+    }
 
     let x = axis_trend(&s, "lathe", Some("X"), &options, Default::default(), &Quiet).unwrap();
     assert!(!x.needs_attention(), "{:?}", x.trends);
+    assert_eq!(x.outcome(), feedscope_app::Outcome::Done);
     // The report is the JSON layout: machine, axis, tests, trends, skipped, profiles,
     // diagnosis.
     let json = serde_json::to_value(&x).unwrap();

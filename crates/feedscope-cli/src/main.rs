@@ -1,4 +1,25 @@
-//! The `feedscope` command-line tool.
+//! The `feedscope` command-line tool: a thin front end over `feedscope-app`.
+//!
+//! # The layers
+//! ```text
+//!   feedscope           maths: estimation, fits, identification, the twin
+//!       ↑
+//!   feedscope-io        files       feedscope-store   the condition history
+//!   feedscope-live      live sources (MTConnect, OPC UA)
+//!       ↑
+//!   feedscope-app       use cases: Request → run → Report
+//!       ↑
+//!   feedscope-cli (`feedscope`), feedscope-py (`import feedscope`), a server    ← this crate
+//! ```
+//! A command (`cmd/`) reads its arguments, builds the use case's request, runs it and presents
+//! the report: tables on stdout, plots (`plot`), the HTML report (`report`). Diagnostics are
+//! printed as `warning:`; a finding asked for with `--fail-on-warning` as `attention:` (exit
+//! code 1); errors as `error:` (2 bad input, 1 otherwise).
+//!
+//! ```text
+//! feedscope demo                       # the whole method on the twin's data
+//! feedscope estimate trace.csv --axis axis.toml -o friction.csv
+//! ```
 use clap::Parser;
 mod cmd;
 mod front;

@@ -1,6 +1,19 @@
 //! feedscope-io: the files of feedscope, read and written, so that the maths crate `feedscope`
 //! opens none and depends on no file format.
 //!
+//! # The layers
+//! ```text
+//!   feedscope           maths: estimation, fits, identification, the twin
+//!       ↑
+//!   feedscope-io        files       feedscope-store   the condition history     ← this crate: files
+//!   feedscope-live      live sources (MTConnect, OPC UA)
+//!       ↑
+//!   feedscope-app       use cases: Request → run → Report
+//!       ↑
+//!   feedscope-cli (`feedscope`), feedscope-py (`import feedscope`), a server
+//! ```
+//!
+//! # Example
 //! ```
 //! use feedscope::axis::{AxisParams, ConfigFormat};
 //! use feedscope::estimate::{estimate, EstimateParams};

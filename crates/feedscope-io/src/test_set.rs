@@ -54,7 +54,7 @@ pub fn estimate_set(
         &set.runs,
         |run| {
             read_trace_file_with(&run.file, &read, &glitch)
-                .map(|(t, report)| (t, report.warning()))
+                .map(|(t, report)| (t, report.diagnostics()))
                 .map_err(|e| e.to_string())
         },
         axis,
@@ -67,6 +67,7 @@ pub fn estimate_set(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use feedscope::diag::Code;
     use feedscope::axis::ConfigFormat;
 
     /// A wide 500 Hz trace: 0 → 20 mm at 600 mm/min and back, with a 5 mm spike at sample 700
@@ -126,7 +127,9 @@ mod tests {
             assert_eq!(names, ["r1.csv", "r2.csv"]);
             let w = &est.read_warnings[0].message;
             assert!(w.contains(dropped) && w.contains("4 s (line 2002)"), "{w}");
-            assert_eq!(&est.ok[0].warnings[0], w);
+            assert_eq!(est.read_warnings[0].code, Code::PositionGlitchesDropped);
+            assert_eq!(&est.ok[0].warnings[0].message, w);
+            assert_eq!(est.ok[0].warnings[0].code, Code::PositionGlitchesDropped);
         }
     }
 }

@@ -1,9 +1,20 @@
 //! Python bindings of feedscope: the native module `feedscope._feedscope` behind the Python
 //! package `feedscope` (`python/feedscope/__init__.py`).
 //!
-//! Every function calls the same library code as the `feedscope` binary's subcommand of the same
-//! name (`crates/feedscope-cli/src/cmd/`), with the same defaults, so that its numbers agree with
-//! the binary's to the last printed digit; its errors carry the binary's messages and map to a
+//! # The layers
+//! ```text
+//!   feedscope           maths: estimation, fits, identification, the twin
+//!       ↑
+//!   feedscope-io        files       feedscope-store   the condition history
+//!       ↑
+//!   feedscope-app       use cases: Request → run → Report
+//!       ↑
+//!   feedscope-cli (`feedscope`), feedscope-py (`import feedscope`), a server    ← this crate
+//! ```
+//! A keyword call becomes a use case's request of `feedscope-app` and its result is that
+//! use case's report (`to_dict()` is its serde form), the same request and report as the
+//! `feedscope` binary's subcommand of the same name, with the same defaults, so that its
+//! numbers agree with the binary's to the last printed digit; its errors carry the binary's messages and map to a
 //! Python exception per [`feedscope::ErrorKind`] ([`errors`]). Long work runs with the GIL
 //! released. Arrays handed to Python are the library's own vectors, moved into numpy without a
 //! copy; arrays handed in are read through a borrowed view and copied once into the library's

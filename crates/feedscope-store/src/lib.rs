@@ -1,6 +1,19 @@
 //! The condition-history store of feedscope: every test of every axis with its analysis
 //! results, and the indicator series the trends are computed from.
 //!
+//! # The layers
+//! ```text
+//!   feedscope           maths: estimation, fits, identification, the twin
+//!       ↑
+//!   feedscope-io        files       feedscope-store   the condition history     ← this crate: the store
+//!   feedscope-live      live sources (MTConnect, OPC UA)
+//!       ↑
+//!   feedscope-app       use cases: Request → run → Report
+//!       ↑
+//!   feedscope-cli (`feedscope`), feedscope-py (`import feedscope`), a server
+//! ```
+//!
+//! # Example
 //! ```
 //! use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, TestKind};
 //!

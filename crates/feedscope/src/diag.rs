@@ -204,6 +204,11 @@ catalogue! {
         /// Programmed moves were not found in the trace (the recording starts late or ends
         /// early, or the program is not the one that ran).
         BlocksNotFound = "blocks-not-found",
+        /// A stroke was found but not estimated; the message says why.
+        StrokeSkipped = "stroke-skipped",
+        /// A stroke of a test-set run ran at a feed other than the one the index gives for
+        /// the run, and was left out of the friction map.
+        StrokeOffFeed = "stroke-off-feed",
     }
     "Fluctuation orders" {
         /// Segments too short for a spectrum (fewer than 16 samples) were skipped.

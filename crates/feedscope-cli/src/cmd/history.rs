@@ -14,6 +14,7 @@ use feedscope_app::history::{
     analyse_for_store, load_axis, prepare_test, AddOptions, AddReport, AddRequest, TestMeta,
 };
 use feedscope_app::trend::{axis_trend, TrendOptions};
+use feedscope_app::Outcome;
 use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, TestKind};
 
 use crate::front::Cli;
@@ -584,7 +585,7 @@ fn remove(spec: &StoreSpec, a: &RemoveArgs) -> Result<()> {
     Ok(())
 }
 
-fn trend(spec: &StoreSpec, a: &TrendArgs) -> Result<bool> {
+fn trend(spec: &StoreSpec, a: &TrendArgs) -> Result<Outcome> {
     let options = a
         .detectors
         .options(a.baseline_tests, a.thresholds.as_deref());
@@ -602,7 +603,6 @@ fn trend(spec: &StoreSpec, a: &TrendArgs) -> Result<bool> {
         from_file,
         &front,
     )?;
-    let warn = t.needs_attention();
     let mut w = std::io::stdout().lock();
     match a.format {
         Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&t)?)?,
@@ -642,7 +642,7 @@ fn trend(spec: &StoreSpec, a: &TrendArgs) -> Result<bool> {
             }
         }
     }
-    Ok(warn)
+    Ok(t.outcome())
 }
 
 /// The position-resolved comparison as text: per direction its baseline and limit, then per
@@ -722,7 +722,7 @@ fn write_profile_changes(w: &mut impl Write, p: &feedscope::history::ProfileChan
     Ok(())
 }
 
-pub fn run(args: Args) -> Result<()> {
+pub fn run(args: Args) -> Result<Outcome> {
     if let HistoryCommand::Migrate(a) = &args.command {
         if args.db.is_some() || args.store.is_some() {
             return Err(BadInput(
@@ -731,11 +731,11 @@ pub fn run(args: Args) -> Result<()> {
             )
             .into());
         }
-        return migrate(a);
+        return migrate(a).map(|()| Outcome::Done);
     }
     let spec = crate::store::resolve(args.db.as_deref(), args.store.as_deref())?;
     let db = &spec;
-    match &args.command {
+    let done = match &args.command {
         HistoryCommand::Migrate(_) => unreachable!("handled above"),
         HistoryCommand::Add(a) => add(db, a),
         HistoryCommand::List(a) => list(db, a),
@@ -743,11 +743,12 @@ pub fn run(args: Args) -> Result<()> {
         HistoryCommand::Export(a) => export(db, a),
         HistoryCommand::Remove(a) => remove(db, a),
         HistoryCommand::Trend(a) => {
-            let warn = trend(db, a)?;
-            if warn && a.fail_on_warning {
-                anyhow::bail!("an indicator is not ok (--fail-on-warning)");
-            }
-            Ok(())
+            let outcome = trend(db, a)?;
+            return Ok(if a.fail_on_warning {
+                outcome
+            } else {
+                Outcome::Done
+            });
         }
         HistoryCommand::Reference(a) => {
             let (db, name) = (args.db.as_deref(), args.store.as_deref());
@@ -770,7 +771,8 @@ pub fn run(args: Args) -> Result<()> {
             );
             Ok(())
         }
-    }
+    };
+    done.map(|()| Outcome::Done)
 }
 
 /// What `history migrate` did.

@@ -4,6 +4,7 @@
 //! input or usage (unreadable or malformed files, invalid parameters).
 use clap::{Parser, Subcommand};
 use feedscope::ErrorKind;
+use feedscope_app::Outcome;
 
 mod analyze;
 mod demo;
@@ -126,29 +127,39 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         crate::output::remove_temporaries_on_interrupt();
     }
     let result = match cli.command {
-        Command::Demo(a) => demo::run(a),
-        Command::Analyze(a) => analyze::run(a),
-        Command::Estimate(a) => estimate::run(a),
+        Command::Demo(a) => demo::run(a).map(done),
+        Command::Analyze(a) => analyze::run(a).map(done),
+        Command::Estimate(a) => estimate::run(a).map(done),
         // Prints its own errors and chooses its exit code (2 bad input, 1 otherwise).
         Command::Simulate(a) => return simulate::run(a),
-        Command::Dynamics(a) => dynamics::run(a),
-        Command::Identify(a) => identify::run(a),
-        Command::Plan(a) => plan::run(a),
-        Command::FitStribeck(a) => fit_stribeck::run(a),
-        Command::Map(a) => map::run(a),
+        Command::Dynamics(a) => dynamics::run(a).map(done),
+        Command::Identify(a) => identify::run(a).map(done),
+        Command::Plan(a) => plan::run(a).map(done),
+        Command::FitStribeck(a) => fit_stribeck::run(a).map(done),
+        Command::Map(a) => map::run(a).map(done),
         Command::History(a) => history::run(a),
-        Command::Report(a) => report::run(a),
-        Command::Import(a) => import::run(a),
-        Command::Watch(a) => watch::run(a),
+        Command::Report(a) => report::run(a).map(done),
+        Command::Import(a) => import::run(a).map(done),
+        Command::Watch(a) => watch::run(a).map(done),
     };
     match result {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+        Ok(Outcome::Done) => std::process::ExitCode::SUCCESS,
+        // A finding the user asked to be alerted to: a status line, not an error.
+        Ok(o @ Outcome::Attention(_)) => {
+            eprintln!("attention: {o}");
+            std::process::ExitCode::from(o.exit_code())
+        }
         Err(e) if is_closed_stdout(&e) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {}", error_text(&e));
             std::process::ExitCode::from(exit_code(&e))
         }
     }
+}
+
+/// A command that ended without a finding to alert to.
+fn done(_: ()) -> Outcome {
+    Outcome::Done
 }
 
 /// The error and its causes joined by ": ", as anyhow's `{:#}`, but a cause whose text the

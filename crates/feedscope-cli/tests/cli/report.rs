@@ -41,6 +41,13 @@ fn report_of_a_drifting_axis() {
     ]);
     let o = run(c);
     assert_eq!(o.status.code(), Some(1), "{}\n{}", stdout(&o), stderr(&o));
+    // A finding, not a failure: a status line naming the indicators, no `error:`.
+    let err = stderr(&o);
+    assert!(
+        err.starts_with("attention: ") && !err.contains("error:"),
+        "{err}"
+    );
+    assert!(err.contains("fs_n"), "{err}");
     let text = stdout(&o);
     assert!(text.contains("fs_n"), "{text}");
     assert!(text.contains("lubrication"), "{text}");

@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::MapError;
 use crate::axis::AxisParams;
+use crate::diag::{Code, Diagnostic};
 use crate::estimate::{estimate, EstimateParams, StrokeFriction};
 use crate::trace::Trace;
 
@@ -119,9 +120,9 @@ pub struct RunFriction {
     pub run: TestRun,
     /// Its strokes (positions on the absolute grid k·p/m, friction signed as Eq. 5).
     pub strokes: Vec<StrokeFriction>,
-    /// What was left out and why (position samples dropped as glitches when the trace was
-    /// read, strokes at another feed, skipped strokes).
-    pub warnings: Vec<String>,
+    /// What was left out and why (samples dropped as glitches when the trace was read,
+    /// strokes at another feed, skipped strokes).
+    pub warnings: Vec<Diagnostic>,
 }
 
 /// A run that could not be estimated.
@@ -151,6 +152,8 @@ pub struct SetEstimate {
 pub struct RunWarning {
     /// The run's name as written in the index.
     pub run: String,
+    /// Its code in the diagnostics catalogue.
+    pub code: Code,
     /// The warning, for people.
     pub message: String,
 }
@@ -178,7 +181,7 @@ where
 {
     estimate_set_with_warnings(
         runs,
-        |run| load(run).map(|t| (t, None)),
+        |run| load(run).map(|t| (t, Vec::new())),
         axis,
         params,
         stroke_feed_tolerance,
@@ -186,8 +189,8 @@ where
     )
 }
 
-/// [`estimate_set_with`] with a loader that may also return a warning about the read (e.g.
-/// position samples dropped as glitches); the warnings are listed in
+/// [`estimate_set_with`] with a loader that also returns the read's diagnostics (e.g.
+/// position samples dropped as glitches); they are listed in
 /// [`SetEstimate::read_warnings`] and first in [`RunFriction::warnings`].
 pub fn estimate_set_with_warnings<L>(
     runs: &[TestRun],
@@ -198,24 +201,18 @@ pub fn estimate_set_with_warnings<L>(
     progress: &(dyn Fn(&TestRun) + Sync),
 ) -> SetEstimate
 where
-    L: Fn(&TestRun) -> Result<(Trace, Option<String>), String> + Sync,
+    L: Fn(&TestRun) -> Result<(Trace, Vec<Diagnostic>), String> + Sync,
 {
-    let results: Vec<(Option<String>, Result<RunFriction, RunFailure>)> = runs
+    let results: Vec<(Vec<Diagnostic>, Result<RunFriction, RunFailure>)> = runs
         .par_iter()
         .map(|run| {
             let (warning, r) = match load(run) {
                 Ok((trace, warning)) => {
-                    let r = estimate_run(
-                        run,
-                        &trace,
-                        warning.as_deref(),
-                        axis,
-                        params,
-                        stroke_feed_tolerance,
-                    );
+                    let r =
+                        estimate_run(run, &trace, &warning, axis, params, stroke_feed_tolerance);
                     (warning, r)
                 }
-                Err(e) => (None, Err(e)),
+                Err(e) => (Vec::new(), Err(e)),
             };
             progress(run);
             let r = r.map_err(|error| RunFailure {
@@ -227,10 +224,11 @@ where
         .collect();
     let mut out = SetEstimate::default();
     for (run, (warning, r)) in runs.iter().zip(results) {
-        if let Some(message) = warning {
+        for d in warning {
             out.read_warnings.push(RunWarning {
                 run: run.name.clone(),
-                message,
+                code: d.code,
+                message: d.message,
             });
         }
         match r {
@@ -244,21 +242,28 @@ where
 fn estimate_run(
     run: &TestRun,
     trace: &Trace,
-    read_warning: Option<&str>,
+    read_warnings: &[Diagnostic],
     axis: &AxisParams,
     params: &EstimateParams,
     stroke_feed_tolerance: f64,
 ) -> Result<RunFriction, String> {
     let est = estimate(trace, axis, params).map_err(|e| e.to_string())?;
-    let mut warnings: Vec<String> = read_warning.map(String::from).into_iter().collect();
-    warnings.extend(est.skipped);
+    let mut warnings = read_warnings.to_vec();
+    warnings.extend(
+        est.skipped
+            .into_iter()
+            .map(|s| Diagnostic::new(Code::StrokeSkipped, s)),
+    );
     let mut strokes = Vec::with_capacity(est.strokes.len());
     for s in est.strokes {
         let rel = (s.summary.feed_mm_min - run.feed_mm_min).abs() / run.feed_mm_min;
         if rel > stroke_feed_tolerance {
-            warnings.push(format!(
-                "stroke {} ({:?}) at {:.3} mm/min left out: the run's feed is {} mm/min",
-                s.summary.stroke, s.summary.direction, s.summary.feed_mm_min, run.feed_mm_min
+            warnings.push(Diagnostic::new(
+                Code::StrokeOffFeed,
+                format!(
+                    "stroke {} ({:?}) at {:.3} mm/min left out: the run's feed is {} mm/min",
+                    s.summary.stroke, s.summary.direction, s.summary.feed_mm_min, run.feed_mm_min
+                ),
             ));
         } else {
             strokes.push(s);
@@ -271,7 +276,8 @@ fn estimate_run(
             if warnings.is_empty() {
                 String::new()
             } else {
-                format!(" ({})", warnings.join("; "))
+                let m: Vec<&str> = warnings.iter().map(|w| w.message.as_str()).collect();
+                format!(" ({})", m.join("; "))
             }
         ));
     }
