@@ -67,8 +67,8 @@ pub fn estimate_set(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use feedscope::diag::Code;
     use feedscope::axis::ConfigFormat;
+    use feedscope::diag::Code;
 
     /// A wide 500 Hz trace: 0 → 20 mm at 600 mm/min and back, with a 5 mm spike at sample 700
     /// (t = 1.4 s, line 702) and a 1e308 at sample 2000 (t = 4 s, line 2002).

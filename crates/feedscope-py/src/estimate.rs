@@ -296,7 +296,7 @@ impl EstimateResult {
     fn zones<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         to_py(py, &self.report.zones)
     }
-    /// Notes of the move classification (list of str).
+    /// Notes of the move classification: a list of dicts `{"code", "message"}`.
     #[getter]
     fn notes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         to_py(py, &self.report.notes)

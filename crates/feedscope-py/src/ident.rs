@@ -59,7 +59,7 @@ impl IdentifyResult {
     fn diagnostics<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         to_py(py, &self.report["diagnostics"])
     }
-    /// Warnings (list of str).
+    /// Warnings: a list of dicts `{"code", "message"}` (codes in docs/diagnostics.md).
     #[getter]
     fn warnings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         to_py(py, &self.report["warnings"])
