@@ -28,6 +28,10 @@
 //! and [`trend`] (an axis's indicators over its stored tests,
 //! the position-resolved comparison and the diagnosis).
 //!
+//! The pictures people look at are drawn here too: [`plot`] (SVG line charts and heat maps
+//! with unit-labelled axes) and [`report`] (the condition report of an axis: its page model and
+//! one self-contained HTML file).
+//!
 //! Every file a front end writes goes through [`output`]: it appears whole or not at all; every
 //! history store a front end opens is named and opened through [`store`].
 //!
@@ -64,7 +68,9 @@ pub mod identify;
 pub mod map;
 pub mod outcome;
 pub mod output;
+pub mod plot;
 pub mod recording;
+pub mod report;
 pub mod store;
 pub mod stribeck;
 pub mod trend;

@@ -131,6 +131,54 @@ fn a_rise_after_the_baseline_is_flagged_and_a_steady_axis_is_not() {
     );
 }
 
+/// The report page is built from the same trends: what is not ok comes first, every indicator
+/// has its row and chart, no triangle parameters are invented where none were identified, and
+/// a machine named as markup is shown as text in the HTML.
+#[test]
+fn the_report_page_leads_with_what_needs_attention_and_escapes_names() {
+    let d = tempfile::tempdir().unwrap();
+    let mut s = store(d.path());
+    let options = TrendOptions::default();
+    let z = axis_trend(&s, "lathe", Some("Z"), &options, Default::default(), &Quiet).unwrap();
+    let page = feedscope_app::report::page(&s, &z, options.baseline_tests).unwrap();
+    assert_eq!((page.machine.as_str(), page.axis.as_str()), ("lathe", "Z"));
+    assert_eq!(page.tests.len(), 12);
+    assert_eq!(page.rows.len(), z.trends.len());
+    assert_eq!(page.trend_charts.len(), z.trends.len());
+    assert!(page.trend_charts.iter().all(|c| c.svg.contains("<svg")));
+    assert_eq!(page.warnings.first().map(|r| r.name.as_str()), Some("fc_n"));
+    let not_ok: usize = page
+        .counts
+        .iter()
+        .filter(|(k, _)| k != "ok")
+        .map(|(_, n)| n)
+        .sum();
+    assert_eq!(not_ok, page.warnings.len());
+    // Only triangle tests with no identified parameters stored: nothing to show, not zeros.
+    assert!(page.params.is_empty() && page.stribeck.is_none() && page.profile.is_none());
+    assert!(!page.no_baseline && !page.diagnosis.is_empty());
+
+    let name = "<script>alert(1)</script>";
+    for day in 0..3 {
+        s.add(&test(name, "Z", day, 90.0, 150.0)).unwrap();
+    }
+    let t = axis_trend(&s, name, Some("Z"), &options, Default::default(), &Quiet).unwrap();
+    let html = feedscope_app::report::render(&s, &t, options.baseline_tests).unwrap();
+    assert!(
+        !html.contains(name),
+        "the machine's name reached the HTML as markup"
+    );
+    assert!(html.contains("&lt;script&gt;alert(1)&lt;&#x2f;script&gt;"));
+    // Three tests are fewer than a baseline needs: said, and no clean bill of health.
+    let page = feedscope_app::report::page(&s, &t, options.baseline_tests).unwrap();
+    assert!(page.no_baseline, "{:?}", page.diagnosis);
+    assert!(
+        page.diagnosis[0].starts_with("No baseline yet"),
+        "{:?}",
+        page.diagnosis
+    );
+}
+
 /// The command line's spelling: fields are flags, the machine defaults to the only one.
 struct Flags;
 impl FrontEnd for Flags {

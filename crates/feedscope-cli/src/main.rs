@@ -12,7 +12,8 @@
 //!   feedscope-cli (`feedscope`), feedscope-py (`import feedscope`), a server    ← this crate
 //! ```
 //! A command (`cmd/`) reads its arguments, builds the use case's request, runs it and presents
-//! the report: tables on stdout, plots (`plot`), the HTML report (`report`). Diagnostics are
+//! the report: tables on stdout, plots and the HTML report (drawn by `feedscope_app::plot` and
+//! `feedscope_app::report`). Diagnostics are
 //! printed as `warning:`; a finding asked for with `--fail-on-warning` as `attention:` (exit
 //! code 1); errors as `error:` (2 bad input, 1 otherwise).
 //!
@@ -24,8 +25,6 @@ use clap::Parser;
 mod cmd;
 mod front;
 mod output;
-mod plot;
-mod report;
 mod store;
 
 // mimalloc keeps freed pages for reuse; with the system allocator every stroke's multi-megabyte

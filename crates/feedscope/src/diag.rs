@@ -402,18 +402,6 @@ impl Diagnostic {
     }
 }
 
-impl From<&crate::stribeck::FitWarning> for Diagnostic {
-    fn from(w: &crate::stribeck::FitWarning) -> Self {
-        Self::new(w.code(), w.to_string())
-    }
-}
-
-impl From<&crate::stribeck::Reduction> for Diagnostic {
-    fn from(r: &crate::stribeck::Reduction) -> Self {
-        Self::new(r.code(), r.to_string())
-    }
-}
-
 /// What a file may hold for a diagnostic.
 #[derive(Deserialize)]
 #[serde(untagged)]

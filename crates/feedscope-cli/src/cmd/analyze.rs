@@ -13,7 +13,7 @@ use feedscope_io::friction_csv;
 
 use crate::front::Cli;
 use crate::output::OutputSet;
-use crate::plot::{self, Heatmap, LineChart, Series, Style};
+use feedscope_app::plot::{self, Heatmap, LineChart, Series, Style};
 
 /// Analyse friction along the travel (paper 000, section 4.1).
 ///

@@ -20,8 +20,8 @@ use feedscope::study::{analyze_test, StrokeStudyParams, TestStudyParams};
 use super::estimate::print_table;
 use crate::front::Cli;
 use crate::output::{bar, write_atomic};
-use crate::plot::{Series, Style};
 use feedscope_app::estimate::estimate_to_csv;
+use feedscope_app::plot::{Series, Style};
 use feedscope_app::Recording;
 
 /// Run feedscope on built-in example data: a simulated lathe Z axis with known friction.
@@ -96,7 +96,7 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     let [truth_fwd, truth_bwd] = truth_series;
-    let svg = crate::plot::friction_svg(
+    let svg = feedscope_app::plot::friction_svg(
         &outcome.plot,
         "Demo lathe Z, estimated vs true",
         truth_fwd,

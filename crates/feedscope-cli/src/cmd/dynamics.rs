@@ -21,7 +21,7 @@ use serde::Serialize;
 
 use super::BadInput;
 use crate::output::write_atomic;
-use crate::plot::{line_chart_svg, write_svg, LineChart, Series, Style};
+use feedscope_app::plot::{line_chart_svg, write_svg, LineChart, Series, Style};
 
 /// Output format of the summary on stdout.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -17,7 +17,7 @@ use feedscope_app::estimate::{
 use feedscope_io::friction_csv;
 
 use crate::front::Cli;
-use crate::plot;
+use feedscope_app::plot;
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum EndArg {

@@ -15,7 +15,7 @@ use super::export::{ExportArgs, ExportCurves};
 use super::BadInput;
 use crate::front::Cli;
 use crate::output::OutputSet;
-use crate::plot;
+use feedscope_app::plot;
 
 /// Fit Stribeck curves to a steady-speed table (paper 000 Eq. 9, paper 001 Eq. 15).
 ///
@@ -124,12 +124,12 @@ fn svg(report: &Report) -> Result<String> {
             style: plot::Style::Line,
         });
     }
-    plot::line_chart_svg(&plot::LineChart {
+    Ok(plot::line_chart_svg(&plot::LineChart {
         title: "Friction against feed (steady speed) and Stribeck fit",
         x_label: "feed (mm/min)",
         y_label: "friction (N)",
         series,
-    })
+    })?)
 }
 
 /// `value ± SE`; a standard error of 1e6 or more in scientific notation so that the table

@@ -8,7 +8,7 @@ use feedscope_app::identify::{IdentifyOptions, IdentifyReport, IdentifyRequest};
 
 use super::estimate::{EffortArg, Format};
 use crate::front::Cli;
-use crate::plot;
+use feedscope_app::plot;
 
 /// Identify friction and inertia from one test (paper 002): J, Tc, Ts, vs, σ.
 ///
@@ -110,7 +110,7 @@ fn svg(id: &Identification, title: &str) -> Result<String> {
         .filter(|&k| id.used[k])
         .map(|k| (id.time_s[k], id.regressors.torque_nm[k]))
         .collect();
-    plot::line_chart_svg(&plot::LineChart {
+    Ok(plot::line_chart_svg(&plot::LineChart {
         title,
         x_label: "time (s)",
         y_label: "torque (N·m)",
@@ -131,7 +131,7 @@ fn svg(id: &Identification, title: &str) -> Result<String> {
                 style: plot::Style::Points,
             },
         ],
-    })
+    })?)
 }
 
 fn print_text(out: &IdentifyReport) -> Result<()> {

@@ -16,7 +16,7 @@ use super::export::{ExportArgs, ExportCurves};
 use super::BadInput;
 use crate::front::Cli;
 use crate::output::OutputSet;
-use crate::plot::{self, Heatmap, LineChart, Series, Style};
+use feedscope_app::plot::{self, Heatmap, LineChart, Series, Style};
 
 /// Friction map over position and feed from a test set (paper 000 Section 4.2).
 ///

@@ -76,7 +76,7 @@ pub fn write_report(
     let store = spec.open()?;
     let machine = &super::series::resolve_machine(&*store, machine)?;
     let t = axis_trend(&*store, machine, axis, &options, from_file, &front)?;
-    let html = crate::report::render(&*store, &t, baseline_tests)?;
+    let html = feedscope_app::report::render(&*store, &t, baseline_tests)?;
     Ok(write_atomic(out, html.as_bytes())?)
 }
 

@@ -1285,5 +1285,18 @@ pub fn t_quantile_975(dof: usize) -> f64 {
         + (3.0 * z7 + 19.0 * z5 + 17.0 * z3 - 15.0 * z) / (384.0 * nu * nu * nu)
 }
 
+// Here, not in `diag`, so that the catalogue depends on no module that uses it.
+impl From<&FitWarning> for crate::diag::Diagnostic {
+    fn from(w: &FitWarning) -> Self {
+        Self::new(w.code(), w.to_string())
+    }
+}
+
+impl From<&Reduction> for crate::diag::Diagnostic {
+    fn from(r: &Reduction) -> Self {
+        Self::new(r.code(), r.to_string())
+    }
+}
+
 #[cfg(test)]
 pub(crate) mod tests;

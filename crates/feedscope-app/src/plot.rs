@@ -2,14 +2,14 @@
 //!
 //! plotters is built without system fonts (the `ab_glyph` feature), so the bundled DejaVu Sans
 //! is registered once before the first chart.
-#![allow(dead_code)] // a shared toolbox: not every subcommand uses every chart kind
-
 use std::path::Path;
 use std::sync::Once;
 
-use anyhow::{anyhow, Result};
-use feedscope_app::estimate::FrictionPlot;
+use crate::error::AppError;
+use crate::estimate::FrictionPlot;
 use plotters::prelude::*;
+
+type Result<T, E = AppError> = std::result::Result<T, E>;
 
 static FONT: Once = Once::new();
 static FONT_BYTES: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
@@ -138,15 +138,15 @@ fn extent(values: impl Iterator<Item = f64>) -> Result<(f64, f64)> {
             (lo.min(v), hi.max(v))
         });
     if !lo.is_finite() {
-        return Err(anyhow!("no finite value to plot"));
+        return Err(AppError::failed("no finite value to plot"));
     }
     let mag = lo.abs().max(hi.abs());
     if mag > MAX_PLOT_MAGNITUDE {
-        return Err(anyhow!(
+        return Err(AppError::failed(format!(
             "values up to {:.3e} cannot be plotted (at most {MAX_PLOT_MAGNITUDE:e}); the data \
              holds an implausible number",
             if hi.abs() >= lo.abs() { hi } else { lo }
-        ));
+        )));
     }
     let span = hi - lo;
     let pad = if span > 0.0 {
@@ -157,8 +157,8 @@ fn extent(values: impl Iterator<Item = f64>) -> Result<(f64, f64)> {
     Ok((lo - pad, hi + pad))
 }
 
-fn plot_err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow!("drawing the plot failed: {e:?}")
+fn plot_err<E: std::fmt::Debug>(e: E) -> AppError {
+    AppError::failed(format!("drawing the plot failed: {e:?}"))
 }
 
 /// Render a line chart to SVG text.
@@ -392,8 +392,8 @@ pub fn heatmap_svg_sized(map: &Heatmap, size: (u32, u32)) -> Result<String> {
     let (width, height) = size;
     let (nx, ny) = (map.x.len(), map.y.len());
     if nx == 0 || ny == 0 || map.z.len() != ny || map.z.iter().any(|r| r.len() != nx) {
-        return Err(anyhow!(
-            "heat map grid is empty or its rows do not match the axes"
+        return Err(AppError::failed(
+            "heat map grid is empty or its rows do not match the axes",
         ));
     }
     let edges = |c: &[f64]| -> Vec<f64> {
@@ -479,7 +479,7 @@ pub fn heatmap_svg_sized(map: &Heatmap, size: (u32, u32)) -> Result<String> {
 /// # Errors
 /// I/O errors, with the path in the message.
 pub fn write_svg(path: &Path, svg: &str) -> Result<()> {
-    Ok(crate::output::write_atomic(path, svg.as_bytes())?)
+    crate::output::write_atomic(path, svg.as_bytes())
 }
 
 /// Up to this many strokes of a direction are each drawn in a colour of their own and named

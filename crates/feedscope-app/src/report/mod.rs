@@ -1,96 +1,156 @@
-//! The condition report: one self-contained HTML file per axis (plots inline as SVG, no
-//! script, no network), rendered from `report.html` with minijinja.
-use anyhow::{Context, Result};
+//! The condition report of an axis: the page model ([`page`]: every chart drawn, every number
+//! formatted) and one self-contained HTML file of it ([`render_html`]: plots inline as SVG, no
+//! script, no network, from `report.html` with minijinja). The CLI's `feedscope report` writes
+//! the file; a server shows the same page.
 use feedscope::history::{Extent, Indicator, IndicatorTrend, ProfileChanges, Status, TrendParams};
 use feedscope::units::MM_MIN_PER_M_S;
 use feedscope_store::{Identified, Store, TestDetail};
 use serde::Serialize;
 
+use crate::error::AppError;
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
+use crate::trend::AxisTrends;
 use feedscope::study::Curves;
-use feedscope_app::trend::AxisTrends;
+
+type Result<T, E = AppError> = std::result::Result<T, E>;
 
 const TEMPLATE: &str = include_str!("report.html");
 
-#[derive(Serialize)]
-struct Chart {
-    title: String,
-    svg: String,
+/// A chart of the page: its title and its SVG text.
+#[derive(Debug, Clone, Serialize)]
+pub struct Chart {
+    /// Caption.
+    pub title: String,
+    /// The SVG document (sized by its container once on the page).
+    pub svg: String,
 }
 
-#[derive(Serialize)]
-struct Row {
-    name: String,
-    label: String,
-    unit: String,
-    n: usize,
-    baseline: String,
-    sigma: String,
+/// One indicator's line of the trend table, every number formatted in the indicator's unit
+/// (`–` where there is none).
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    /// Indicator key ([`Indicator::name`]).
+    pub name: String,
+    /// The indicator in words.
+    pub label: String,
+    /// Its unit.
+    pub unit: String,
+    /// Tests in its series.
+    pub n: usize,
+    /// Baseline mean μ₀.
+    pub baseline: String,
+    /// Baseline σ.
+    pub sigma: String,
     /// The σ floor of this indicator (its unit) and whether σ was raised to it.
-    floor: String,
-    lower: String,
-    upper: String,
-    latest: String,
-    change: String,
-    ewma: String,
-    cusum: String,
-    threshold: String,
-    projection: String,
-    status: String,
-    css: &'static str,
+    pub floor: String,
+    /// Lower control limit.
+    pub lower: String,
+    /// Upper control limit.
+    pub upper: String,
+    /// Latest value.
+    pub latest: String,
+    /// Latest change against the baseline (%).
+    pub change: String,
+    /// EWMA statistic.
+    pub ewma: String,
+    /// CUSUM statistics.
+    pub cusum: String,
+    /// The threshold in force, if any.
+    pub threshold: String,
+    /// When the trend crosses the threshold, if it is projected to.
+    pub projection: String,
+    /// Status key (`ok`, `drifting`, `out-of-limits`, `threshold-crossed`).
+    pub status: String,
+    /// CSS class of the status.
+    pub css: &'static str,
 }
 
-#[derive(Serialize)]
-struct TestLine {
-    id: i64,
-    time: String,
-    kind: String,
-    source: String,
-    reference: bool,
-    summary: String,
+/// One stored test in the page's list.
+#[derive(Debug, Clone, Serialize)]
+pub struct TestLine {
+    /// Test id in the store.
+    pub id: i64,
+    /// Test time (RFC 3339 UTC).
+    pub time: String,
+    /// Kind of test.
+    pub kind: String,
+    /// Source trace.
+    pub source: String,
+    /// The axis's reference test.
+    pub reference: bool,
+    /// Its results in one line.
+    pub summary: String,
 }
 
-#[derive(Serialize)]
-struct Param {
-    name: &'static str,
-    value: String,
-    std_error: String,
-    unit: &'static str,
+/// One identified parameter of the latest triangle test.
+#[derive(Debug, Clone, Serialize)]
+pub struct Param {
+    /// The parameter in words.
+    pub name: &'static str,
+    /// Value.
+    pub value: String,
+    /// Standard error (empty where none).
+    pub std_error: String,
+    /// Unit.
+    pub unit: &'static str,
 }
 
-#[derive(Serialize)]
-struct Page<'a> {
-    machine: &'a str,
-    axis: &'a str,
-    generated: String,
-    tests: Vec<TestLine>,
-    first_time: String,
-    last_time: String,
-    counts: Vec<(String, usize)>,
-    diagnosis: Vec<String>,
+/// The condition report of one axis: what `report.html` lays out, and what any other front
+/// end (a server's axis page) shows, from one source.
+#[derive(Debug, Clone, Serialize)]
+pub struct Page {
+    /// Machine name.
+    pub machine: String,
+    /// Axis name.
+    pub axis: String,
+    /// When the page was made (RFC 3339 UTC).
+    pub generated: String,
+    /// The stored tests, in time order.
+    pub tests: Vec<TestLine>,
+    /// Time of the first test.
+    pub first_time: String,
+    /// Time of the last test.
+    pub last_time: String,
+    /// Indicators per status key, worst first.
+    pub counts: Vec<(String, usize)>,
+    /// The diagnosis in sentences (or why none can be made).
+    pub diagnosis: Vec<String>,
     /// No indicator has a baseline yet.
-    no_baseline: bool,
+    pub no_baseline: bool,
     /// The σ floor in words (what it is, its value).
-    sigma_floor: String,
-    warnings: Vec<Row>,
-    profile: Option<Chart>,
-    profile_test: Option<String>,
+    pub sigma_floor: String,
+    /// The indicators that are not ok, worst first.
+    pub warnings: Vec<Row>,
+    /// The latest stroke test's friction profile with its IAFV.
+    pub profile: Option<Chart>,
+    /// Which test that is.
+    pub profile_test: Option<String>,
     /// The data verdict of that test, in words.
-    profile_verdict: Option<String>,
-    heatmaps: Vec<Chart>,
+    pub profile_verdict: Option<String>,
+    /// Its fluctuation spectra along the travel.
+    pub heatmaps: Vec<Chart>,
     /// Position × test maps of the friction change against the profile baseline.
-    wear_maps: Vec<Chart>,
+    pub wear_maps: Vec<Chart>,
     /// How to read them and what the comparison found, in words.
-    wear_notes: Vec<String>,
-    stribeck: Option<Chart>,
-    params: Vec<Param>,
-    params_test: Option<String>,
-    trend_charts: Vec<Chart>,
-    rows: Vec<Row>,
-    intervals: Vec<feedscope_store::IntervalRow>,
-    components: Vec<feedscope_store::ComponentRow>,
-    skipped: &'a [String],
-    version: &'static str,
+    pub wear_notes: Vec<String>,
+    /// The identified Stribeck curves of the triangle tests.
+    pub stribeck: Option<Chart>,
+    /// The latest triangle test's identified parameters.
+    pub params: Vec<Param>,
+    /// Which test that is.
+    pub params_test: Option<String>,
+    /// One chart per indicator with its limits.
+    pub trend_charts: Vec<Chart>,
+    /// The trend table, every indicator.
+    pub rows: Vec<Row>,
+    /// Mean friction per interval of the latest stroke test.
+    pub intervals: Vec<feedscope_store::IntervalRow>,
+    /// Its significant whole-stroke components.
+    pub components: Vec<feedscope_store::ComponentRow>,
+    /// Stored indicators without a trend (no baseline, or unknown to this version).
+    pub skipped: Vec<String>,
+    /// The feedscope version that made the page.
+    pub version: &'static str,
 }
 
 fn num(x: f64) -> String {
@@ -620,7 +680,9 @@ fn missing_baselines(
     }
     // The baseline takes the first N tests of each indicator, and at least 2 for a scatter.
     let need = baseline_tests.max(2);
-    let series = store.series(&t.machine, &t.axis)?;
+    let series = store
+        .series(&t.machine, &t.axis)
+        .map_err(AppError::from_error)?;
     let mut out = Vec::new();
     for (kind, test_word) in [("strokes", "stroke test"), ("triangle", "triangle test")] {
         let names: Vec<&String> = t
@@ -664,24 +726,36 @@ fn missing_baselines(
     Ok(out)
 }
 
-/// Render the report of an axis whose trends took their baseline from the first
-/// `baseline_tests` tests of each indicator.
-pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Result<String> {
+/// The report page of an axis whose trends took their baseline from the first
+/// `baseline_tests` tests of each indicator: every chart drawn, every number formatted, ready
+/// for [`render_html`] or for a front end that lays it out itself (a server's axis page).
+///
+/// # Errors
+/// The store's errors; stored curves that do not read; a chart that cannot be drawn.
+pub fn page(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Result<Page> {
     let details: Vec<TestDetail> = t
         .tests
         .iter()
         .map(|x| store.get(x.id))
-        .collect::<Result<_, _>>()?;
+        .collect::<Result<_, _>>()
+        .map_err(AppError::from_error)?;
     let latest_strokes = details
         .iter()
         .rev()
         .find(|d| d.test.kind == feedscope_store::TestKind::Strokes);
     let curves: Option<(Curves, &TestDetail)> = match latest_strokes {
         Some(d) => store
-            .curves(d.test.id)?
+            .curves(d.test.id)
+            .map_err(AppError::from_error)?
             .map(|j| serde_json::from_str::<Curves>(&j).map(|c| (c, d)))
             .transpose()
-            .context("reading the stored curves")?,
+            .map_err(|e| {
+                AppError::caused(
+                    feedscope::ErrorKind::Internal,
+                    format!("reading the stored curves of test {}", d.test.id),
+                    e,
+                )
+            })?,
         None => None,
     };
     let (profile, heatmaps) = match &curves {
@@ -818,8 +892,8 @@ pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Resul
         svg: responsive(&c.svg),
     };
     let ctx = Page {
-        machine: &t.machine,
-        axis: &t.axis,
+        machine: t.machine.clone(),
+        axis: t.axis.clone(),
         generated: feedscope_store::time::format_rfc3339(feedscope_store::time::now_s()),
         first_time: t
             .tests
@@ -863,15 +937,32 @@ pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Resul
                     .collect()
             })
             .unwrap_or_default(),
-        skipped: &t.skipped,
+        skipped: t.skipped.clone(),
         version: env!("CARGO_PKG_VERSION"),
+    };
+    Ok(ctx)
+}
+
+/// The report page as self-contained HTML (plots inline as SVG, no script, no network).
+///
+/// # Errors
+/// A template that does not render (a build mistake: the template is compiled in).
+pub fn render_html(page: &Page) -> Result<String> {
+    let internal = |what: &str, e: minijinja::Error| {
+        AppError::caused(feedscope::ErrorKind::Internal, what.to_string(), e)
     };
     let mut env = minijinja::Environment::new();
     env.add_template("report.html", TEMPLATE)
-        .context("the report template")?;
-    let html = env
-        .get_template("report.html")
-        .and_then(|tpl| tpl.render(minijinja::value::Serde(&ctx)))
-        .context("rendering the report")?;
-    Ok(html)
+        .map_err(|e| internal("the report template", e))?;
+    env.get_template("report.html")
+        .and_then(|tpl| tpl.render(minijinja::value::Serde(page)))
+        .map_err(|e| internal("rendering the report", e))
+}
+
+/// [`page`] rendered by [`render_html`]: the condition report of an axis as one HTML file.
+///
+/// # Errors
+/// As [`page`] and [`render_html`].
+pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Result<String> {
+    render_html(&page(store, t, baseline_tests)?)
 }
