@@ -485,7 +485,7 @@ pub fn write_svg(path: &Path, svg: &str) -> Result<()> {
 /// Up to this many strokes of a direction are each drawn in a colour of their own and named
 /// in the legend ([`friction_svg`]); more are drawn thin in one colour per kind, with one
 /// legend entry per kind that counts them.
-const PLOT_NAMED_STROKES: usize = 6;
+pub const PLOT_NAMED_STROKES: usize = 6;
 
 /// Friction vs position: one panel per direction, with optional extra series (e.g. the
 /// truth) per direction. Every stroke is drawn: a profile as a line, a stroke whose data

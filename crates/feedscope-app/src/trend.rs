@@ -10,8 +10,8 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use feedscope::history::{IndicatorTrend, LocalParams, ProfileChanges, ProfileTest, Threshold};
-use feedscope::study::{Curves, TrendStudyParams};
-use feedscope_store::{AxisSeries, Filter, Store, TestKind, TestRow};
+use feedscope::study::TrendStudyParams;
+use feedscope_store::{AxisSeries, Filter, Store, Stored, TestKind, TestRow};
 use serde::{Deserialize, Serialize};
 
 use crate::{AppError, FrontEnd};
@@ -218,12 +218,14 @@ pub fn with_axis_thresholds(
     from_file: BTreeMap<String, Threshold>,
 ) -> Result<BTreeMap<String, Threshold>, AppError> {
     let mut out = BTreeMap::new();
-    if let Some(json) = store_.axis_params(machine, axis).map_err(store)? {
-        // Stored by `history add` from a validated axis file; an old or foreign shape simply
-        // carries no thresholds.
-        if let Ok(p) = serde_json::from_str::<feedscope::axis::AxisParams>(&json) {
-            out = p.thresholds;
-        }
+    // Stored by `history add` from a validated axis file; one another version wrote in a
+    // shape this one does not read carries no thresholds here.
+    if let Some(p) = store_
+        .axis_params(machine, axis)
+        .map_err(store)?
+        .and_then(Stored::into_read)
+    {
+        out = p.thresholds;
     }
     out.extend(from_file);
     Ok(out)
@@ -271,16 +273,13 @@ pub fn axis_trends(
 fn stroke_profiles(store_: &dyn Store, tests: &[TestRow]) -> Result<Vec<ProfileTest>, AppError> {
     let mut out = Vec::new();
     for t in tests.iter().filter(|t| t.kind == TestKind::Strokes) {
-        let Some(json) = store_.curves(t.id).map_err(store)? else {
-            continue;
+        let c = match store_.curves(t.id).map_err(store)? {
+            None => continue,
+            Some(Stored::Read(c)) => c,
+            Some(Stored::Unread { reason, .. }) => {
+                return Err(unread_curves(t.id, &reason));
+            }
         };
-        let c: Curves = serde_json::from_str(&json).map_err(|e| {
-            AppError::caused(
-                feedscope::ErrorKind::Internal,
-                format!("reading the stored curves of test {}", t.id),
-                e,
-            )
-        })?;
         if c.grid.is_empty() {
             continue;
         }
@@ -291,6 +290,15 @@ fn stroke_profiles(store_: &dyn Store, tests: &[TestRow]) -> Result<Vec<ProfileT
         });
     }
     Ok(out)
+}
+
+/// The stored curves of test `id` do not read as this version's ([`Stored::Unread`]): an
+/// error, as a profile comparison without one of its tests would compare the wrong ones.
+pub(crate) fn unread_curves(id: i64, reason: &str) -> AppError {
+    AppError::failed(format!(
+        "the stored report curves of test {id} do not read as this version of feedscope's \
+         ({reason}); written by another version? Use that version, or remove the test"
+    ))
 }
 
 /// The axis name: given, or the only axis of the machine.

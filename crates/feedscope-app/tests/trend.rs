@@ -14,14 +14,14 @@ use feedscope_store::{IndicatorRow, NewTest, SqliteStore, Store, TestKind};
 fn test(machine: &str, axis: &str, day: usize, fc_n: f64, fc_upper_n: f64) -> NewTest {
     let time_s = 1.8e9 + day as f64 * 86_400.0;
     let axis_params = serde_json::json!({
-        "lead_mm": 10.0, "table_mass_kg": 200.0, "screw_inertia_kgm2": 1e-3,
-        "motor_inertia_kgm2": 1e-3, "torque_constant_nm_per_a": 1.0,
+        "lead_mm": 10.0, "table_mass_kg": 200.0, "inertia_kgm2": 2e-3,
+        "damping_nms_per_rad": 1e-3, "torque_constant_nm_per_a": 1.0,
         "thresholds": {"fc_n": {"upper": fc_upper_n}}
     });
     NewTest {
         machine: machine.into(),
         axis: axis.into(),
-        axis_params_json: axis_params.to_string(),
+        axis_params: feedscope_store::Stored::from_json(&axis_params.to_string()),
         time_utc: format_rfc3339(time_s),
         time_s,
         kind: TestKind::Triangle,
@@ -39,7 +39,7 @@ fn test(machine: &str, axis: &str, day: usize, fc_n: f64, fc_upper_n: f64) -> Ne
             std_error: Some(0.5),
             unit: "N".into(),
         }],
-        curves_json: None,
+        curves: None,
     }
 }
 
@@ -65,6 +65,12 @@ fn a_rise_after_the_baseline_is_flagged_and_a_steady_axis_is_not() {
     let d = tempfile::tempdir().unwrap();
     let s = store(d.path());
     let options = TrendOptions::default();
+    // The stored axis file reads as one (so its thresholds are the ones in force below).
+    let stored = s.axis_params("lathe", "Z").unwrap();
+    assert!(
+        matches!(&stored, Some(feedscope_store::Stored::Read(p)) if p.thresholds.contains_key("fc_n")),
+        "{stored:?}"
+    );
     let z = axis_trend(&s, "lathe", Some("Z"), &options, Default::default(), &Quiet).unwrap();
     assert_eq!(z.tests.len(), 12);
     let fc = z

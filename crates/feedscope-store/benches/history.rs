@@ -68,7 +68,7 @@ fn synthetic(k: usize) -> NewTest {
     NewTest {
         machine: "bench".into(),
         axis: "Z".into(),
-        axis_params_json: "{}".into(),
+        axis_params: feedscope_store::Stored::from_json("{}"),
         time_utc: feedscope_store::time::format_rfc3339(1.7e9 + w * 86_400.0),
         time_s: 1.7e9 + w * 86_400.0,
         kind: TestKind::Triangle,
@@ -81,7 +81,7 @@ fn synthetic(k: usize) -> NewTest {
         intervals: vec![],
         components: vec![],
         indicators: ind,
-        curves_json: None,
+        curves: None,
     }
 }
 

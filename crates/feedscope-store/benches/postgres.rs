@@ -59,7 +59,7 @@ fn synthetic() -> NewTest {
     NewTest {
         machine: "bench".into(),
         axis: ["X", "Y", "Z", "C"][(k % 4) as usize].into(),
-        axis_params_json: "{\"lead_mm\":10.0}".into(),
+        axis_params: feedscope_store::Stored::from_json("{\"lead_mm\":10.0}"),
         time_utc: feedscope_store::time::format_rfc3339(1.7e9 + w * 60.0),
         time_s: 1.7e9 + w * 60.0,
         kind: TestKind::Triangle,
@@ -77,7 +77,11 @@ fn synthetic() -> NewTest {
         intervals,
         components,
         indicators,
-        curves_json: Some(format!("{{\"grid\":[{}]}}", "1.25,".repeat(800) + "0")),
+        // Not a `Curves` document: stored as it is, at the size of a real one.
+        curves: Some(feedscope_store::Stored::from_json(&format!(
+            "{{\"grid\":[{}]}}",
+            "1.25,".repeat(800) + "0"
+        ))),
     }
 }
 

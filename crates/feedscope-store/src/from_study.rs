@@ -86,8 +86,7 @@ impl NewTest {
         let mut t = NewTest {
             machine: String::new(),
             axis: String::new(),
-            // Serialising plain data with string keys cannot fail.
-            axis_params_json: serde_json::to_string(axis).expect("axis parameters as JSON"),
+            axis_params: axis.clone().into(),
             time_utc: String::new(),
             time_s: 0.0,
             kind: analysis.kind(),
@@ -104,7 +103,7 @@ impl NewTest {
                 .iter()
                 .map(IndicatorRow::from)
                 .collect(),
-            curves_json: None,
+            curves: None,
         };
         match analysis {
             TestAnalysis::Triangle(tri) => {
@@ -113,8 +112,7 @@ impl NewTest {
             TestAnalysis::Strokes(s) => {
                 t.intervals = s.intervals.iter().map(IntervalRow::from).collect();
                 t.components = s.components.iter().map(ComponentRow::from).collect();
-                t.curves_json =
-                    Some(serde_json::to_string(&s.curves).expect("report curves as JSON"));
+                t.curves = Some(s.curves.clone().into());
             }
         }
         t

@@ -15,7 +15,7 @@
 //!
 //! # Example
 //! ```
-//! use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, TestKind};
+//! use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, Stored, TestKind};
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let dir = tempfile::tempdir()?;
@@ -23,7 +23,7 @@
 //! let test = NewTest {
 //!     machine: "lathe 3".into(),
 //!     axis: "Z".into(),
-//!     axis_params_json: "{}".into(),
+//!     axis_params: Stored::from_json("{}"),
 //!     time_utc: "2026-01-05T08:00:00Z".into(),
 //!     time_s: feedscope_store::time::parse_rfc3339("2026-01-05T08:00:00Z").unwrap(),
 //!     kind: TestKind::Triangle,
@@ -36,7 +36,7 @@
 //!     intervals: vec![],
 //!     components: vec![],
 //!     indicators: vec![],
-//!     curves_json: None,
+//!     curves: None,
 //! };
 //! let AddOutcome::Added(id) = store.add(&test)? else { unreachable!("a fresh database") };
 //! // The same trace content again is recognised, not stored twice.
@@ -45,6 +45,11 @@
 //! assert_eq!(rows.len(), 1);
 //! assert_eq!(rows[0].kind, TestKind::Triangle);
 //! assert_eq!(store.get(id)?.test.source, "week-01.csv");
+//! // `{}` is no axis file (its required keys are missing): kept as it was, with the reason.
+//! let Some(Stored::Unread { json, .. }) = store.axis_params("lathe 3", "Z")? else {
+//!     unreachable!("an empty document")
+//! };
+//! assert_eq!(json, "{}");
 //! # Ok(())
 //! # }
 //! ```
@@ -59,8 +64,11 @@
 use std::collections::BTreeMap;
 use std::fmt;
 
+use feedscope::axis::AxisParams;
 use feedscope::history::Point;
+use feedscope::study::Curves;
 use feedscope::ErrorKind;
+use serde::de::DeserializeOwned;
 use serde::Serialize;
 
 mod from_study;
@@ -307,6 +315,83 @@ impl std::error::Error for BackendError {
 /// Kind of test (the library's; stored as [`TestKind::as_str`]).
 pub use feedscope::study::TestKind;
 
+/// A document the store keeps as JSON (a test's report curves, an axis file's parameters),
+/// typed when this version of feedscope reads it.
+///
+/// A document written by another version in a shape this one does not read (a key it does
+/// not know) is kept exactly as it was, with the reason: nothing is lost or re-shaped, a
+/// migration copies it whole, and a reader decides what to do without it. Serialised as the
+/// document itself.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Stored<T> {
+    /// Read as this version's type.
+    Read(T),
+    /// Not readable as this version's type.
+    Unread {
+        /// The document as stored.
+        json: String,
+        /// Why it does not read (serde's message, with line and column).
+        reason: String,
+    },
+}
+
+impl<T: Serialize + DeserializeOwned> Stored<T> {
+    /// The document `json` as stored: typed when it reads as `T`, else kept as it is.
+    pub fn from_json(json: &str) -> Self {
+        match serde_json::from_str(json) {
+            Ok(v) => Stored::Read(v),
+            Err(e) => Stored::Unread {
+                json: json.to_string(),
+                reason: e.to_string(),
+            },
+        }
+    }
+
+    /// The document to store: `T` as JSON, or an unread document unchanged.
+    pub fn to_json(&self) -> String {
+        match self {
+            // Plain data with string keys: serialising cannot fail (a NaN becomes null).
+            Stored::Read(v) => serde_json::to_string(v).expect("a stored document as JSON"),
+            Stored::Unread { json, .. } => json.clone(),
+        }
+    }
+
+    /// The typed document, when it read.
+    pub fn read(&self) -> Option<&T> {
+        match self {
+            Stored::Read(v) => Some(v),
+            Stored::Unread { .. } => None,
+        }
+    }
+
+    /// [`read`](Self::read), by value.
+    pub fn into_read(self) -> Option<T> {
+        match self {
+            Stored::Read(v) => Some(v),
+            Stored::Unread { .. } => None,
+        }
+    }
+}
+
+impl<T> From<T> for Stored<T> {
+    fn from(v: T) -> Self {
+        Stored::Read(v)
+    }
+}
+
+impl<T: Serialize> Serialize for Stored<T> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Stored::Read(v) => v.serialize(s),
+            // As the JSON it is; a document that is not JSON at all as its text.
+            Stored::Unread { json, .. } => match serde_json::from_str::<serde_json::Value>(json) {
+                Ok(v) => v.serialize(s),
+                Err(_) => s.serialize_str(json),
+            },
+        }
+    }
+}
+
 /// Identified parameters with standard errors (force side, table units).
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct Identified {
@@ -398,8 +483,8 @@ pub struct NewTest {
     pub machine: String,
     /// Axis name.
     pub axis: String,
-    /// Axis parameters as JSON.
-    pub axis_params_json: String,
+    /// The axis file's parameters.
+    pub axis_params: Stored<AxisParams>,
     /// Test time, RFC 3339 UTC.
     pub time_utc: String,
     /// Test time (s since the Unix epoch).
@@ -424,8 +509,9 @@ pub struct NewTest {
     pub components: Vec<ComponentRow>,
     /// Indicator values.
     pub indicators: Vec<IndicatorRow>,
-    /// Curves for the report (JSON): friction profile with IAFV, spectra, Stribeck curve.
-    pub curves_json: Option<String>,
+    /// Curves for the report (stroke tests): friction profiles with IAFV, spectra, the data
+    /// verdict, the position-grid profile.
+    pub curves: Option<Stored<Curves>>,
 }
 
 /// Result of [`Store::add`].
@@ -541,10 +627,14 @@ pub trait Store {
     fn set_reference(&mut self, id: i64) -> Result<(), StoreError>;
     /// Every indicator of an axis by name, each ordered by time and test id.
     fn series(&self, machine: &str, axis: &str) -> Result<BTreeMap<String, Series>, StoreError>;
-    /// The report curves of a test (JSON), if it has any.
-    fn curves(&self, id: i64) -> Result<Option<String>, StoreError>;
-    /// The axis parameters (JSON of the axis file) last stored for an axis.
-    fn axis_params(&self, machine: &str, axis: &str) -> Result<Option<String>, StoreError>;
+    /// The report curves of a test, if it has any.
+    fn curves(&self, id: i64) -> Result<Option<Stored<Curves>>, StoreError>;
+    /// The axis file's parameters last stored for an axis, if the axis is known.
+    fn axis_params(
+        &self,
+        machine: &str,
+        axis: &str,
+    ) -> Result<Option<Stored<AxisParams>>, StoreError>;
     /// Every machine/axis series with its number of tests, ordered by machine and axis.
     ///
     /// Provided from [`Store::list`]; a backend may answer it more cheaply.

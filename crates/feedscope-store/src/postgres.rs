@@ -47,8 +47,10 @@ use postgres::{Client, IsolationLevel, NoTls, Row, Statement, Transaction};
 
 use super::{
     AddOutcome, BackendError, BackendErrorKind, ComponentRow, Filter, Identified, IndicatorRow,
-    IntervalRow, NewTest, Series, Store, StoreError, TestDetail, TestRow,
+    IntervalRow, NewTest, Series, Store, StoreError, Stored, TestDetail, TestRow,
 };
+use feedscope::axis::AxisParams;
+use feedscope::study::Curves;
 
 /// Migrations in order; migration k (0-based) takes the schema from version k to k + 1. The
 /// table `feedscope_schema` holds the version. Never edit a released migration: append one.
@@ -597,6 +599,7 @@ fn add_in(
     t: &NewTest,
     added_utc: &str,
 ) -> Result<AddOutcome, StoreError> {
+    let params_json = t.axis_params.to_json();
     // Created on first use, race-free: whoever inserts first, both then read the one row
     // (the insert of the second waits for the first's commit). Looked up first: the common
     // case writes nothing here.
@@ -610,7 +613,7 @@ fn add_in(
     let axis_id: i64 = match tx.query_opt(&s.axis_id, &[&machine_id, &t.axis])? {
         Some(r) => col(&r, 0)?,
         None => {
-            tx.execute(&s.insert_axis, &[&machine_id, &t.axis, &t.axis_params_json])?;
+            tx.execute(&s.insert_axis, &[&machine_id, &t.axis, &params_json])?;
             col(&tx.query_one(&s.axis_id, &[&machine_id, &t.axis])?, 0)?
         }
     };
@@ -650,7 +653,7 @@ fn add_in(
     };
     let id: i64 = col(&row, 0)?;
     // Locks the axis row: reference changes of this axis take turns from here.
-    tx.execute(&s.update_params, &[&axis_id, &t.axis_params_json])?;
+    tx.execute(&s.update_params, &[&axis_id, &params_json])?;
     if t.reference {
         tx.execute(&s.clear_reference, &[&axis_id])?;
         tx.execute(&s.set_reference, &[&id])?;
@@ -727,8 +730,8 @@ fn add_in(
         let unit: Vec<&str> = v.iter().map(|i| i.unit.as_str()).collect();
         tx.execute(&s.insert_indicators, &[&id, &name, &value, &se, &unit])?;
     }
-    if let Some(j) = &t.curves_json {
-        tx.execute(&s.insert_curves, &[&id, j])?;
+    if let Some(c) = &t.curves {
+        tx.execute(&s.insert_curves, &[&id, &c.to_json()])?;
     }
     // Test hook for the kill test: stay inside the open transaction for a while.
     if let Some(ms) = std::env::var("FEEDSCOPE_TEST_SLEEP_IN_TX_MS")
@@ -1059,24 +1062,28 @@ impl Store for PgStore {
         Ok(out)
     }
 
-    fn curves(&self, id: i64) -> Result<Option<String>, StoreError> {
+    fn curves(&self, id: i64) -> Result<Option<Stored<Curves>>, StoreError> {
         match self
             .client
             .borrow_mut()
             .query_opt("SELECT json FROM curves WHERE test_id = $1", &[&id])?
         {
-            Some(r) => Ok(Some(col(&r, 0)?)),
+            Some(r) => Ok(Some(Stored::from_json(&col::<String>(&r, 0)?))),
             None => Ok(None),
         }
     }
 
-    fn axis_params(&self, machine: &str, axis: &str) -> Result<Option<String>, StoreError> {
+    fn axis_params(
+        &self,
+        machine: &str,
+        axis: &str,
+    ) -> Result<Option<Stored<AxisParams>>, StoreError> {
         match self.client.borrow_mut().query_opt(
             "SELECT a.params_json FROM axes a JOIN machines m ON m.id = a.machine_id
              WHERE m.name = $1 AND a.name = $2",
             &[&machine, &axis],
         )? {
-            Some(r) => Ok(Some(col(&r, 0)?)),
+            Some(r) => Ok(Some(Stored::from_json(&col::<String>(&r, 0)?))),
             None => Ok(None),
         }
     }

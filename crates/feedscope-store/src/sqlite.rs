@@ -25,8 +25,10 @@ use rusqlite::{params, Connection, OpenFlags, OptionalExtension, TransactionBeha
 
 use super::{
     AddOutcome, BackendError, BackendErrorKind, ComponentRow, Filter, Identified, IndicatorRow,
-    IntervalRow, NewTest, Series, Store, StoreError, TestDetail, TestRow,
+    IntervalRow, NewTest, Series, Store, StoreError, Stored, TestDetail, TestRow,
 };
+use feedscope::axis::AxisParams;
+use feedscope::study::Curves;
 
 /// SQLite's error codes as [`BackendErrorKind`]s: a file SQLite does not recognise or finds
 /// damaged is the user's wrong file; everything else is a failure of the operation.
@@ -589,7 +591,7 @@ impl SqliteStore {
         tx.execute(
             "INSERT INTO axes (machine_id, name, params_json) VALUES (?1, ?2, ?3)
              ON CONFLICT (machine_id, name) DO UPDATE SET params_json = excluded.params_json",
-            params![machine_id, t.axis, t.axis_params_json],
+            params![machine_id, t.axis, t.axis_params.to_json()],
         )?;
         let axis_id: i64 = tx.query_row(
             "SELECT id FROM axes WHERE machine_id = ?1 AND name = ?2",
@@ -696,8 +698,11 @@ impl SqliteStore {
                 st.execute(params![id, i.name, i.value, i.std_error, i.unit])?;
             }
         }
-        if let Some(j) = &t.curves_json {
-            tx.execute("INSERT INTO curves VALUES (?1, ?2)", params![id, j])?;
+        if let Some(c) = &t.curves {
+            tx.execute(
+                "INSERT INTO curves VALUES (?1, ?2)",
+                params![id, c.to_json()],
+            )?;
         }
         // Test hook for the kill test: stay inside the open transaction for a while.
         if let Some(ms) = std::env::var("FEEDSCOPE_TEST_SLEEP_IN_TX_MS")
@@ -886,17 +891,22 @@ impl Store for SqliteStore {
         Ok(out)
     }
 
-    fn curves(&self, id: i64) -> Result<Option<String>, StoreError> {
-        Ok(self
+    fn curves(&self, id: i64) -> Result<Option<Stored<Curves>>, StoreError> {
+        let json: Option<String> = self
             .conn
             .query_row("SELECT json FROM curves WHERE test_id = ?1", [id], |r| {
                 r.get(0)
             })
-            .optional()?)
+            .optional()?;
+        Ok(json.as_deref().map(Stored::from_json))
     }
 
-    fn axis_params(&self, machine: &str, axis: &str) -> Result<Option<String>, StoreError> {
-        Ok(self
+    fn axis_params(
+        &self,
+        machine: &str,
+        axis: &str,
+    ) -> Result<Option<Stored<AxisParams>>, StoreError> {
+        let json: Option<String> = self
             .conn
             .query_row(
                 "SELECT a.params_json FROM axes a JOIN machines m ON m.id = a.machine_id
@@ -904,7 +914,8 @@ impl Store for SqliteStore {
                 params![machine, axis],
                 |r| r.get(0),
             )
-            .optional()?)
+            .optional()?;
+        Ok(json.as_deref().map(Stored::from_json))
     }
 
     fn check(&self) -> Result<(), StoreError> {
@@ -939,7 +950,8 @@ mod tests {
         NewTest {
             machine: "m".into(),
             axis: axis.into(),
-            axis_params_json: format!("{{\"day\":{day}}}"),
+            // Not an axis file: kept as stored, unread (a document of another version).
+            axis_params: Stored::from_json(&format!("{{\"day\":{day}}}")),
             time_s: crate::time::parse_rfc3339(&time_utc).unwrap(),
             time_utc,
             kind,
@@ -988,7 +1000,7 @@ mod tests {
                     unit: "N".into(),
                 },
             ],
-            curves_json: Some(format!("{{\"day\":{day}}}")),
+            curves: Some(Stored::from_json(&format!("{{\"day\":{day}}}"))),
         }
     }
 
@@ -1034,13 +1046,67 @@ mod tests {
         let names: Vec<_> = d.indicators.iter().map(|i| i.name.as_str()).collect();
         assert_eq!(names, ["fc_n", "fs_n"]);
         assert_eq!(d.indicators[0].std_error, None);
-        assert_eq!(s.curves(id).unwrap().as_deref(), Some("{\"day\":5}"));
         assert_eq!(
-            s.axis_params("m", "Z").unwrap().as_deref(),
+            s.curves(id).unwrap().map(|c| c.to_json()).as_deref(),
+            Some("{\"day\":5}")
+        );
+        assert_eq!(
+            s.axis_params("m", "Z")
+                .unwrap()
+                .map(|p| p.to_json())
+                .as_deref(),
             Some("{\"day\":5}")
         );
         assert!(matches!(s.get(id + 1), Err(StoreError::NoSuchTest(i)) if i == id + 1));
         s.check().unwrap();
+    }
+
+    /// Typed documents come back equal to what was stored, to the bit (JSON numbers are read
+    /// with serde_json's `float_roundtrip`); one with a key this version does not know is kept
+    /// unchanged and says which key.
+    #[test]
+    fn typed_documents_come_back_equal_and_unread_ones_unchanged() {
+        use feedscope::study::{Curves, ProfileCurve};
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = open(&dir);
+        let axis = feedscope::sim::SimConfig::default().axis;
+        let third = 1.0 / 3.0;
+        let curves = Curves {
+            profiles: vec![ProfileCurve {
+                direction: "forward".into(),
+                feed_mm_min: 1000.0 * third,
+                position_mm: vec![0.1 + 0.2, 1e-17, 123.456_789_012_345_67],
+                friction_n: vec![-third, 2.0_f64.sqrt(), f64::MIN_POSITIVE],
+                iafv_n: vec![third; 3],
+                breaks_mm: vec![0.0, 0.3],
+            }],
+            heatmaps: vec![],
+            verdict: None,
+            grid: vec![],
+        };
+        let mut t = new_test("Z", 5, TestKind::Strokes, 1);
+        t.axis_params = axis.clone().into();
+        t.curves = Some(curves.clone().into());
+        let id = added(s.add(&t).unwrap());
+        assert_eq!(s.curves(id).unwrap(), Some(Stored::Read(curves)));
+        assert_eq!(
+            s.axis_params("m", "Z").unwrap(),
+            Some(Stored::Read(axis.clone()))
+        );
+
+        let mut newer = serde_json::to_value(&axis).unwrap();
+        newer["spindle_colour"] = "red".into();
+        let json = newer.to_string();
+        let mut t = new_test("X", 6, TestKind::Triangle, 2);
+        t.axis_params = Stored::from_json(&json);
+        added(s.add(&t).unwrap());
+        match s.axis_params("m", "X").unwrap() {
+            Some(Stored::Unread { json: back, reason }) => {
+                assert_eq!(back, json);
+                assert!(reason.contains("spindle_colour"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
@@ -1053,7 +1119,10 @@ mod tests {
         let again = new_test("Z", 6, TestKind::Triangle, 1);
         assert_eq!(s.add(&again).unwrap(), AddOutcome::Duplicate(id));
         assert_eq!(
-            s.axis_params("m", "Z").unwrap().as_deref(),
+            s.axis_params("m", "Z")
+                .unwrap()
+                .map(|p| p.to_json())
+                .as_deref(),
             Some("{\"day\":5}")
         );
         // another kind or axis with the same content is a new test

@@ -4,7 +4,7 @@
 //! the file; a server shows the same page.
 use feedscope::history::{Extent, Indicator, IndicatorTrend, ProfileChanges, Status, TrendParams};
 use feedscope::units::MM_MIN_PER_M_S;
-use feedscope_store::{Identified, Store, TestDetail};
+use feedscope_store::{Identified, Store, Stored, TestDetail};
 use serde::Serialize;
 
 use crate::error::AppError;
@@ -747,15 +747,13 @@ pub fn page(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Result<
         Some(d) => store
             .curves(d.test.id)
             .map_err(AppError::from_error)?
-            .map(|j| serde_json::from_str::<Curves>(&j).map(|c| (c, d)))
-            .transpose()
-            .map_err(|e| {
-                AppError::caused(
-                    feedscope::ErrorKind::Internal,
-                    format!("reading the stored curves of test {}", d.test.id),
-                    e,
-                )
-            })?,
+            .map(|c| match c {
+                Stored::Read(c) => Ok((c, d)),
+                Stored::Unread { reason, .. } => {
+                    Err(crate::trend::unread_curves(d.test.id, &reason))
+                }
+            })
+            .transpose()?,
         None => None,
     };
     let (profile, heatmaps) = match &curves {

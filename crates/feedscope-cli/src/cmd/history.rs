@@ -15,7 +15,9 @@ use feedscope_app::history::{
 };
 use feedscope_app::trend::{axis_trend, TrendOptions};
 use feedscope_app::Outcome;
-use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, TestKind};
+use feedscope_store::{
+    AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, Stored, TestKind,
+};
 
 use crate::front::Cli;
 use crate::store::Open as _;
@@ -809,7 +811,7 @@ fn migrate(a: &MigrateArgs) -> Result<()> {
     let src_err = |e: StoreError| store_err(e, &from);
     let mut rows = source.list(&Filter::default()).map_err(src_err)?;
     rows.sort_by_key(|r| r.id);
-    let mut params: BTreeMap<(String, String), String> = BTreeMap::new();
+    let mut params: BTreeMap<(String, String), Stored<AxisParams>> = BTreeMap::new();
     let mut n = MigrateCounts {
         tests: rows.len(),
         ..MigrateCounts::default()
@@ -817,13 +819,14 @@ fn migrate(a: &MigrateArgs) -> Result<()> {
     for r in &rows {
         let d = source.get(r.id).map_err(src_err)?;
         let key = (r.machine.clone(), r.axis.clone());
-        let axis_params_json = match params.get(&key) {
+        // Copied as they are: typed, or (written by another version) the stored document.
+        let axis_params = match params.get(&key) {
             Some(p) => p.clone(),
             None => {
                 let p = source
                     .axis_params(&r.machine, &r.axis)
                     .map_err(src_err)?
-                    .unwrap_or_else(|| "{}".into());
+                    .unwrap_or_else(|| Stored::from_json("{}"));
                 params.insert(key, p.clone());
                 p
             }
@@ -833,7 +836,7 @@ fn migrate(a: &MigrateArgs) -> Result<()> {
         let t = NewTest {
             machine: r.machine.clone(),
             axis: r.axis.clone(),
-            axis_params_json,
+            axis_params,
             time_utc: r.time_utc.clone(),
             time_s: r.time_s,
             kind,
@@ -846,7 +849,7 @@ fn migrate(a: &MigrateArgs) -> Result<()> {
             intervals: d.intervals,
             components: d.components,
             indicators: d.indicators,
-            curves_json: source.curves(r.id).map_err(src_err)?,
+            curves: source.curves(r.id).map_err(src_err)?,
         };
         match target
             .add_copy(&t, &r.added_utc)

@@ -91,7 +91,7 @@ fn new_test(machine: &str, axis: &str, day: u32, kind: TestKind, content: u32) -
     NewTest {
         machine: machine.into(),
         axis: axis.into(),
-        axis_params_json: format!("{{\"day\":{day},\"lead_mm\":10.0}}"),
+        axis_params: crate::Stored::from_json(&format!("{{\"day\":{day},\"lead_mm\":10.0}}")),
         time_s: crate::time::parse_rfc3339(&time_utc).unwrap(),
         time_utc,
         kind,
@@ -171,9 +171,9 @@ fn new_test(machine: &str, axis: &str, day: u32, kind: TestKind, content: u32) -
                 unit: "N".into(),
             },
         ],
-        curves_json: content
+        curves: content
             .is_multiple_of(2)
-            .then(|| format!("{{\"grid\":[],\"day\":{day}}}")),
+            .then(|| crate::Stored::from_json(&format!("{{\"grid\":[],\"day\":{day}}}"))),
     }
 }
 
@@ -637,7 +637,10 @@ fn postgres_killed_writer_leaves_only_whole_tests() {
         assert_eq!(d.intervals.len(), sent.intervals.len());
         assert_eq!(d.components.len(), sent.components.len());
         assert!(d.identified.is_some());
-        assert_eq!(s.curves(r.id).unwrap(), sent.curves_json);
+        assert_eq!(
+            s.curves(r.id).unwrap().map(|c| c.to_json()),
+            sent.curves.map(|c| c.to_json())
+        );
     }
     for (c, id) in &committed {
         assert!(
