@@ -73,6 +73,7 @@ pub mod recording;
 pub mod report;
 pub mod store;
 pub mod stribeck;
+pub mod transfer;
 pub mod trend;
 
 pub use error::AppError;

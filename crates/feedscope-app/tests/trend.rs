@@ -1,7 +1,8 @@
 //! The trend of an axis through the application layer, over a real SQLite store: a rise of
 //! the Coulomb friction after a stable baseline is flagged, a steady axis is not, the stored
 //! axis file's thresholds are in force unless a thresholds file overrides them, and unknown
-//! names and bad settings are refused naming their field in the front end's spelling.
+//! names and bad settings are refused naming their field in the front end's spelling. The
+//! report page and the history's export and migration read the same store.
 use feedscope::history::Status;
 use feedscope::ErrorKind;
 use feedscope_app::trend::{axis_trend, TrendOptions};
@@ -182,6 +183,67 @@ fn the_report_page_leads_with_what_needs_attention_and_escapes_names() {
         page.diagnosis[0].starts_with("No baseline yet"),
         "{:?}",
         page.diagnosis
+    );
+}
+
+/// A history copied into another store comes back whole (rows, results, typed axis files and
+/// a document another version wrote, unchanged); a second run copies nothing; the same store
+/// as source and target is refused in the front end's spelling; the export is one row per
+/// indicator value with names quoted in the CSV.
+#[test]
+fn a_history_migrates_whole_and_exports_as_one_table() {
+    use feedscope_app::store::StoreSpec;
+    use feedscope_app::transfer::{export, export_csv, migrate, MigrateReport};
+    use feedscope_store::{Filter, Stored};
+    let d = tempfile::tempdir().unwrap();
+    let mut s = store(d.path());
+    let mut odd = test("mill, \"old\"", "X", 0, 70.0, 150.0);
+    odd.axis_params = Stored::from_json("{\"lead_mm\":5.0,\"spindle_colour\":\"red\"}");
+    s.add(&odd).unwrap();
+    let from = StoreSpec::parse(&d.path().join("h.db").display().to_string());
+    let to = StoreSpec::parse(&d.path().join("copy.db").display().to_string());
+    let mut target = SqliteStore::open(&d.path().join("copy.db")).unwrap();
+    let n = migrate(&s, &from, &mut target, &to, &Flags).unwrap();
+    assert_eq!(
+        n,
+        MigrateReport {
+            tests: 19,
+            added: 19,
+            already_there: 0
+        }
+    );
+    let all = Filter::default();
+    let (a, b) = (s.list(&all).unwrap(), target.list(&all).unwrap());
+    assert_eq!(serde_json::to_value(&a).unwrap(), serde_json::to_value(&b).unwrap());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(
+            serde_json::to_value(s.get(x.id).unwrap()).unwrap(),
+            serde_json::to_value(target.get(y.id).unwrap()).unwrap()
+        );
+    }
+    for (m, ax) in [("lathe", "Z"), ("lathe", "X"), ("mill, \"old\"", "X")] {
+        assert_eq!(s.axis_params(m, ax).unwrap(), target.axis_params(m, ax).unwrap());
+    }
+    assert!(matches!(
+        target.axis_params("mill, \"old\"", "X").unwrap(),
+        Some(Stored::Unread { .. })
+    ));
+    let again = migrate(&s, &from, &mut target, &to, &Flags).unwrap();
+    assert_eq!((again.added, again.already_there), (0, 19));
+    let e = migrate(&s, &from, &mut target, &from, &Flags).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::BadInput);
+    assert!(e.to_string().starts_with("--from and --to are the same store"), "{e}");
+
+    let rows = export(&s, &from, &all).unwrap();
+    assert_eq!(rows.len(), 19, "one fc_n value per test");
+    assert!(rows.iter().all(|r| r.indicator == "fc_n" && r.unit == "N"));
+    let csv = export_csv(&rows);
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], feedscope_app::transfer::EXPORT_CSV_HEADER);
+    assert_eq!(lines.len(), 20);
+    assert!(
+        csv.contains("\"mill, \"\"old\"\"\",X,"),
+        "a name with a comma and quotes is one quoted field: {csv}"
     );
 }
 

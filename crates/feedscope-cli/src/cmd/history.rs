@@ -1,6 +1,5 @@
 //! `feedscope history`: store every test of an axis and follow its indicators over time.
 use crate::output::outln;
-use std::collections::BTreeMap;
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 
@@ -15,14 +14,11 @@ use feedscope_app::history::{
 };
 use feedscope_app::trend::{axis_trend, TrendOptions};
 use feedscope_app::Outcome;
-use feedscope_store::{
-    AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, Stored, TestKind,
-};
+use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, TestKind};
 
 use crate::front::Cli;
 use crate::store::Open as _;
 use crate::store::{add_err, store_err, StoreSpec};
-use serde::Serialize;
 
 use super::BadInput;
 
@@ -488,83 +484,22 @@ fn num(x: f64) -> String {
     }
 }
 
-#[derive(Serialize)]
-struct ExportRow<'a> {
-    test_id: i64,
-    machine: &'a str,
-    axis: &'a str,
-    time_utc: &'a str,
-    kind: &'a str,
-    indicator: &'a str,
-    value: f64,
-    std_error: Option<f64>,
-    unit: &'a str,
-}
-
 fn export(spec: &StoreSpec, a: &ExportArgs) -> Result<()> {
     let store = spec.open()?;
-    let tests = store
-        .list(&Filter {
-            machine: a.machine.clone(),
-            axis: a.axis_name.clone(),
-        })
-        .map_err(|e| store_err(e, spec))?;
-    let details = tests
-        .iter()
-        .map(|t| store.get(t.id))
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| store_err(e, spec))?;
-    let rows: Vec<ExportRow> = details
-        .iter()
-        .flat_map(|d| {
-            d.indicators.iter().map(move |i| ExportRow {
-                test_id: d.test.id,
-                machine: &d.test.machine,
-                axis: &d.test.axis,
-                time_utc: &d.test.time_utc,
-                kind: d.test.kind.as_str(),
-                indicator: &i.name,
-                value: i.value,
-                std_error: i.std_error,
-                unit: &i.unit,
-            })
-        })
-        .collect();
+    let filter = Filter {
+        machine: a.machine.clone(),
+        axis: a.axis_name.clone(),
+    };
+    let rows = feedscope_app::transfer::export(&*store, spec, &filter)?;
     let text = match a.format {
         ExportFormat::Json => serde_json::to_string_pretty(&rows)? + "\n",
-        ExportFormat::Csv => {
-            let mut s =
-                String::from("test_id,machine,axis,time_utc,kind,indicator,value,std_error,unit\n");
-            for r in &rows {
-                s.push_str(&format!(
-                    "{},{},{},{},{},{},{},{},{}\n",
-                    r.test_id,
-                    csv_field(r.machine),
-                    csv_field(r.axis),
-                    r.time_utc,
-                    r.kind,
-                    csv_field(r.indicator),
-                    r.value,
-                    r.std_error.map_or(String::new(), |x| x.to_string()),
-                    csv_field(r.unit)
-                ));
-            }
-            s
-        }
+        ExportFormat::Csv => feedscope_app::transfer::export_csv(&rows),
     };
     match &a.output {
         Some(p) => crate::output::write_atomic(p, text.as_bytes())?,
         None => std::io::stdout().lock().write_all(text.as_bytes())?,
     }
     Ok(())
-}
-
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
 }
 
 fn remove(spec: &StoreSpec, a: &RemoveArgs) -> Result<()> {
@@ -777,89 +712,25 @@ pub fn run(args: Args) -> Result<Outcome> {
     done.map(|()| Outcome::Done)
 }
 
-/// What `history migrate` did.
-#[derive(Debug, Default, Serialize)]
-struct MigrateCounts {
-    /// Tests in the source.
-    tests: usize,
-    /// Copied into the target.
-    added: usize,
-    /// Already in the target (same axis, kind and trace content).
-    already_there: usize,
-}
-
-/// `history migrate`: every test of `--from` added to `--to` in the order of its ids, with
-/// the time it was first added; duplicates by content are counted, not copied.
+/// `history migrate`: the stores opened, [`feedscope_app::transfer::migrate`] run, what it
+/// did said.
 fn migrate(a: &MigrateArgs) -> Result<()> {
     let from = StoreSpec::parse(&a.from);
     let to = StoreSpec::parse(&a.to);
-    if from == to {
-        return Err(BadInput(format!(
-            "--from and --to are the same store ({}); nothing to copy",
-            from.describe()
-        ))
-        .into());
-    }
-    if let Some(p) = from.sqlite_path() {
-        // Opening would create an empty database there.
-        if !p.exists() {
-            return Err(BadInput(format!("--from {}: no such database file", p.display())).into());
+    let front = Cli::default();
+    if from != to {
+        if let Some(p) = from.sqlite_path() {
+            // Opening would create an empty database there.
+            if !p.exists() {
+                return Err(
+                    BadInput(format!("--from {}: no such database file", p.display())).into(),
+                );
+            }
         }
     }
     let source = from.open().context("opening the source (--from)")?;
     let mut target = to.open().context("opening the target (--to)")?;
-    let src_err = |e: StoreError| store_err(e, &from);
-    let mut rows = source.list(&Filter::default()).map_err(src_err)?;
-    rows.sort_by_key(|r| r.id);
-    let mut params: BTreeMap<(String, String), Stored<AxisParams>> = BTreeMap::new();
-    let mut n = MigrateCounts {
-        tests: rows.len(),
-        ..MigrateCounts::default()
-    };
-    for r in &rows {
-        let d = source.get(r.id).map_err(src_err)?;
-        let key = (r.machine.clone(), r.axis.clone());
-        // Copied as they are: typed, or (written by another version) the stored document.
-        let axis_params = match params.get(&key) {
-            Some(p) => p.clone(),
-            None => {
-                let p = source
-                    .axis_params(&r.machine, &r.axis)
-                    .map_err(src_err)?
-                    .unwrap_or_else(|| Stored::from_json("{}"));
-                params.insert(key, p.clone());
-                p
-            }
-        };
-        // An unknown kind is refused as the row is read (a damaged store).
-        let kind = r.kind;
-        let t = NewTest {
-            machine: r.machine.clone(),
-            axis: r.axis.clone(),
-            axis_params,
-            time_utc: r.time_utc.clone(),
-            time_s: r.time_s,
-            kind,
-            source: r.source.clone(),
-            content_sha256: r.content_sha256.clone(),
-            program: r.program.clone(),
-            reference: r.reference,
-            compensation_ref: r.compensation_ref.clone(),
-            identified: d.identified,
-            intervals: d.intervals,
-            components: d.components,
-            indicators: d.indicators,
-            curves: source.curves(r.id).map_err(src_err)?,
-        };
-        match target
-            .add_copy(&t, &r.added_utc)
-            .map_err(|e| store_err(e, &to))
-            .with_context(|| format!("copying test {} of {}", r.id, from.describe()))?
-        {
-            AddOutcome::Added(_) => n.added += 1,
-            AddOutcome::Duplicate(_) => n.already_there += 1,
-        }
-    }
+    let n = feedscope_app::transfer::migrate(&*source, &from, &mut *target, &to, &front)?;
     match a.format {
         Format::Json => outln!("{}", serde_json::to_string_pretty(&n)?),
         Format::Text => outln!(
