@@ -65,6 +65,7 @@ pub mod estimate;
 pub mod front;
 pub mod history;
 pub mod identify;
+pub mod import;
 pub mod map;
 pub mod outcome;
 pub mod output;

@@ -20,7 +20,7 @@ macro_rules! out {
 }
 pub(crate) use out;
 
-pub use feedscope_app::output::{write_atomic, AtomicFile, OutputSet};
+pub use feedscope_app::output::{write_atomic, OutputSet};
 
 /// On Ctrl-C (SIGINT) remove the temporary files of the outputs being written
 /// ([`feedscope_app::output::remove_unfinished`]) and exit with 130, as a shell reports an

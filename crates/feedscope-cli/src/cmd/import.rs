@@ -2,22 +2,20 @@
 //! SINUMERIK Operate servo traces, TwinCAT Scope exports) into feedscope trace CSV.
 use crate::output::out;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::ValueEnum;
+use feedscope_app::import::{ImportReport, ImportRequest, ImportSource, Listing};
 use feedscope_io::import::devices::{Category, DeviceModel};
-use feedscope_io::import::shdr::{read_shdr, ShdrConvertParams, ShdrLog, TimeOrigin};
-use feedscope_io::import::sinumerik::{
-    list_sinumerik, read_sinumerik, SinumerikListing, SinumerikParams,
-};
-use feedscope_io::import::twincat::{list_twincat, read_twincat, TwincatListing, TwincatParams};
-use feedscope_io::import::umich::{read_umich, CurrentColumn, UmichParams, UmichTable};
+use feedscope_io::import::shdr::{ShdrConvertParams, ShdrLog, TimeOrigin};
+use feedscope_io::import::sinumerik::{SinumerikListing, SinumerikParams};
+use feedscope_io::import::twincat::{TwincatListing, TwincatParams};
+use feedscope_io::import::umich::{CurrentColumn, UmichParams, UmichTable};
 use feedscope_io::import::units::{EffortUnit, PositionUnit};
-use feedscope_io::import::{check_informative, write_trace_csv, ChannelReport, Imported};
+use feedscope_io::import::ChannelReport;
 
-use super::BadInput;
-use crate::output::AtomicFile;
+use crate::front::Cli;
 
 /// Convert a real controller export into a feedscope trace CSV.
 ///
@@ -267,153 +265,98 @@ pub enum CurrentArg {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    match args.source {
-        Source::Shdr(a) => run_shdr(a),
-        Source::Umich(a) => run_umich(a),
-        Source::Sinumerik(a) => run_sinumerik(a),
-        Source::Twincat(a) => run_twincat(a),
-    }
-}
-
-fn run_sinumerik(a: SinumerikArgs) -> Result<()> {
-    if a.list {
-        let listing = list_sinumerik(&a.file)?;
-        out!("{}", list_sinumerik_text(&listing));
+    let front = Cli::default();
+    let (source, output, list, keep_empty_channels) = match args.source {
+        Source::Shdr(a) => (
+            ImportSource::Shdr {
+                log: a.log,
+                devices: a.devices,
+                device: a.device,
+                axis: a.axis,
+                params: ShdrConvertParams {
+                    position_key: a.position_key,
+                    load_key: a.load_key,
+                    torque_per_load_nm: a.torque_per_load_nm,
+                    time_origin: match a.time_origin {
+                        OriginArg::File => TimeOrigin::FirstLine,
+                        OriginArg::Trace => TimeOrigin::FirstSample,
+                    },
+                },
+            },
+            a.output,
+            a.list,
+            a.keep_empty_channels,
+        ),
+        Source::Umich(a) => (
+            ImportSource::Umich {
+                file: a.file,
+                axis: a.axis,
+                params: UmichParams {
+                    rate_hz: a.rate_hz,
+                    current: match a.current {
+                        CurrentArg::Feedback => CurrentColumn::Feedback,
+                        CurrentArg::Output => CurrentColumn::Output,
+                    },
+                },
+            },
+            a.output,
+            a.list,
+            a.keep_empty_channels,
+        ),
+        Source::Sinumerik(a) => (
+            ImportSource::Sinumerik {
+                file: a.file,
+                params: SinumerikParams {
+                    axis: a.axis,
+                    position_signal: a.position_signal,
+                    effort_signal: a.effort_signal,
+                    position_unit: a.position_unit.map(Into::into),
+                    effort_unit: a.effort_unit.map(Into::into),
+                },
+            },
+            a.output,
+            a.list,
+            a.keep_empty_channels,
+        ),
+        Source::Twincat(a) => (
+            ImportSource::Twincat {
+                file: a.file,
+                params: TwincatParams {
+                    position: a.position,
+                    effort: a.effort,
+                    position_unit: a.position_unit.map(Into::into),
+                    effort_unit: a.effort_unit.map(Into::into),
+                },
+            },
+            a.output,
+            a.list,
+            a.keep_empty_channels,
+        ),
+    };
+    if list {
+        let text = match source.list(&front)? {
+            Listing::Shdr { log, model } => list_shdr(&log, &model),
+            Listing::Umich { table, rate_hz } => list_umich(&table, rate_hz),
+            Listing::Sinumerik(l) => list_sinumerik_text(&l),
+            Listing::Twincat(l) => list_twincat_text(&l),
+        };
+        out!("{text}");
         return Ok(());
     }
-    let out = a
-        .output
-        .as_deref()
-        .expect("clap requires --output without --list");
-    let params = SinumerikParams {
-        axis: a.axis.clone(),
-        position_signal: a.position_signal.clone(),
-        effort_signal: a.effort_signal.clone(),
-        position_unit: a.position_unit.map(Into::into),
-        effort_unit: a.effort_unit.map(Into::into),
+    let request = ImportRequest {
+        source,
+        output: output.expect("clap requires --output without --list"),
+        keep_empty_channels,
     };
-    let imp = read_sinumerik(&a.file, &params)?;
-    if !a.keep_empty_channels {
-        check_informative(&imp.imported)?;
-    }
-    write_output(&imp.imported, out)?;
-    out!("{}", summary(&imp.imported, out));
-    warn(&imp.imported);
-    Ok(())
-}
-
-fn run_twincat(a: TwincatArgs) -> Result<()> {
-    if a.list {
-        let listing = list_twincat(&a.file)?;
-        out!("{}", list_twincat_text(&listing));
-        return Ok(());
-    }
-    let out = a
-        .output
-        .as_deref()
-        .expect("clap requires --output without --list");
-    let params = TwincatParams {
-        position: a.position.clone(),
-        effort: a.effort.clone(),
-        position_unit: a.position_unit.map(Into::into),
-        effort_unit: a.effort_unit.map(Into::into),
-    };
-    let imp = read_twincat(&a.file, &params)?;
-    if !a.keep_empty_channels {
-        check_informative(&imp.imported)?;
-    }
-    write_output(&imp.imported, out)?;
-    out!("{}", summary(&imp.imported, out));
-    for n in &imp.listing.header.notes {
+    let done = request.run(&front)?;
+    out!("{}", summary(&done));
+    for n in &done.notes {
         eprintln!("note: {n}");
     }
-    warn(&imp.imported);
+    for w in &done.import.warnings {
+        eprintln!("warning: {w}");
+    }
     Ok(())
-}
-
-fn run_shdr(a: ShdrArgs) -> Result<()> {
-    // Options first, before any file is read.
-    if let Some(x) = a.torque_per_load_nm {
-        if !(x.is_finite() && x > 0.0) {
-            return Err(BadInput(format!(
-                "--torque-per-load-nm {x} must be a positive torque"
-            ))
-            .into());
-        }
-    }
-    let model = DeviceModel::read(&a.devices)?;
-    let log = read_shdr(&a.log, &model, a.device.as_deref())?;
-    if a.list {
-        out!("{}", list_shdr(&log, &model));
-        return Ok(());
-    }
-    let axis = a
-        .axis
-        .as_deref()
-        .expect("clap requires --axis without --list");
-    let out = a
-        .output
-        .as_deref()
-        .expect("clap requires --output without --list");
-    let params = ShdrConvertParams {
-        position_key: a.position_key.clone(),
-        load_key: a.load_key.clone(),
-        torque_per_load_nm: a.torque_per_load_nm,
-        time_origin: match a.time_origin {
-            OriginArg::File => TimeOrigin::FirstLine,
-            OriginArg::Trace => TimeOrigin::FirstSample,
-        },
-    };
-    let imported = log.to_trace(&model, axis, &params)?;
-    if !a.keep_empty_channels {
-        check_informative(&imported)?;
-    }
-    write_output(&imported, out)?;
-    out!("{}", summary(&imported, out));
-    warn(&imported);
-    Ok(())
-}
-
-fn run_umich(a: UmichArgs) -> Result<()> {
-    if !(a.rate_hz.is_finite() && a.rate_hz > 0.0) {
-        return Err(BadInput(format!("--rate-hz {} must be a positive rate", a.rate_hz)).into());
-    }
-    let table = read_umich(&a.file)?;
-    if a.list {
-        out!("{}", list_umich(&table, a.rate_hz));
-        return Ok(());
-    }
-    let axis = a
-        .axis
-        .as_deref()
-        .expect("clap requires --axis without --list");
-    let out = a
-        .output
-        .as_deref()
-        .expect("clap requires --output without --list");
-    let params = UmichParams {
-        rate_hz: a.rate_hz,
-        current: match a.current {
-            CurrentArg::Feedback => CurrentColumn::Feedback,
-            CurrentArg::Output => CurrentColumn::Output,
-        },
-    };
-    let imported = table.to_trace(axis, &params)?;
-    if !a.keep_empty_channels {
-        check_informative(&imported)?;
-    }
-    write_output(&imported, out)?;
-    out!("{}", summary(&imported, out));
-    warn(&imported);
-    Ok(())
-}
-
-/// Write the trace under a temporary name and rename it into place: an error leaves nothing.
-fn write_output(imported: &Imported, out: &Path) -> Result<()> {
-    let mut f = AtomicFile::create(out)?;
-    write_trace_csv(imported, &mut *f.writer())
-        .with_context(|| format!("writing {}", out.display()))?;
-    Ok(f.commit()?)
 }
 
 fn channel_line(s: &mut String, column: &str, c: &ChannelReport) {
@@ -432,17 +375,17 @@ fn channel_line(s: &mut String, column: &str, c: &ChannelReport) {
     }
 }
 
-fn summary(imp: &Imported, out: &Path) -> String {
-    let r = &imp.report;
+fn summary(done: &ImportReport) -> String {
+    let r = &done.import;
     let mut s = String::new();
     let _ = writeln!(
         s,
         "wrote {} (long layout: position_mm, {})",
-        out.display(),
-        imp.trace.effort_kind.column()
+        done.output.display(),
+        done.effort_column
     );
     channel_line(&mut s, "position_mm", &r.position);
-    channel_line(&mut s, imp.trace.effort_kind.column(), &r.effort);
+    channel_line(&mut s, done.effort_column, &r.effort);
     let _ = writeln!(s, "  effort: {}", r.effort_rule);
     match &r.time_zero {
         Some(t) => {
@@ -453,12 +396,6 @@ fn summary(imp: &Imported, out: &Path) -> String {
         }
     }
     s
-}
-
-fn warn(imp: &Imported) {
-    for w in &imp.report.warnings {
-        eprintln!("warning: {w}");
-    }
 }
 
 /// Seconds of a key's first and last observation from the log's first line.

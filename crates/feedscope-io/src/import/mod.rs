@@ -502,7 +502,7 @@ pub(crate) fn shorten(s: &str) -> String {
 }
 
 /// How one channel of an imported trace was built.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct ChannelReport {
     /// Where it came from: the SHDR data item key or the CSV column.
     pub source_key: String,
@@ -543,12 +543,13 @@ impl ChannelReport {
 }
 
 /// What an import did: sources, counts and warnings a user should read.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct ImportReport {
     /// The input file.
     pub source_name: String,
     /// Absolute instant of time 0 of the trace (SHDR); `None` when the source has no clock
-    /// (UMich rows).
+    /// (UMich rows). Serialised as its RFC 3339 text.
+    #[serde(serialize_with = "timestamp_text")]
     pub time_zero: Option<Timestamp>,
     /// How time 0 was chosen, in words.
     pub time_zero_rule: String,
@@ -576,6 +577,14 @@ impl ImportReport {
         v.push(format!("# position: {}", self.position.source_key));
         v.push(format!("# effort: {}", self.effort_rule));
         v
+    }
+}
+
+/// A timestamp as the text it prints (RFC 3339), for the report's serde form.
+fn timestamp_text<S: serde::Serializer>(t: &Option<Timestamp>, s: S) -> Result<S::Ok, S::Error> {
+    match t {
+        Some(t) => s.collect_str(t),
+        None => s.serialize_none(),
     }
 }
 

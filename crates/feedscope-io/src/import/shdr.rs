@@ -103,8 +103,9 @@ pub struct Segment {
     pub lines: u64,
 }
 
-/// Where time 0 of the converted trace is.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+/// Where time 0 of the converted trace is (serialised as `first_line`, `first_sample`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum TimeOrigin {
     /// The timestamp of the first data line of the file (shared by every axis converted from
     /// the same log).
@@ -116,7 +117,8 @@ pub enum TimeOrigin {
 }
 
 /// Options of [`ShdrLog::to_trace`].
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ShdrConvertParams {
     /// Position data item key; default: the axis's `POSITION` `ACTUAL` sample, in machine
     /// coordinates when there are several.

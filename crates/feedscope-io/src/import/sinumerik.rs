@@ -370,7 +370,8 @@ fn axes_text(a: &[(String, usize)]) -> String {
 }
 
 /// Options of [`read_sinumerik`].
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SinumerikParams {
     /// The machine axis number in the signals' brackets (`7` for `[u1, 7]`, or `u1,7`); needed
     /// when several axes were recorded.

@@ -288,7 +288,8 @@ pub struct TwincatListing {
 }
 
 /// Options of [`read_twincat`].
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct TwincatParams {
     /// Position channel by `Name` or `SymbolName` [default: the only channel with a length
     /// unit, or named `…ActPos…`].

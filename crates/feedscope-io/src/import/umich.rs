@@ -16,8 +16,9 @@ use super::{read_text, shorten, split_lines, ChannelReport, ImportError, ImportR
 use feedscope::diag::{Code, Diagnostic};
 use feedscope::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
 
-/// Which current column becomes `current_a`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+/// Which current column becomes `current_a` (serialised as `feedback`, `output`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum CurrentColumn {
     /// `A_CurrentFeedback` (A).
     #[default]
@@ -37,7 +38,8 @@ impl CurrentColumn {
 }
 
 /// Options of [`UmichTable::to_trace`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct UmichParams {
     /// Row rate (Hz); default 10 (the dataset's fixed 100 ms).
     pub rate_hz: f64,

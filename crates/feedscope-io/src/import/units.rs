@@ -16,16 +16,20 @@ pub const MAX_CURRENT_A: f64 = 1e4;
 /// Largest |torque| accepted (N·m): 1 MN·m, above any feed or spindle motor.
 pub const MAX_TORQUE_NM: f64 = 1e6;
 
-/// Unit of a position signal.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Unit of a position signal (serialised as its flag value: `mm`, `um`, `m`, `inch`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum PositionUnit {
     /// Millimetre (SINUMERIK and TwinCAT NC default for linear axes).
+    #[serde(rename = "mm")]
     Millimetre,
     /// Micrometre.
+    #[serde(rename = "um")]
     Micrometre,
     /// Metre.
+    #[serde(rename = "m")]
     Metre,
     /// Inch (a control with an inch basic system).
+    #[serde(rename = "inch")]
     Inch,
 }
 
@@ -63,14 +67,18 @@ impl PositionUnit {
     }
 }
 
-/// Unit of an effort signal (motor current or torque).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Unit of an effort signal (motor current or torque; serialised as its flag value: `a`,
+/// `ma`, `nm`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum EffortUnit {
     /// Ampere: `current_a`.
+    #[serde(rename = "a")]
     Ampere,
     /// Milliampere: `current_a` after ÷ 1000.
+    #[serde(rename = "ma")]
     Milliampere,
     /// Newton-metre: `torque_nm`.
+    #[serde(rename = "nm")]
     NewtonMetre,
 }
 
