@@ -140,6 +140,16 @@ pub fn error_kind(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
     e.downcast_ref::<AppError>().map(AppError::kind)
 }
 
+/// The kind of one error of a chain as the layers say it: an [`AppError`]'s own, else the
+/// store's, else the I/O crate's (which falls back to the maths crate's); `None` for a type
+/// none of them knows. What every front end classifies errors by (with
+/// `feedscope::error::kind_of_chain` over the whole chain).
+pub fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
+    error_kind(e)
+        .or_else(|| feedscope_store::error_kind(e))
+        .or_else(|| feedscope_io::error_kind(e))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -12,7 +12,7 @@ pub use feedscope_app::store::StoreSpec;
 use feedscope_app::store::{open_options, store_error};
 use feedscope_store::{Store, StoreError};
 
-use crate::cmd::BadInput;
+use feedscope_app::AppError;
 
 /// The environment variable read when `--store` is not given.
 pub const STORE_VAR: &str = "FEEDSCOPE_STORE";
@@ -25,12 +25,12 @@ const DEFAULT_DB: &str = "feedscope.db";
 /// `feedscope.db`, the first one given.
 ///
 /// # Errors
-/// [`BadInput`] when both `--db` and `--store` are given.
+/// [`AppError::bad_input`] when both `--db` and `--store` are given.
 pub fn resolve(db: Option<&Path>, store: Option<&str>) -> Result<StoreSpec> {
     let env = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty());
     Ok(match (db, store) {
         (Some(d), Some(s)) => {
-            return Err(BadInput(format!(
+            return Err(AppError::bad_input(format!(
                 "--db {} and --store {} both say where the history is; give one",
                 d.display(),
                 StoreSpec::parse(s).describe()

@@ -8,7 +8,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::convert::{array, to_json, to_py};
-use crate::errors::{py_err, BadInput};
+use crate::errors::py_err;
+use feedscope_app::AppError;
 
 /// The modal analysis of a drive: `to_dict()` is the binary's `dynamics.json`; the sweeps as
 /// arrays: `feed_mm_min` (mm/min) with `frequency_vs_feed_hz` (Hz, one row per feed, one
@@ -117,7 +118,7 @@ pub fn dynamics(py: Python<'_>, config: &Bound<'_, PyAny>) -> PyResult<DynamicsR
     } else {
         let path: PathBuf = config.extract()?;
         let text = std::fs::read_to_string(&path).map_err(|e| {
-            py_err(BadInput(format!(
+            py_err(AppError::bad_input(format!(
                 "cannot read drive file {}: {e}",
                 path.display()
             )))
@@ -126,9 +127,9 @@ pub fn dynamics(py: Python<'_>, config: &Bound<'_, PyAny>) -> PyResult<DynamicsR
     };
     let source = name.trim_start_matches("drive file ").to_string();
     let cfg = DriveConfig::from_toml_str(&text, &source)
-        .map_err(|e| py_err(BadInput(format!("invalid {name}: {e}"))))?;
+        .map_err(|e| py_err(AppError::bad_input(format!("invalid {name}: {e}"))))?;
     let model = DriveModel::from_config(&cfg)
-        .map_err(|e| py_err(BadInput(format!("invalid {name}: {e}"))))?;
+        .map_err(|e| py_err(AppError::bad_input(format!("invalid {name}: {e}"))))?;
     let report = py
         .detach(|| analyse(&model))
         .map_err(|e| py_err(anyhow::Error::new(e).context("modal analysis failed")))?;

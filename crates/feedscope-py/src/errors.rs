@@ -37,34 +37,12 @@ create_exception!(
     "A failure the input does not explain: the binary's exit code 1."
 );
 
-/// The kind of one error of a chain: the bindings' own usage errors, else what the store, the
-/// I/O crate and the library say of theirs (the classification the CLI uses too).
-fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
-    if e.is::<BadInput>() {
-        return Some(ErrorKind::BadInput);
-    }
-    feedscope_app::error::error_kind(e)
-        .or_else(|| feedscope_store::error_kind(e))
-        .or_else(|| feedscope_io::error_kind(e))
-}
-
-/// The kind of an error chain, by the rule the CLI decides its exit code with.
+/// The kind of an error chain, by the rule the CLI decides its exit code with: the layers say
+/// the kind of their errors ([`feedscope_app::error::kind_of`]); a usage error the bindings
+/// find themselves (an argument out of range) is an [`feedscope_app::AppError::bad_input`].
 fn error_kind(err: &anyhow::Error) -> ErrorKind {
-    feedscope::error::kind_of_chain(err.chain(), kind_of)
+    feedscope::error::kind_of_chain(err.chain(), feedscope_app::error::kind_of)
 }
-
-/// A usage error found by the bindings themselves (an argument out of range), with the same
-/// meaning as the CLI's `BadInput`.
-#[derive(Debug)]
-pub struct BadInput(pub String);
-
-impl std::fmt::Display for BadInput {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for BadInput {}
 
 /// The Python exception of an error chain: its kind's class, with the CLI's message.
 pub fn to_py(err: anyhow::Error) -> PyErr {

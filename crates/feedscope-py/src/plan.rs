@@ -11,7 +11,8 @@ use serde_json::json;
 
 use crate::axis::Axis;
 use crate::convert::to_py;
-use crate::errors::{bad_input, BadInput};
+use crate::errors::bad_input;
+use feedscope_app::AppError;
 
 /// An NC program of a friction test: `text` (the G-code, as `feedscope plan` writes it) and
 /// its summary (`run_time_s` (s), `samples_per_channel`, `feeds_mm_min`, `span_mm`, `moves`,
@@ -181,7 +182,7 @@ fn common(
 
 /// A library error of planning as bad input, as the CLI's `bad`.
 fn bad<E: std::fmt::Display>(e: E) -> PyErr {
-    crate::errors::py_err(BadInput(e.to_string()))
+    crate::errors::py_err(AppError::bad_input(e.to_string()))
 }
 
 /// The G-code and summary of a program, with the CLI's checks of the approach feed.

@@ -16,7 +16,8 @@ use pyo3::types::PyDict;
 
 use crate::axis::Axis;
 use crate::convert::{f64_vec, readonly, to_py};
-use crate::errors::{bad_input, py_err, BadInput};
+use crate::errors::{bad_input, py_err};
+use feedscope_app::AppError;
 
 /// A trace of one axis: position and effort (motor current or torque), each channel with its
 /// own time stamps. Build it from 1-D float64 numpy arrays, or read it with `read_trace`.
@@ -384,7 +385,7 @@ fn screen(
     effort: Channel,
     effort_kind: EffortKind,
 ) -> PyResult<(Inner, ReadReport)> {
-    let motion = |p: &Channel| -> Result<(), BadInput> {
+    let motion = |p: &Channel| -> Result<(), AppError> {
         let (lo, hi) = p
             .value
             .iter()
@@ -393,7 +394,7 @@ fn screen(
             });
         // Below a nanometre nothing measurable moved (as the file readers).
         if hi - lo <= 1e-9 {
-            return Err(BadInput(format!(
+            return Err(AppError::bad_input(format!(
                 "the position never moves (it spans only {} mm); friction needs motion",
                 (hi - lo) * 1e3
             )));

@@ -8,7 +8,7 @@
 //! `frequency_vs_feed.svg`, `frequency_vs_position.svg`.
 //!
 //! Exit codes (mapped in `cmd::run`): 0 ok; 2 bad input: an unreadable or invalid drive file,
-//! reported as [`BadInput`] naming the key; 1 anything else (e.g. the output directory cannot
+//! reported as [`AppError::bad_input`] naming the key; 1 anything else (e.g. the output directory cannot
 //! be written). The drive file is validated before any output is written.
 
 use std::fmt::Write as _;
@@ -19,9 +19,9 @@ use anyhow::{Context, Result};
 use feedscope::dynamics::{analyse, ripple_frequency_hz, DriveConfig, DriveModel, DynamicsReport};
 use serde::Serialize;
 
-use super::BadInput;
 use crate::output::write_atomic;
 use feedscope_app::plot::{line_chart_svg, write_svg, LineChart, Series, Style};
+use feedscope_app::AppError;
 
 /// Output format of the summary on stdout.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -50,11 +50,14 @@ pub struct Args {
 /// Read and validate the drive file before any output is written.
 fn load(path: &Path) -> Result<DriveModel> {
     let text = feedscope_io::bounded::read_to_string(path, feedscope_io::bounded::MAX_CONFIG_BYTES)
-        .map_err(|e| BadInput(format!("cannot read drive file {}: {e}", path.display())))?;
+        .map_err(|e| {
+            AppError::bad_input(format!("cannot read drive file {}: {e}", path.display()))
+        })?;
     let cfg = DriveConfig::from_toml_str(&text, &path.display().to_string())
-        .map_err(|e| BadInput(format!("invalid drive file {}: {e}", path.display())))?;
-    DriveModel::from_config(&cfg)
-        .map_err(|e| BadInput(format!("invalid drive file {}: {e}", path.display())).into())
+        .map_err(|e| AppError::bad_input(format!("invalid drive file {}: {e}", path.display())))?;
+    DriveModel::from_config(&cfg).map_err(|e| {
+        AppError::bad_input(format!("invalid drive file {}: {e}", path.display())).into()
+    })
 }
 
 /// Run the subcommand.

@@ -12,7 +12,7 @@ use feedscope_io::controller_compensation::{
     write_sinumerik, write_tf5200, write_velocity_table, ExportSource,
 };
 
-use super::BadInput;
+use feedscope_app::AppError;
 
 /// A controller file `--export` writes.
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq, PartialOrd, Ord)]
@@ -101,7 +101,7 @@ impl ExportConfig {
 }
 
 fn bad(m: String) -> anyhow::Error {
-    BadInput(m).into()
+    AppError::bad_input(m).into()
 }
 
 fn positive(flag: &str, v: Option<f64>) -> Result<()> {

@@ -12,10 +12,10 @@ use feedscope_app::stribeck::{
 
 use super::estimate::Format;
 use super::export::{ExportArgs, ExportCurves};
-use super::BadInput;
 use crate::front::Cli;
 use crate::output::OutputSet;
 use feedscope_app::plot;
+use feedscope_app::AppError;
 
 /// Fit Stribeck curves to a steady-speed table (paper 000 Eq. 9, paper 001 Eq. 15).
 ///
@@ -81,7 +81,7 @@ fn parse_delta(s: &str) -> Result<DeltaMode, String> {
 }
 
 fn bad(msg: String) -> anyhow::Error {
-    BadInput(msg).into()
+    AppError::bad_input(msg).into()
 }
 
 fn svg(report: &Report) -> Result<String> {

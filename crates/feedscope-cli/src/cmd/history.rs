@@ -20,7 +20,7 @@ use crate::front::Cli;
 use crate::store::Open as _;
 use crate::store::{add_err, store_err, StoreSpec};
 
-use super::BadInput;
+use feedscope_app::AppError;
 
 /// Condition history: store tests in a database and trend their indicators.
 ///
@@ -662,9 +662,8 @@ fn write_profile_changes(w: &mut impl Write, p: &feedscope::history::ProfileChan
 pub fn run(args: Args) -> Result<Outcome> {
     if let HistoryCommand::Migrate(a) = &args.command {
         if args.db.is_some() || args.store.is_some() {
-            return Err(BadInput(
-                "history migrate reads --from and writes --to; --db and --store do not apply"
-                    .into(),
+            return Err(AppError::bad_input(
+                "history migrate reads --from and writes --to; --db and --store do not apply",
             )
             .into());
         }
@@ -722,9 +721,11 @@ fn migrate(a: &MigrateArgs) -> Result<()> {
         if let Some(p) = from.sqlite_path() {
             // Opening would create an empty database there.
             if !p.exists() {
-                return Err(
-                    BadInput(format!("--from {}: no such database file", p.display())).into(),
-                );
+                return Err(AppError::bad_input(format!(
+                    "--from {}: no such database file",
+                    p.display()
+                ))
+                .into());
             }
         }
     }

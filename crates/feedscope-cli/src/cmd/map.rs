@@ -13,10 +13,10 @@ use feedscope_app::map::{ExportCurve, MapOptions, MapRequest, MapSummary};
 
 use super::estimate::Format;
 use super::export::{ExportArgs, ExportCurves};
-use super::BadInput;
 use crate::front::Cli;
 use crate::output::OutputSet;
 use feedscope_app::plot::{self, Heatmap, LineChart, Series, Style};
+use feedscope_app::AppError;
 
 /// Friction map over position and feed from a test set (paper 000 Section 4.2).
 ///
@@ -167,10 +167,12 @@ pub fn run(args: Args) -> Result<()> {
     let export = args.export.validate()?;
     if export.is_none() {
         if args.export_position_mm.is_some() {
-            return Err(BadInput("--export-position-mm is used only with --export".into()).into());
+            return Err(
+                AppError::bad_input("--export-position-mm is used only with --export").into(),
+            );
         }
         if args.export_curve != ExportCurveArg::Stribeck {
-            return Err(BadInput("--export-curve is used only with --export".into()).into());
+            return Err(AppError::bad_input("--export-curve is used only with --export").into());
         }
     }
     let request = MapRequest {

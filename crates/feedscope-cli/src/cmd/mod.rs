@@ -63,25 +63,15 @@ pub enum Command {
     Watch(watch::Args),
 }
 
-/// Marks an error as the user's input being wrong (exit code 2): a usage error found by the
-/// CLI itself (an option out of range, options that do not go together).
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct BadInput(pub String);
-
-/// The kind of one error of a chain: the CLI's own markers, else what the store, the I/O
-/// crate and the library say of their errors (`feedscope::error::kind_of` and the crates'
-/// `error_kind`).
+/// The kind of one error of a chain: `history check`'s failed check (exit code 1, though the
+/// store's error alone would be bad input), else what the layers say of their errors
+/// ([`feedscope_app::error::kind_of`]). A usage error the CLI finds itself is an
+/// [`feedscope_app::AppError::bad_input`].
 fn kind_of(e: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
-    if e.is::<BadInput>() {
-        return Some(ErrorKind::BadInput);
-    }
     if e.is::<history::CheckFailed>() {
         return Some(ErrorKind::Internal);
     }
-    feedscope_app::error::error_kind(e)
-        .or_else(|| feedscope_store::error_kind(e))
-        .or_else(|| feedscope_io::error_kind(e))
+    feedscope_app::error::kind_of(e)
 }
 
 /// The kind of an error: [`ErrorKind::BadInput`] when any error of its chain is bad input (a
@@ -402,7 +392,12 @@ mod tests {
             1
         );
         // the CLI's own and foreign errors
-        assert_eq!(code(BadInput("--segments must be at least 1".into())), 2);
+        assert_eq!(
+            code(feedscope_app::AppError::bad_input(
+                "--segments must be at least 1"
+            )),
+            2
+        );
         assert_eq!(code(toml::from_str::<toml::Table>("= 1").unwrap_err()), 2);
         assert_eq!(code(serde_json::from_str::<u8>("x").unwrap_err()), 2);
         assert_eq!(code(io(IoKind::NotFound)), 2);

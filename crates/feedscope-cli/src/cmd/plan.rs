@@ -14,7 +14,7 @@ use feedscope::units::s_to_min;
 use serde::Serialize;
 
 use super::estimate::Format;
-use super::BadInput;
+use feedscope_app::AppError;
 
 /// Sampling interval assumed when none is given (ms): an MTConnect agent's polling.
 const DEFAULT_SAMPLE_INTERVAL_MS: f64 = 72.0;
@@ -220,11 +220,15 @@ fn limits(c: &Common) -> Result<Limits> {
 fn options(c: &Common) -> Result<GcodeOptions> {
     let interval_s = match c.sample_rate_hz {
         Some(r) if r.is_finite() && r > 0.0 => 1.0 / r,
-        Some(r) => return Err(BadInput(format!("--sample-rate-hz {r}: must be > 0")).into()),
+        Some(r) => {
+            return Err(AppError::bad_input(format!("--sample-rate-hz {r}: must be > 0")).into())
+        }
         None => match c.sample_interval_ms {
             Some(ms) if ms.is_finite() && ms > 0.0 => ms * 1e-3,
             Some(ms) => {
-                return Err(BadInput(format!("--sample-interval-ms {ms}: must be > 0")).into())
+                return Err(
+                    AppError::bad_input(format!("--sample-interval-ms {ms}: must be > 0")).into(),
+                )
             }
             None => DEFAULT_SAMPLE_INTERVAL_MS * 1e-3,
         },
@@ -246,7 +250,7 @@ fn options(c: &Common) -> Result<GcodeOptions> {
 }
 
 fn bad<E: std::fmt::Display>(e: E) -> anyhow::Error {
-    BadInput(e.to_string()).into()
+    AppError::bad_input(e.to_string()).into()
 }
 
 pub fn run(args: Args) -> Result<()> {

@@ -1,4 +1,5 @@
 //! `feedscope report`: the condition report of an axis as one self-contained HTML file.
+use feedscope_app::AppError;
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
@@ -70,7 +71,7 @@ pub fn write_report(
     let from_file = options.file_thresholds()?;
     if let Some(db) = spec.sqlite_path() {
         if !db.exists() {
-            return Err(super::BadInput(format!("no database at {}", db.display())).into());
+            return Err(AppError::bad_input(format!("no database at {}", db.display())).into());
         }
     }
     let store = spec.open()?;
@@ -82,7 +83,7 @@ pub fn write_report(
 
 /// Where the database was looked for, in words, when the file is not there: the flag, the
 /// environment variable, or the default name in the current folder, and how to make one.
-fn no_database(flag: Option<&Path>, store_flag: bool, db: &Path) -> super::BadInput {
+fn no_database(flag: Option<&Path>, store_flag: bool, db: &Path) -> AppError {
     let looked = if flag.is_some() {
         format!("{} (--db)", db.display())
     } else if store_flag {
@@ -100,7 +101,7 @@ fn no_database(flag: Option<&Path>, store_flag: bool, db: &Path) -> super::BadIn
             db.display()
         )
     };
-    super::BadInput(format!(
+    AppError::bad_input(format!(
         "no database at {looked}; a report reads the tests that `feedscope history add` \
          stores: make one with `{}`",
         super::series::how_to_add(flag)

@@ -5,7 +5,7 @@ use std::path::Path;
 use anyhow::Result;
 use feedscope_store::{AddOutcome, Filter, NewTest, Store};
 
-use super::BadInput;
+use feedscope_app::AppError;
 
 /// How to store a test, for messages about an empty or missing database; `db` is the
 /// database when it was given with `--db` (the environment variable and the default name
@@ -33,14 +33,14 @@ pub fn resolve_machine(store: &dyn Store, given: Option<&str>) -> Result<String>
     machines.sort_unstable();
     machines.dedup();
     match machines.as_slice() {
-        [] => Err(BadInput(format!(
+        [] => Err(AppError::bad_input(format!(
             "the database holds no tests yet; store one with `{}`",
             how_to_add(None)
         ))
         .into()),
         [one] => Ok(one.clone()),
         many if many.iter().any(|m| m == DEFAULT_MACHINE) => Ok(DEFAULT_MACHINE.to_string()),
-        many => Err(BadInput(format!(
+        many => Err(AppError::bad_input(format!(
             "the database holds several machines ({}): choose one with --machine",
             many.iter()
                 .map(|m| format!("{m:?}"))

@@ -20,10 +20,10 @@ use feedscope_store::time::format_rfc3339;
 use feedscope_store::{AddOutcome, TestKind};
 
 use super::history::{analyse_and_store, KindArg};
-use super::BadInput;
 use crate::store::Open as _;
 use crate::store::StoreSpec;
 use feedscope_app::history::TestMeta;
+use feedscope_app::AppError;
 
 /// Watch a running control: recognise the planned tests and store each in the history.
 ///
@@ -173,7 +173,7 @@ fn selection(i: &ItemArgs) -> AxisSelection {
 
 fn live_err(e: feedscope_live::LiveError) -> anyhow::Error {
     match e {
-        feedscope_live::LiveError::Config { .. } => BadInput(e.to_string()).into(),
+        feedscope_live::LiveError::Config { .. } => AppError::bad_input(e.to_string()).into(),
         e => anyhow::Error::new(e),
     }
 }
@@ -242,7 +242,7 @@ struct EffortHints {
 /// Validate the flags and read the axis file before any connection.
 fn check(w: &WatchArgs, i: &ItemArgs) -> Result<feedscope::axis::AxisParams> {
     if !(i.torque_per_load_nm.is_finite() && i.torque_per_load_nm > 0.0) {
-        return Err(BadInput("--torque-per-load-nm must be a positive torque".into()).into());
+        return Err(AppError::bad_input("--torque-per-load-nm must be a positive torque").into());
     }
     check_watch(w)
 }
@@ -250,16 +250,16 @@ fn check(w: &WatchArgs, i: &ItemArgs) -> Result<feedscope::axis::AxisParams> {
 /// Validate the flags every source shares and read the axis file.
 fn check_watch(w: &WatchArgs) -> Result<feedscope::axis::AxisParams> {
     if !(w.standstill_s.is_finite() && w.standstill_s > 0.0) {
-        return Err(BadInput("--standstill-s must be a positive time".into()).into());
+        return Err(AppError::bad_input("--standstill-s must be a positive time").into());
     }
     if !(w.position_quantum_mm.is_finite() && w.position_quantum_mm >= 0.0) {
-        return Err(BadInput("--position-quantum-mm must be ≥ 0".into()).into());
+        return Err(AppError::bad_input("--position-quantum-mm must be ≥ 0").into());
     }
     if !(w.interval_mm.is_finite() && w.interval_mm > 0.0) {
-        return Err(BadInput("--interval-mm must be a positive length".into()).into());
+        return Err(AppError::bad_input("--interval-mm must be a positive length").into());
     }
     if w.want_order.is_some_and(|k| !(k.is_finite() && k > 0.0)) {
-        return Err(BadInput("--want-order must be a positive order".into()).into());
+        return Err(AppError::bad_input("--want-order must be a positive order").into());
     }
     Ok(match w.kind {
         TestKind::Triangle => feedscope_io::axis::load_for_identification(&w.axis_file)?,
@@ -370,7 +370,7 @@ fn watch(
                     format_rfc3339(*start_time_s)
                 );
             }
-            return Err(BadInput(format!(
+            return Err(AppError::bad_input(format!(
                 "{why} (--stop-on-bad-value); {stored} test(s) stored"
             ))
             .into());
