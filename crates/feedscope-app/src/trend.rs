@@ -153,6 +153,30 @@ impl AxisTrends {
             .any(|x| x.status != feedscope::history::Status::Ok)
     }
 
+    /// The worst status of the axis's indicators; `None` while no indicator has a baseline
+    /// (no trend, so no status either way).
+    pub fn worst_status(&self) -> Option<feedscope::history::Status> {
+        self.trends.iter().map(|x| x.status).min()
+    }
+
+    /// The axis's trend in a few words, for a line of a live log or a fleet list: `ok`, the
+    /// number of indicators not ok with the worst status, or `baseline not yet formed`.
+    pub fn status_line(&self) -> String {
+        let Some(worst) = self.worst_status() else {
+            return "baseline not yet formed".into();
+        };
+        let bad = self
+            .trends
+            .iter()
+            .filter(|x| x.status != feedscope::history::Status::Ok)
+            .count();
+        if bad == 0 {
+            "ok".into()
+        } else {
+            format!("{bad} indicator(s) not ok ({})", worst.as_str())
+        }
+    }
+
     /// [`Outcome::Attention`](crate::Outcome) naming the indicators that are not `ok` (worst
     /// first), else [`Outcome::Done`](crate::Outcome): what `--fail-on-warning` ends with.
     pub fn outcome(&self) -> crate::Outcome {

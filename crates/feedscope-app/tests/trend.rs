@@ -115,6 +115,16 @@ fn a_rise_after_the_baseline_is_flagged_and_a_steady_axis_is_not() {
     let x = axis_trend(&s, "lathe", Some("X"), &options, Default::default(), &Quiet).unwrap();
     assert!(!x.needs_attention(), "{:?}", x.trends);
     assert_eq!(x.outcome(), feedscope_app::Outcome::Done);
+    assert_eq!(
+        (x.worst_status(), x.status_line().as_str()),
+        (Some(Status::Ok), "ok")
+    );
+    assert_eq!(z.worst_status(), Some(Status::ThresholdCrossed));
+    assert!(
+        z.status_line().ends_with("not ok (threshold crossed)"),
+        "{}",
+        z.status_line()
+    );
     // The report is the JSON layout: machine, axis, tests, trends, skipped, profiles,
     // diagnosis.
     let json = serde_json::to_value(&x).unwrap();

@@ -501,20 +501,7 @@ fn trend_status(store: &dyn feedscope_store::Store, machine: &str, axis: &str) -
         Default::default(),
         &front,
     ) {
-        Ok(t) if t.trends.is_empty() => "baseline not yet formed".into(),
-        Ok(t) => {
-            let bad: Vec<&str> = t
-                .trends
-                .iter()
-                .filter(|x| x.status != feedscope::history::Status::Ok)
-                .map(|x| x.status.as_str())
-                .collect();
-            if bad.is_empty() {
-                "ok".into()
-            } else {
-                format!("{} indicator(s) not ok ({})", bad.len(), bad[0])
-            }
-        }
+        Ok(t) => t.status_line(),
         Err(e) => format!("not available ({e:#})"),
     }
 }
