@@ -214,7 +214,10 @@ fn a_history_migrates_whole_and_exports_as_one_table() {
     );
     let all = Filter::default();
     let (a, b) = (s.list(&all).unwrap(), target.list(&all).unwrap());
-    assert_eq!(serde_json::to_value(&a).unwrap(), serde_json::to_value(&b).unwrap());
+    assert_eq!(
+        serde_json::to_value(&a).unwrap(),
+        serde_json::to_value(&b).unwrap()
+    );
     for (x, y) in a.iter().zip(&b) {
         assert_eq!(
             serde_json::to_value(s.get(x.id).unwrap()).unwrap(),
@@ -222,7 +225,10 @@ fn a_history_migrates_whole_and_exports_as_one_table() {
         );
     }
     for (m, ax) in [("lathe", "Z"), ("lathe", "X"), ("mill, \"old\"", "X")] {
-        assert_eq!(s.axis_params(m, ax).unwrap(), target.axis_params(m, ax).unwrap());
+        assert_eq!(
+            s.axis_params(m, ax).unwrap(),
+            target.axis_params(m, ax).unwrap()
+        );
     }
     assert!(matches!(
         target.axis_params("mill, \"old\"", "X").unwrap(),
@@ -232,7 +238,11 @@ fn a_history_migrates_whole_and_exports_as_one_table() {
     assert_eq!((again.added, again.already_there), (0, 19));
     let e = migrate(&s, &from, &mut target, &from, &Flags).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::BadInput);
-    assert!(e.to_string().starts_with("--from and --to are the same store"), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with("--from and --to are the same store"),
+        "{e}"
+    );
 
     let rows = export(&s, &from, &all).unwrap();
     assert_eq!(rows.len(), 19, "one fc_n value per test");
