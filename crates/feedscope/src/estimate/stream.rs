@@ -24,11 +24,9 @@
 //! twin's traces).
 
 use super::moves::{self, INFERRED_RAPID_MIN_MM_MIN};
+use super::pipeline::{estimate_chunk, next_chunk, recording_reasons, Failed, Seen};
 use super::segment::{self, MoveScratch, StrokeSpan, TurnFinder};
-use super::{
-    estimate_chunk, friction_sign, next_chunk, recording_reasons, EstimateParams, Failed, Move,
-    MoveKind, Outline, Seen, StrokeFriction, StrokePiece,
-};
+use super::{friction_sign, EstimateParams, Move, MoveKind, Outline, StrokeFriction, StrokePiece};
 use crate::axis::AxisParams;
 use crate::trace::glitch::{EffortMagnitudes, GlitchParams, JUMP_FLOOR_M};
 use crate::trace::{Channel, EffortKind, RecordingFacts, Trace, MIN_SAMPLES};
@@ -467,7 +465,7 @@ impl<'a, T: Send, E> StreamEstimator<'a, T, E> {
             return;
         }
         let mut mv = moves::classify_one(&self.buf.position_m, &m, rapid_above);
-        if super::check_feed_plausible(&mv, self.axis).is_err() {
+        if super::plan::check_feed_plausible(&mv, self.axis).is_err() {
             // The whole read refuses it, naming the move.
             self.give_up("a move runs faster than a feed axis can");
             return;

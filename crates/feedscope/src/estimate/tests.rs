@@ -1,7 +1,10 @@
 //! Analytic round trips: a known trajectory and friction, the current from the exact inverse
 //! dynamics of Eq. 5, sampled asynchronously; the estimator must give the friction back.
+use super::inversion::newton_in_piece;
+use super::stroke::{short_of, KnotRead};
 use super::*;
 use crate::axis::{AxisParams, ConfigFormat};
+use crate::spline::CubicSpline;
 use crate::trace::Channel;
 use rand::{Rng, SeedableRng};
 
