@@ -588,8 +588,20 @@ impl PgStore {
             || super::time::format_rfc3339(super::time::now_s()),
             str::to_string,
         );
-        self.with_retry(|tx, s| add_in(tx, s, t, &added))
+        // The documents as JSON before the transaction opens: it holds its locks no longer
+        // than the statements take, and a retry does not serialise them again.
+        let docs = Documents {
+            params_json: t.axis_params.to_json(),
+            curves_json: t.curves.as_ref().map(|c| c.to_json()),
+        };
+        self.with_retry(|tx, s| add_in(tx, s, t, &docs, &added))
     }
+}
+
+/// The JSON documents of a test to add.
+struct Documents {
+    params_json: String,
+    curves_json: Option<String>,
 }
 
 /// The body of one [`Store::add`] transaction.
@@ -597,9 +609,10 @@ fn add_in(
     tx: &mut Transaction<'_>,
     s: &Statements,
     t: &NewTest,
+    docs: &Documents,
     added_utc: &str,
 ) -> Result<AddOutcome, StoreError> {
-    let params_json = t.axis_params.to_json();
+    let params_json = &docs.params_json;
     // Created on first use, race-free: whoever inserts first, both then read the one row
     // (the insert of the second waits for the first's commit). Looked up first: the common
     // case writes nothing here.
@@ -613,7 +626,7 @@ fn add_in(
     let axis_id: i64 = match tx.query_opt(&s.axis_id, &[&machine_id, &t.axis])? {
         Some(r) => col(&r, 0)?,
         None => {
-            tx.execute(&s.insert_axis, &[&machine_id, &t.axis, &params_json])?;
+            tx.execute(&s.insert_axis, &[&machine_id, &t.axis, params_json])?;
             col(&tx.query_one(&s.axis_id, &[&machine_id, &t.axis])?, 0)?
         }
     };
@@ -653,7 +666,7 @@ fn add_in(
     };
     let id: i64 = col(&row, 0)?;
     // Locks the axis row: reference changes of this axis take turns from here.
-    tx.execute(&s.update_params, &[&axis_id, &params_json])?;
+    tx.execute(&s.update_params, &[&axis_id, params_json])?;
     if t.reference {
         tx.execute(&s.clear_reference, &[&axis_id])?;
         tx.execute(&s.set_reference, &[&id])?;
@@ -730,8 +743,8 @@ fn add_in(
         let unit: Vec<&str> = v.iter().map(|i| i.unit.as_str()).collect();
         tx.execute(&s.insert_indicators, &[&id, &name, &value, &se, &unit])?;
     }
-    if let Some(c) = &t.curves {
-        tx.execute(&s.insert_curves, &[&id, &c.to_json()])?;
+    if let Some(c) = &docs.curves_json {
+        tx.execute(&s.insert_curves, &[&id, c])?;
     }
     // Test hook for the kill test: stay inside the open transaction for a while.
     if let Some(ms) = std::env::var("FEEDSCOPE_TEST_SLEEP_IN_TX_MS")

@@ -576,6 +576,10 @@ fn test_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<TestRow> {
 
 impl SqliteStore {
     fn add_tx(&mut self, t: &NewTest, added_utc: Option<&str>) -> Result<AddOutcome, StoreError> {
+        // The documents as JSON before the write lock is taken: it is held no longer than
+        // the statements take.
+        let params_json = t.axis_params.to_json();
+        let curves_json = t.curves.as_ref().map(|c| c.to_json());
         let tx = self
             .conn
             .transaction_with_behavior(TransactionBehavior::Immediate)?;
@@ -591,7 +595,7 @@ impl SqliteStore {
         tx.execute(
             "INSERT INTO axes (machine_id, name, params_json) VALUES (?1, ?2, ?3)
              ON CONFLICT (machine_id, name) DO UPDATE SET params_json = excluded.params_json",
-            params![machine_id, t.axis, t.axis_params.to_json()],
+            params![machine_id, t.axis, params_json],
         )?;
         let axis_id: i64 = tx.query_row(
             "SELECT id FROM axes WHERE machine_id = ?1 AND name = ?2",
@@ -698,11 +702,8 @@ impl SqliteStore {
                 st.execute(params![id, i.name, i.value, i.std_error, i.unit])?;
             }
         }
-        if let Some(c) = &t.curves {
-            tx.execute(
-                "INSERT INTO curves VALUES (?1, ?2)",
-                params![id, c.to_json()],
-            )?;
+        if let Some(c) = &curves_json {
+            tx.execute("INSERT INTO curves VALUES (?1, ?2)", params![id, c])?;
         }
         // Test hook for the kill test: stay inside the open transaction for a while.
         if let Some(ms) = std::env::var("FEEDSCOPE_TEST_SLEEP_IN_TX_MS")

@@ -283,14 +283,17 @@ fn postgres_add_cut_off_at_commit_says_the_outcome_is_unknown() {
         .stderr(std::process::Stdio::piped());
     let child = c.spawn().unwrap();
     let mut admin = postgres::Client::connect(&db.admin, postgres::NoTls).unwrap();
-    // Its session, once it is inside the transaction (a deadline only against a hang).
+    // Its session, once it sleeps inside the transaction: idle in it for 300 ms at least, so
+    // that the short idle moments between the add's statements (longer on a busy machine)
+    // are not taken for the hook's sleep (a deadline only against a hang).
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
     loop {
         let rows = admin
             .query(
                 "SELECT pg_terminate_backend(pid) FROM pg_stat_activity
                  WHERE datname = $1 AND application_name = 'feedscope'
-                   AND state = 'idle in transaction'",
+                   AND state = 'idle in transaction'
+                   AND state_change < clock_timestamp() - interval '300 milliseconds'",
                 &[&db.name],
             )
             .unwrap();
