@@ -1,6 +1,8 @@
 //! A history taken out of its store: the indicator values of its tests as one flat table
 //! ([`export`], for a spreadsheet or another tool), and every test copied into another store
 //! ([`migrate`], e.g. a gateway's SQLite file into the fleet's PostgreSQL database).
+use std::collections::BTreeMap;
+
 use feedscope_store::{AddOutcome, Filter, NewTest, Store, Stored};
 use serde::Serialize;
 
@@ -137,18 +139,19 @@ pub fn migrate(
         ..MigrateReport::default()
     };
     // The axis parameters of each axis, read once.
-    let mut params: Vec<((String, String), Stored<feedscope::axis::AxisParams>)> = Vec::new();
+    let mut params: BTreeMap<(String, String), Stored<feedscope::axis::AxisParams>> =
+        BTreeMap::new();
     for (k, r) in rows.iter().enumerate() {
         front.progress("copying tests", k, rows.len());
         let key = (r.machine.clone(), r.axis.clone());
-        let axis_params = match params.iter().find(|(p, _)| *p == key) {
-            Some((_, p)) => p.clone(),
+        let axis_params = match params.get(&key) {
+            Some(p) => p.clone(),
             None => {
                 let p = source
                     .axis_params(&r.machine, &r.axis)
                     .map_err(src_err)?
                     .unwrap_or_else(|| Stored::from_json("{}"));
-                params.push((key, p.clone()));
+                params.insert(key, p.clone());
                 p
             }
         };
