@@ -15,5 +15,7 @@ python3 -m venv "$venv"
 export FEEDSCOPE_TEST_PYTHON="$venv/bin/python"
 cd "$here"
 start=$(date +%s)
-cargo test --release --locked -p feedscope-live -p feedscope-cli -- --ignored --test-threads=1 --nocapture watch
+# (`--workspace --tests`: the test build of the README's test command, not one with other
+# features; the name filter picks the tests.)
+cargo test --workspace --tests --release --locked -- --ignored --test-threads=1 --nocapture watch
 echo "live tests: $(( $(date +%s) - start )) s" >&2

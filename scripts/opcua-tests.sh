@@ -17,4 +17,5 @@ export FEEDSCOPE_TEST_PYTHON="$venv/bin/python"
 
 # --include-ignored: the server tests (ignored by default) and the config tests, in one run;
 # one test at a time, so that server start-up and the reconnect timing do not compete.
-cargo test --release --locked -p feedscope-live --test opcua -- --include-ignored --nocapture --test-threads=1 "$@"
+# (`--workspace`: the test build of the README's test command, not one with other features.)
+cargo test --workspace --release --locked --test opcua -- --include-ignored --nocapture --test-threads=1 "$@"

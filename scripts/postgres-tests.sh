@@ -133,9 +133,11 @@ test)
     # The PostgreSQL tests are #[ignore]d in a plain `cargo test` (they need this server);
     # `--ignored postgres` runs those whose name contains "postgres". The crash loop restarts
     # the server, so it runs alone, after the others; it prints the adds' outcomes.
-    cargo test --release --locked -p feedscope-store -p feedscope-cli -- --ignored postgres \
+    # `--workspace --tests` selects what the README's test command builds, so nothing is built
+    # again with other dependency features (.ci/run); the name filter picks the tests.
+    cargo test --workspace --tests --release --locked -- --ignored postgres \
         --skip postgres_server_crash_loop
-    cargo test --release --locked -p feedscope-cli --test cli -- --ignored --exact \
+    cargo test --workspace --release --locked --test cli -- --ignored --exact \
         postgres::postgres_server_crash_loop_during_adds --nocapture
     ;;
 bench)
