@@ -456,7 +456,7 @@ struct BlockParser {
     reserved: bool,
     /// The file's last data line has no terminator (see [`ReadReport::unterminated_last_line`]).
     cut_last_line: bool,
-    /// Samples are taken out as they are parsed ([`BlockParser::take_new`]): nothing is
+    /// Samples are taken out as they are parsed (handed out, then [`BlockParser::clear_handed_out`]): nothing is
     /// reserved for the whole file.
     streaming: bool,
     /// The last time of each channel (position, current, torque) taken out, for the

@@ -5,7 +5,7 @@
 //! a baseline from the first N tests or a reference test ([`baseline`]), Shewhart limits
 //! μ₀ ± L·σ ([`Limits`]), an EWMA chart ([`ewma`]) and a two-sided CUSUM ([`cusum`]) that see a
 //! sustained drift before a single test leaves the ±3σ band, a projected crossing of a user
-//! threshold from the recent slope ([`project_crossing`]), and [`diagnose`], which says which
+//! threshold from the recent slope ([`project_crossing`]), and [`diagnose()`], which says which
 //! indicators moved and what the papers associate with them. [`profile_changes`] compares the
 //! friction of stroke tests with their baseline position by position along the travel (local
 //! wear). The store that keeps the series lives in the CLI; nothing here does I/O.

@@ -227,7 +227,7 @@ impl Separable<'_> {
     /// Pointwise rows: s²·(XᵀX)⁻¹ with s² = RSS/(n − p). Kernel rows ȳ = K·y: if the sample
     /// noise is white with variance s², the rows' noise has covariance s²·KKᵀ (neighbouring
     /// rows share samples), and the least-squares estimate has the sandwich covariance
-    /// s²·C·(XᵀK)(KᵀX)·C with C = (XᵀX)⁻¹; E[RSS] = s²·(tr KKᵀ − tr(C·XᵀKKᵀX)) gives s².
+    /// s²·C·(XᵀK)(KᵀX)·C with C = (XᵀX)⁻¹; E(RSS) = s²·(tr KKᵀ − tr(C·XᵀKKᵀX)) gives s².
     pub(super) fn parameter_covariance(
         &self,
         vs: f64,

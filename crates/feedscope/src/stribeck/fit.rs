@@ -1195,7 +1195,7 @@ fn nnls3(u: &[f64], e: &[f64], y: &[f64]) -> ([f64; 3], f64) {
     best
 }
 
-/// Solve G[idx,idx]·x = b[idx] by Cholesky; `None` when a pivot falls below 1e-12 of its
+/// Solve `G[idx, idx]·x = b[idx]` by Cholesky; `None` when a pivot falls below 1e-12 of its
 /// diagonal (a column that the data cannot see, e.g. e ≡ 0).
 #[allow(clippy::needless_range_loop)] // Cholesky indexed as in the formulas
 fn small_spd_solve(g: &[[f64; 3]; 3], b: &[f64; 3], idx: &[usize]) -> Option<Vec<f64>> {
