@@ -28,6 +28,7 @@
 //! and [`trend`] (an axis's indicators over its stored tests,
 //! the position-resolved comparison and the diagnosis).
 //! [`dynamics`]: a feed drive's natural frequencies and resonance risks (paper 001).
+//! [`plan`]: the NC programs of the friction tests, with run time and sample counts.
 //!
 //! The pictures people look at are drawn here too: [`plot`] (SVG line charts and heat maps
 //! with unit-labelled axes) and [`report`] (the condition report of an axis: its page model and
@@ -71,6 +72,7 @@ pub mod import;
 pub mod map;
 pub mod outcome;
 pub mod output;
+pub mod plan;
 pub mod plot;
 pub mod recording;
 pub mod report;
