@@ -29,6 +29,7 @@
 //! the position-resolved comparison and the diagnosis).
 //! [`dynamics`]: a feed drive's natural frequencies and resonance risks (paper 001).
 //! [`plan`]: the NC programs of the friction tests, with run time and sample counts.
+//! [`simulate`]: the twin's trace of a drive whose friction is known, with the truth.
 //!
 //! The pictures people look at are drawn here too: [`plot`] (SVG line charts and heat maps
 //! with unit-labelled axes) and [`report`] (the condition report of an axis: its page model and
@@ -76,6 +77,7 @@ pub mod plan;
 pub mod plot;
 pub mod recording;
 pub mod report;
+pub mod simulate;
 pub mod store;
 pub mod stribeck;
 pub mod transfer;
