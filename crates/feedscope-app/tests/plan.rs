@@ -23,14 +23,15 @@ impl FrontEnd for Flags {
 #[test]
 fn the_stroke_test_of_paper_000_is_planned_and_written() {
     // 0 → 410 mm at 5, 20 and 80 mm/min, 3 pairs each, 1 s dwells, jerk-limited at 20 m/s³:
-    // 38 763.1715 s, ⌊38 763.1715 / 0.072⌋ + 1 samples at the assumed 72 ms.
+    // 38 763.1715 s (to the 4 decimals the check compares), ⌊38 763.1715 / 0.072⌋ + 1
+    // samples at the assumed 72 ms.
     let planned = PlanRequest::default().plan(None, &Quiet).unwrap();
     let r = &planned.report;
     assert_eq!(r.test, TestKind::Strokes);
     assert_eq!(r.moves.len(), 18);
     assert_eq!(r.samples_per_channel, 538_378);
     assert!(
-        (r.run_time_s - 38_763.1715).abs() < 1e-3,
+        (r.run_time_s - 38_763.171_5).abs() < 1e-3,
         "{}",
         r.run_time_s
     );
