@@ -27,6 +27,9 @@
 //! 000 Eq. 9 and paper 001 Eq. 15), [`history`] (a test analysed for the condition history)
 //! and [`trend`] (an axis's indicators over its stored tests,
 //! the position-resolved comparison and the diagnosis).
+//! [`dynamics`]: a feed drive's natural frequencies and resonance risks (paper 001).
+//! [`plan`]: the NC programs of the friction tests, with run time and sample counts.
+//! [`simulate`]: the twin's trace of a drive whose friction is known, with the truth.
 //!
 //! The pictures people look at are drawn here too: [`plot`] (SVG line charts and heat maps
 //! with unit-labelled axes) and [`report`] (the condition report of an axis: its page model and
@@ -60,6 +63,7 @@
 //! ```
 
 pub mod analyze;
+pub mod dynamics;
 pub mod error;
 pub mod estimate;
 pub mod front;
@@ -69,9 +73,11 @@ pub mod import;
 pub mod map;
 pub mod outcome;
 pub mod output;
+pub mod plan;
 pub mod plot;
 pub mod recording;
 pub mod report;
+pub mod simulate;
 pub mod store;
 pub mod stribeck;
 pub mod transfer;

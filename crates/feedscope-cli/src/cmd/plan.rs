@@ -1,23 +1,17 @@
-//! `feedscope plan`: NC programs (G-code) for the friction tests.
+//! `feedscope plan`: NC programs (G-code) for the friction tests; the planning, its checks
+//! and the summary are [`feedscope_app::plan`]'s.
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Subcommand, ValueEnum};
-use feedscope::plan::gcode::{write_gcode, Dialect, FanucMachine, GcodeOptions};
-use feedscope::plan::{
-    identifiability_warning, strokes_program, triangle_program, Limits, Move, StrokeTestParams,
-    TestKind, TestProgram, TriangleParams,
-};
-use feedscope::sim::{RampShape, DEFAULT_JERK_MM_S3};
-use feedscope::units::s_to_min;
-use serde::Serialize;
+use feedscope::plan::gcode::{Dialect, FanucMachine};
+use feedscope::sim::RampShape;
+use feedscope_app::plan::{PlanRequest, PlanTest, StrokesTest, TriangleTest};
+use feedscope_app::FrontEnd;
 
 use super::estimate::Format;
-use feedscope_app::AppError;
-
-/// Sampling interval assumed when none is given (ms): an MTConnect agent's polling.
-const DEFAULT_SAMPLE_INTERVAL_MS: f64 = 72.0;
+use crate::front::Cli;
 
 /// Write the NC program (G-code) of a friction test, with its run time and sample counts.
 ///
@@ -94,16 +88,16 @@ pub struct Common {
     #[arg(long, value_enum, default_value_t = MachineArg::Lathe)]
     pub fanuc_machine: MachineArg,
     /// Axis address letter.
-    #[arg(long, default_value_t = 'Z')]
+    #[arg(long, default_value_t = PlanRequest::default().axis_letter)]
     pub axis_letter: char,
     /// FANUC program number (O number, 1-9999).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = PlanRequest::default().program_number)]
     pub program_number: u32,
     /// Feed of the first move to the start position (mm/min) [default: the highest feed].
     #[arg(long)]
     pub approach_feed: Option<f64>,
     /// Acceleration the control uses for the axis (mm/s²), for run time and planning.
-    #[arg(long, default_value_t = 1000.0)]
+    #[arg(long, default_value_t = PlanRequest::default().accel_mm_s2)]
     pub accel_mm_s2: f64,
     /// Shape of the control's speed changes, for the run time (the simulator's default is
     /// jerk-limited too).
@@ -141,10 +135,10 @@ pub struct StrokesArgs {
     #[arg(long, value_delimiter = ',', required = true)]
     pub feeds: Vec<f64>,
     /// Forward + backward pairs per feed.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = StrokesTest::default().repeats)]
     pub repeats: u32,
     /// Dwell after every stroke (s).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = StrokesTest::default().dwell_s)]
     pub dwell_s: f64,
     #[command(flatten)]
     pub common: Common,
@@ -165,231 +159,141 @@ pub struct TriangleArgs {
     #[arg(long)]
     pub feed_min: Option<f64>,
     /// Guess of the Stribeck velocity (mm/min).
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = TriangleTest::default().vs_guess_mm_min)]
     pub vs_guess: f64,
     /// Number of feed levels.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = TriangleTest::default().levels)]
     pub levels: usize,
     /// Full cycles per level.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = TriangleTest::default().cycles)]
     pub cycles: usize,
     /// Wanted constant-feed time per stroke (s).
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = TriangleTest::default().cruise_s)]
     pub cruise_s: f64,
     /// Dwell after every stroke (s).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = TriangleTest::default().dwell_s)]
     pub dwell_s: f64,
     #[command(flatten)]
     pub common: Common,
 }
 
-#[derive(Debug, Serialize)]
-struct Summary {
-    test: TestKind,
-    output: String,
-    dialect: Dialect,
-    start_mm: f64,
-    span_mm: (f64, f64),
-    feeds_mm_min: Vec<f64>,
-    run_time_s: f64,
-    sample_interval_s: f64,
-    samples_per_channel: u64,
-    accel_mm_s2: f64,
-    ramp: RampShape,
-    jerk_mm_s3: Option<f64>,
-    notes: Vec<String>,
-    /// What the user must know before running the test (printed on stderr too).
-    warnings: Vec<String>,
-    moves: Vec<Move>,
-}
-
-fn limits(c: &Common) -> Result<Limits> {
-    let (mut lo, mut hi) = (None, None);
-    if let Some(p) = &c.axis {
-        let a = feedscope_io::axis::load(p)?;
-        lo = a.travel_min_mm;
-        hi = a.travel_max_mm;
-    }
-    Ok(Limits {
-        travel_min_mm: c.travel_min.or(lo),
-        travel_max_mm: c.travel_max.or(hi),
-        feed_max_mm_min: c.feed_limit,
-    })
-}
-
-fn options(c: &Common) -> Result<GcodeOptions> {
-    let interval_s = match c.sample_rate_hz {
-        Some(r) if r.is_finite() && r > 0.0 => 1.0 / r,
-        Some(r) => {
-            return Err(AppError::bad_input(format!("--sample-rate-hz {r}: must be > 0")).into())
-        }
-        None => match c.sample_interval_ms {
-            Some(ms) if ms.is_finite() && ms > 0.0 => ms * 1e-3,
-            Some(ms) => {
-                return Err(
-                    AppError::bad_input(format!("--sample-interval-ms {ms}: must be > 0")).into(),
-                )
-            }
-            None => DEFAULT_SAMPLE_INTERVAL_MS * 1e-3,
-        },
-    };
-    Ok(GcodeOptions {
-        dialect: match c.dialect {
+impl From<DialectArg> for Dialect {
+    fn from(a: DialectArg) -> Self {
+        match a {
             DialectArg::Fanuc => Dialect::Fanuc,
             DialectArg::Siemens => Dialect::Siemens,
-        },
-        fanuc_machine: match c.fanuc_machine {
+        }
+    }
+}
+
+impl From<MachineArg> for FanucMachine {
+    fn from(a: MachineArg) -> Self {
+        match a {
             MachineArg::Lathe => FanucMachine::Lathe,
             MachineArg::Mill => FanucMachine::Mill,
-        },
-        axis_letter: c.axis_letter,
-        program_number: c.program_number,
-        sample_interval_s: interval_s,
-        approach_feed_mm_min: c.approach_feed,
-    })
+        }
+    }
 }
 
-fn bad<E: std::fmt::Display>(e: E) -> anyhow::Error {
-    AppError::bad_input(e.to_string()).into()
+impl From<RampArg> for RampShape {
+    fn from(a: RampArg) -> Self {
+        match a {
+            RampArg::Trapezoid => RampShape::Trapezoid,
+            RampArg::JerkLimited => RampShape::JerkLimited,
+            RampArg::Bell => RampShape::Bell,
+        }
+    }
 }
 
-pub fn run(args: Args) -> Result<()> {
-    let (prog, common): (TestProgram, &Common) = match &args.test {
-        Test::Strokes(s) => {
-            let lim = limits(&s.common)?;
-            let p = StrokeTestParams {
+/// Request fields whose flag is not the field's name with `-` for `_` (the flags name no unit).
+const FLAGS: &[(&str, &str)] = &[
+    ("from_mm", "--from"),
+    ("to_mm", "--to"),
+    ("travel_min_mm", "--travel-min"),
+    ("travel_max_mm", "--travel-max"),
+    ("feed_limit_mm_min", "--feed-limit"),
+    ("feed_max_mm_min", "--feed-max"),
+    ("feed_min_mm_min", "--feed-min"),
+    ("vs_guess_mm_min", "--vs-guess"),
+    ("approach_feed_mm_min", "--approach-feed"),
+];
+
+/// The command line with `plan`'s flags: a value is spelled as clap spells it (`jerk-limited`
+/// for the request's `jerk_limited`).
+struct PlanFlags(Cli);
+
+impl FrontEnd for PlanFlags {
+    fn name(&self, field: &str) -> String {
+        FLAGS
+            .iter()
+            .find(|(f, _)| *f == field)
+            .map_or_else(|| self.0.name(field), |(_, flag)| (*flag).to_string())
+    }
+
+    fn spell(&self, field: &str, value: &str) -> String {
+        format!("{} {}", self.name(field), value.replace('_', "-"))
+    }
+}
+
+/// The request of the command line: the test's flags and the shared ones.
+fn request(args: Args) -> (PlanRequest, Format) {
+    let (test, c) = match args.test {
+        Test::Strokes(s) => (
+            PlanTest::Strokes(StrokesTest {
                 from_mm: s.from,
                 to_mm: s.to,
-                feeds_mm_min: s.feeds.clone(),
+                feeds_mm_min: s.feeds,
                 repeats: s.repeats,
                 dwell_s: s.dwell_s,
-                accel_mm_s2: s.common.accel_mm_s2,
-            };
-            (strokes_program(&p, &lim).map_err(bad)?, &s.common)
-        }
-        Test::Triangle(t) => {
-            let lim = limits(&t.common)?;
-            let from = t.from.or(lim.travel_min_mm).ok_or_else(|| {
-                bad("--from is needed (or travel_min_mm in the axis file / --travel-min)")
-            })?;
-            let to = t.to.or(lim.travel_max_mm).ok_or_else(|| {
-                bad("--to is needed (or travel_max_mm in the axis file / --travel-max)")
-            })?;
-            let feed_max = t
-                .feed_max
-                .or(lim.feed_max_mm_min)
-                .ok_or_else(|| bad("--feed-max or --feed-limit is needed"))?;
-            let p = TriangleParams {
-                window_min_mm: from,
-                window_max_mm: to,
-                feed_max_mm_min: feed_max,
+            }),
+            s.common,
+        ),
+        Test::Triangle(t) => (
+            PlanTest::Triangle(TriangleTest {
+                from_mm: t.from,
+                to_mm: t.to,
+                feed_max_mm_min: t.feed_max,
                 feed_min_mm_min: t.feed_min,
                 vs_guess_mm_min: t.vs_guess,
                 levels: t.levels,
-                cycles_per_level: t.cycles,
-                min_cruise_s: t.cruise_s,
+                cycles: t.cycles,
+                cruise_s: t.cruise_s,
                 dwell_s: t.dwell_s,
-                accel_mm_s2: t.common.accel_mm_s2,
-            };
-            (triangle_program(&p, &lim).map_err(bad)?, &t.common)
-        }
+            }),
+            t.common,
+        ),
     };
-    let ramp = match common.ramp {
-        RampArg::Trapezoid => RampShape::Trapezoid,
-        RampArg::JerkLimited => RampShape::JerkLimited,
-        RampArg::Bell => RampShape::Bell,
+    let request = PlanRequest {
+        test,
+        axis: c.axis,
+        travel_min_mm: c.travel_min,
+        travel_max_mm: c.travel_max,
+        feed_limit_mm_min: c.feed_limit,
+        dialect: c.dialect.into(),
+        fanuc_machine: c.fanuc_machine.into(),
+        axis_letter: c.axis_letter,
+        program_number: c.program_number,
+        approach_feed_mm_min: c.approach_feed,
+        accel_mm_s2: c.accel_mm_s2,
+        ramp: c.ramp.into(),
+        jerk_mm_s3: c.jerk_mm_s3,
+        sample_interval_ms: c.sample_interval_ms,
+        sample_rate_hz: c.sample_rate_hz,
+        output: Some(c.output),
     };
-    if common.jerk_mm_s3.is_some() && ramp != RampShape::JerkLimited {
-        return Err(bad(
-            "--jerk-mm-s3 applies only to --ramp jerk-limited (trapezoid and bell ramps have \
-             no jerk limit)",
-        ));
-    }
-    let prog = prog
-        .with_ramp(ramp, common.jerk_mm_s3)
-        .map_err(|e| bad(format!("--jerk-mm-s3: {e}")))?;
-    let opts = options(common)?;
-    if let Some(f) = common.approach_feed {
-        if !(f.is_finite() && f > 0.0) {
-            return Err(bad(format!("--approach-feed {f}: must be > 0")));
-        }
-        limits(common)?.check_feed(f).map_err(bad)?;
-    }
-    let text = write_gcode(&prog, &opts).map_err(bad)?;
-    let mut warnings = Vec::new();
-    if let Some(w) = identifiability_warning(&prog, opts.sample_interval_s) {
-        let assumed = common.sample_interval_ms.is_none() && common.sample_rate_hz.is_none();
-        warnings.push(if assumed {
-            format!(
-                "{w} (no --sample-interval-ms or --sample-rate-hz was given: \
-                 {DEFAULT_SAMPLE_INTERVAL_MS} ms polling was assumed)"
-            )
-        } else {
-            w
-        });
-    }
-    crate::output::write_atomic(&common.output, text.as_bytes())
-        .with_context(|| format!("writing {}", common.output.display()))?;
-    let summary = Summary {
-        test: prog.kind,
-        output: common.output.display().to_string(),
-        dialect: opts.dialect,
-        start_mm: prog.start_mm,
-        span_mm: prog.span_mm(),
-        feeds_mm_min: prog.feeds_mm_min(),
-        run_time_s: prog.run_time_s(),
-        sample_interval_s: opts.sample_interval_s,
-        samples_per_channel: prog.expected_samples(opts.sample_interval_s),
-        accel_mm_s2: prog.accel_mm_s2,
-        ramp: prog.ramp,
-        jerk_mm_s3: prog.jerk_mm_s3,
-        notes: prog.notes.clone(),
-        warnings,
-        moves: prog.moves.clone(),
-    };
-    for w in &summary.warnings {
+    (request, c.format)
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let (request, format) = request(args);
+    let report = request.run(&PlanFlags(Cli::default()))?.report;
+    for w in &report.warnings {
         eprintln!("warning: {w}");
     }
     let mut w = std::io::stdout().lock();
-    match common.format {
-        Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&summary)?)?,
-        Format::Text => {
-            writeln!(
-                w,
-                "{}: {} moves over {:.3} to {:.3} mm at {} feed(s)",
-                summary.output,
-                summary.moves.len(),
-                summary.span_mm.0,
-                summary.span_mm.1,
-                summary.feeds_mm_min.len()
-            )?;
-            let ramp = match (summary.ramp, summary.jerk_mm_s3) {
-                (RampShape::JerkLimited, j) => {
-                    format!(
-                        "jerk-limited ramps, {:.0} mm/s³",
-                        j.unwrap_or(DEFAULT_JERK_MM_S3)
-                    )
-                }
-                (RampShape::Bell, _) => "bell-shaped ramps".to_string(),
-                _ => "trapezoid ramps".to_string(),
-            };
-            writeln!(
-                w,
-                "expected run time {:.1} s ({:.2} min) at {:.0} mm/s², {ramp}",
-                summary.run_time_s,
-                s_to_min(summary.run_time_s),
-                summary.accel_mm_s2
-            )?;
-            writeln!(
-                w,
-                "expected samples per channel {} at {:.3} ms",
-                summary.samples_per_channel,
-                summary.sample_interval_s * 1e3
-            )?;
-            for n in &summary.notes {
-                writeln!(w, "note: {n}")?;
-            }
-        }
+    match format {
+        Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&report)?)?,
+        Format::Text => write!(w, "{}", report.text())?,
     }
     Ok(())
 }
