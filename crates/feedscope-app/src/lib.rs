@@ -27,6 +27,7 @@
 //! 000 Eq. 9 and paper 001 Eq. 15), [`history`] (a test analysed for the condition history)
 //! and [`trend`] (an axis's indicators over its stored tests,
 //! the position-resolved comparison and the diagnosis).
+//! [`compensation`] makes the controllers' friction-compensation files from a map or a fit.
 //!
 //! The pictures people look at are drawn here too: [`plot`] (SVG line charts and heat maps
 //! with unit-labelled axes) and [`report`] (the condition report of an axis: its page model and
@@ -60,6 +61,7 @@
 //! ```
 
 pub mod analyze;
+pub mod compensation;
 pub mod error;
 pub mod estimate;
 pub mod front;
