@@ -5,7 +5,9 @@
 //! [`AnalyzeRequest`] names the files (a trace, or the friction CSV `estimate` writes);
 //! [`analyze_recording`] takes a trace already held (the Python module's path). Both give an
 //! [`Analyzed`]: the [`AnalyzeReport`], which is `analysis.json`, with the study's strokes and
-//! arrays for plots, `friction.csv` and Python's arrays.
+//! arrays for plots (`crate::plot::analysis_svgs`), `friction.csv` and Python's arrays. The
+//! report's plain-text view is its `Display` and [`AnalyzeReport::remarks`].
+use std::fmt;
 use std::path::PathBuf;
 
 use feedscope::axis::AxisParams;
@@ -436,5 +438,101 @@ impl AnalyzeReport {
             ));
         }
         out
+    }
+}
+
+impl fmt::Display for AnalyzeReport {
+    /// The report's plain-text view shared by the front ends: Table 2 (residual standard
+    /// deviation of single polynomials, N), then per stroke its IAFV intervals (mm), orders
+    /// and linear trend (N/mm) and its significant components over the whole stroke (order
+    /// in cycles per lead, amplitude in N, cause), and the data verdict's headline.
+    fn fmt(&self, o: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            o,
+            "Residual standard deviation of single polynomials (N), paper 000 Table 2:"
+        )?;
+        writeln!(o, "{:>6}  {:>10}  {:>10}", "order", "forward", "backward")?;
+        for r in &self.order_scan_table.rows {
+            let f = |v: Option<f64>| v.map(|x| format!("{x:.2}")).unwrap_or("-".into());
+            writeln!(
+                o,
+                "{:>6}  {:>10}  {:>10}",
+                r.order,
+                f(r.forward_std_n),
+                f(r.backward_std_n)
+            )?;
+        }
+        for s in &self.strokes {
+            let p = &s.iafv.poly;
+            writeln!(
+                o,
+                "\nstroke {} ({}, {:.0} mm/min): IAFV intervals {} with orders {:?}; linear trend \
+                 {:+.3} N/mm",
+                s.stroke,
+                s.direction.as_str(),
+                s.feed_mm_min,
+                p.breaks_mm
+                    .windows(2)
+                    .map(|w| format!("{:.0}-{:.0}", w[0], w[1]))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                p.orders,
+                s.iafv.linear.slope_n_per_mm
+            )?;
+            writeln!(o, "  significant components over the whole stroke:")?;
+            writeln!(o, "  {:>8}  {:>12}  cause", "order", "amplitude (N)")?;
+            for c in s
+                .fluctuation
+                .components
+                .iter()
+                .filter(|c| c.segment.is_whole())
+            {
+                writeln!(
+                    o,
+                    "  {:>8.3}  {:>12.2}  {}{}",
+                    c.order,
+                    c.amplitude_n,
+                    c.cause,
+                    if c.trusted {
+                        ""
+                    } else {
+                        " (beyond the aliasing limit)"
+                    }
+                )?;
+            }
+        }
+        if let Some(v) = &self.verdict {
+            writeln!(o)?;
+            writeln!(o, "{}", v.headline())?;
+        }
+        Ok(())
+    }
+}
+
+impl AnalyzeReport {
+    /// The remarks beside the text view (the CLI's stderr), one line each: every stroke's
+    /// fluctuation warnings (`warning: stroke 2: ...`), then the strokes withheld because
+    /// their data support no profile, with the reasons (`verdict: stroke 3 ...`).
+    pub fn remarks(&self) -> Vec<String> {
+        let mut lines = Vec::new();
+        for s in &self.strokes {
+            for w in &s.fluctuation.warnings {
+                lines.push(format!("warning: stroke {}: {w}", s.stroke));
+            }
+        }
+        for w in &self.withheld {
+            lines.push(format!(
+                "verdict: stroke {} ({}) withheld, its data support {} only: {}",
+                w.stroke,
+                w.direction.as_str(),
+                w.support.as_str(),
+                w.reasons
+                    .iter()
+                    .map(|r| r.message.as_str())
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ));
+        }
+        lines
     }
 }

@@ -6,7 +6,8 @@
 //! (strokes estimated while the file is read, in memory for the longest stroke, whenever the
 //! result is provably the whole-trace one); [`estimate_recording`] estimates a trace held in
 //! memory and keeps every stroke's arrays (the Python module's path). Both report an
-//! [`EstimateReport`], the JSON summary written beside the friction CSV.
+//! [`EstimateReport`], the JSON summary written beside the friction CSV; its plain-text view
+//! (`Display` and [`EstimateReport::remarks`]) is in the child module `text`.
 use std::path::{Path, PathBuf};
 
 use feedscope::axis::AxisParams;
@@ -31,6 +32,11 @@ use serde::{Deserialize, Serialize};
 use crate::output::{io_error, AtomicFile};
 use crate::recording::{read_recording, Effort};
 use crate::{AppError, FrontEnd, Recording};
+
+mod text;
+pub use text::{
+    number_list, stroke_warnings, verdict_reasons, PROFILE_WARNINGS, WARNING_REPEATS_SHOWN,
+};
 
 impl From<EstimateError> for AppError {
     fn from(e: EstimateError) -> Self {

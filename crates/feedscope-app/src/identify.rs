@@ -4,8 +4,10 @@
 //!
 //! [`IdentifyRequest`] names the files; [`identify_recordings`] takes traces already held
 //! (the Python module's path). Both give an [`Identified`]: the [`IdentifyReport`], which is
-//! `ident.json`, and the kernel-averaged series of the fit for plots and arrays.
+//! `ident.json`, and the kernel-averaged series of the fit for plots and arrays. The report's
+//! `Display` is its plain-text view.
 use feedscope::diag::{Code, Diagnostic};
+use std::fmt;
 use std::path::PathBuf;
 
 use feedscope::axis::AxisParams;
@@ -359,4 +361,96 @@ pub struct Difference {
     pub vs: f64,
     /// Of σ.
     pub sigma: f64,
+}
+
+impl fmt::Display for IdentifyReport {
+    /// The report's plain-text view shared by the front ends: the fit's diagnostics, the
+    /// motor-side parameters with their standard errors (beside the groups' with a
+    /// comparison), the force side, the inertia the axis file predicts, the differences to
+    /// the groups in percent and every warning.
+    fn fmt(&self, w: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = &self.set.motor;
+        let s = &self.set.std_error;
+        let f = &self.set.force;
+        writeln!(w, "one-test identification (paper 002) of {}", self.source)?;
+        writeln!(
+            w,
+            "  samples {} used of {}, residual RMS {:.4} N·m, condition {:.1}, {} evaluations",
+            self.set.diagnostics.samples_used,
+            self.samples_total,
+            self.set.diagnostics.residual_rms_nm,
+            self.set.diagnostics.condition_number,
+            self.set.diagnostics.iterations
+        )?;
+        let rows: [(&str, f64, f64, &str); 6] = [
+            ("J total", m.j_total_kgm2, s.j_total_kgm2, "kg·m²"),
+            ("Tc", m.tc_nm, s.tc_nm, "N·m"),
+            ("Ts", m.ts_nm, s.ts_nm, "N·m"),
+            ("vs", m.vs_mm_min, s.vs_mm_min, "mm/min"),
+            ("sigma", m.sigma_nm_s_per_m, s.sigma_nm_s_per_m, "N·m·s/m"),
+            ("T0", m.offset_nm, s.offset_nm, "N·m"),
+        ];
+        let cmp = self.compare.as_ref();
+        match cmp {
+            Some(_) => writeln!(
+                w,
+                "  {:<8} {:>14} {:>12} {:>14} {:>12}  unit",
+                "", "one test", "± 1σ", "groups", "± 1σ"
+            )?,
+            None => writeln!(w, "  {:<8} {:>14} {:>12}  unit", "", "value", "± 1σ")?,
+        }
+        for (k, (name, v, e, unit)) in rows.iter().enumerate() {
+            match cmp {
+                // The groups' fit has no inertia: J is the one test's alone.
+                Some(_) if k == 0 => writeln!(
+                    w,
+                    "  {name:<8} {v:>14.6} {e:>12.6} {:>14} {:>12}  {unit}",
+                    "-", "-"
+                )?,
+                Some(c) => {
+                    let cm = &c.set.motor;
+                    let cs = &c.set.std_error;
+                    let (gv, ge) = [
+                        (cm.j_total_kgm2, cs.j_total_kgm2),
+                        (cm.tc_nm, cs.tc_nm),
+                        (cm.ts_nm, cs.ts_nm),
+                        (cm.vs_mm_min, cs.vs_mm_min),
+                        (cm.sigma_nm_s_per_m, cs.sigma_nm_s_per_m),
+                        (cm.offset_nm, cs.offset_nm),
+                    ][k];
+                    writeln!(
+                        w,
+                        "  {name:<8} {v:>14.6} {e:>12.6} {gv:>14.6} {ge:>12.6}  {unit}"
+                    )?;
+                }
+                None => writeln!(w, "  {name:<8} {v:>14.6} {e:>12.6}  {unit}")?,
+            }
+        }
+        writeln!(
+            w,
+            "  force side (F = 2π·T/p): Fc {:.2} N, Fs {:.2} N, sigma {:.1} N·s/m, \
+             equivalent mass {:.1} kg",
+            f.fc_n, f.fs_n, f.sigma_n_s_per_m, f.equivalent_mass_kg
+        )?;
+        match self.axis_j_total_kgm2 {
+            Some(j) => writeln!(w, "  the axis file predicts J total {j:.6} kg·m²")?,
+            None => writeln!(w, "  the axis file gives no inertia: J is the test's alone")?,
+        }
+        if let Some(c) = cmp {
+            let d = &c.difference_percent;
+            writeln!(
+                w,
+                "  one test vs {} groups: Tc {:+.1} %, Ts {:+.1} %, vs {:+.1} %, sigma {:+.1} %",
+                c.groups.len(),
+                d.tc,
+                d.ts,
+                d.vs,
+                d.sigma
+            )?;
+        }
+        for warn in &self.warnings {
+            writeln!(w, "  warning: {warn}")?;
+        }
+        Ok(())
+    }
 }

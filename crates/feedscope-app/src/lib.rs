@@ -30,6 +30,7 @@
 //! [`dynamics`]: a feed drive's natural frequencies and resonance risks (paper 001).
 //! [`plan`]: the NC programs of the friction tests, with run time and sample counts.
 //! [`simulate`]: the twin's trace of a drive whose friction is known, with the truth.
+//! [`compensation`] makes the controllers' friction-compensation files from a map or a fit.
 //!
 //! The pictures people look at are drawn here too: [`plot`] (SVG line charts and heat maps
 //! with unit-labelled axes) and [`report`] (the condition report of an axis: its page model and
@@ -63,6 +64,7 @@
 //! ```
 
 pub mod analyze;
+pub mod compensation;
 pub mod dynamics;
 pub mod error;
 pub mod estimate;

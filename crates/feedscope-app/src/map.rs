@@ -6,7 +6,10 @@
 //! [`MapRequest`] names the index and axis files; [`map_set`] takes a parsed index and axis
 //! (the Python module's path). Both give a [`Mapped`]: `map.json` ([`MapReport`]),
 //! `stribeck.json` ([`MapStribeckReport`]), the CSV tables ([`Mapped::files`]) and the curves a
-//! controller export tabulates ([`Mapped::export_at`]).
+//! controller export tabulates ([`Mapped::export_at`]); the request also makes the controller
+//! files it asks for ([`Mapped::exports`], [`crate::compensation`]). The pictures are
+//! `crate::plot::map_svgs`; the plain-text view is the `Display` of [`Mapped`] and
+//! [`Mapped::remarks`] (the child module `text`).
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -22,12 +25,16 @@ use feedscope::stribeck::{FrictionModel, ParamEstimate, M_S_PER_MM_MIN};
 use feedscope::study::{map_study, MapStudy, MapStudyParams, StudyError};
 use feedscope::ErrorKind;
 use feedscope_io::compensation::CompensationTable;
+use feedscope_io::controller_compensation::ExportSource;
 use feedscope_io::test_set::{estimate_set, read_index};
 use feedscope_io::trace::ReadOptions;
 use serde::{Deserialize, Serialize};
 
+use crate::compensation::{export_files, ExportCurves, ExportFile, ExportOptions, ExportPlan};
 use crate::{AppError, FrontEnd};
 use feedscope::diag::Diagnostic;
+
+mod text;
 
 /// Map a test set given as files.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -40,6 +47,14 @@ pub struct MapRequest {
     /// Settings of the map.
     #[serde(flatten)]
     pub options: MapOptions,
+    /// Controller files to make from the friction at `export_position_mm`.
+    #[serde(flatten)]
+    pub export: ExportOptions,
+    /// Position (mm) whose friction the exports tabulate; default: the middle of the span
+    /// both directions share. Only with an export.
+    pub export_position_mm: Option<f64>,
+    /// Curve the exported tables follow at that position. Only with an export.
+    pub export_curve: ExportCurve,
 }
 
 /// Settings of the map, as a user gives them; [`MapOptions::study_params`] turns them into
@@ -199,8 +214,34 @@ impl MapRequest {
     /// Check the request without reading anything.
     ///
     /// # Errors
-    /// [`AppError::invalid`] naming the field: an empty path, a setting out of range.
+    /// [`AppError::invalid`] naming the field: the export's settings
+    /// ([`ExportOptions::validate`]), an export position or curve without an export, an empty
+    /// path, a setting out of range.
     pub fn validate(&self, front: &dyn FrontEnd) -> Result<(), AppError> {
+        self.checked(front).map(|_| ())
+    }
+
+    /// [`MapRequest::validate`], giving the export's plan.
+    fn checked(&self, front: &dyn FrontEnd) -> Result<Option<ExportPlan>, AppError> {
+        let plan = self.export.validate(front)?;
+        if plan.is_none() {
+            let only = |field: &'static str| {
+                AppError::invalid(
+                    field,
+                    format!(
+                        "{} is used only with {}",
+                        front.name(field),
+                        front.name("export")
+                    ),
+                )
+            };
+            if self.export_position_mm.is_some() {
+                return Err(only("export_position_mm"));
+            }
+            if self.export_curve != ExportCurve::default() {
+                return Err(only("export_curve"));
+            }
+        }
         for (field, p) in [("index", &self.index), ("axis", &self.axis)] {
             if p.as_os_str().is_empty() {
                 return Err(AppError::invalid(
@@ -209,16 +250,18 @@ impl MapRequest {
                 ));
             }
         }
-        self.options.study_params(front).map(|_| ())
+        self.options.study_params(front)?;
+        Ok(plan)
     }
 
-    /// Read the axis and the index, estimate every run and map.
+    /// Read the axis and the index, estimate every run, map, and make the controller files
+    /// asked for.
     ///
     /// # Errors
-    /// As [`MapRequest::validate`] and [`map_set`]; the readers' errors naming the file and
-    /// line.
+    /// As [`MapRequest::validate`], [`map_set`], [`Mapped::export_at`] and [`export_files`];
+    /// the readers' errors naming the file and line.
     pub fn run(&self, front: &dyn FrontEnd) -> Result<Mapped, AppError> {
-        self.validate(front)?;
+        let plan = self.checked(front)?;
         let axis = feedscope_io::axis::load(&self.axis).map_err(AppError::from_error)?;
         // A position outside the declared travel is wrong whatever the data say: refused
         // before the index is read.
@@ -229,7 +272,25 @@ impl MapRequest {
             front,
         )?;
         let set = read_index(&self.index).map_err(AppError::from_error)?;
-        map_set(&set, &axis, &self.options, front)
+        let mut mapped = map_set(&set, &axis, &self.options, front)?;
+        if let Some(plan) = &plan {
+            let at = mapped.export_at(self.export_position_mm, self.export_curve, front)?;
+            mapped.exports = export_files(
+                plan,
+                &ExportCurves {
+                    table: &at.table,
+                    stribeck: &at.stribeck,
+                },
+                &mapped.axis,
+                at.drive,
+                &ExportSource {
+                    source: &at.source,
+                    axis_name: mapped.axis.name.as_deref(),
+                },
+                front,
+            )?;
+        }
+        Ok(mapped)
     }
 }
 
@@ -329,6 +390,7 @@ pub fn map_set(
         estimate,
         params,
         axis: axis.clone(),
+        exports: Vec::new(),
     })
 }
 
@@ -347,6 +409,9 @@ pub struct Mapped {
     pub params: MapStudyParams,
     /// The axis mapped.
     pub axis: AxisParams,
+    /// The controller files the request asked for, not yet written (empty from
+    /// [`map_set`]).
+    pub exports: Vec<ExportFile>,
 }
 
 /// The curve a controller export tabulates at its position.

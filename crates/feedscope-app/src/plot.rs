@@ -1,4 +1,9 @@
-//! SVG plots for people: line charts and heat maps with unit-labelled axes.
+//! SVG plots for people: line charts and heat maps with unit-labelled axes, and the pictures
+//! of each use case drawn with them, so that every front end shows the same ones: an
+//! estimation's friction along the travel ([`estimate_svg`]), an analysis's IAFV, spectra and
+//! components ([`analysis_svgs`]), the torque fit of an identification
+//! ([`identification_svg`]), a table's Stribeck fit ([`stribeck_svg`]) and a map's sections,
+//! heat maps and mean curves ([`map_svgs`]).
 //!
 //! plotters is built without system fonts (the `ab_glyph` feature), so the bundled DejaVu Sans
 //! is registered once before the first chart.
@@ -6,8 +11,19 @@ use std::path::Path;
 use std::sync::Once;
 
 use crate::error::AppError;
-use crate::estimate::FrictionPlot;
+use crate::estimate::{Estimated, FrictionPlot};
+use feedscope::verdict::FrictionSign;
 use plotters::prelude::*;
+
+mod analysis;
+mod identification;
+mod map;
+mod stribeck;
+
+pub use analysis::analysis_svgs;
+pub use identification::identification_svg;
+pub use map::map_svgs;
+pub use stribeck::stribeck_svg;
 
 type Result<T, E = AppError> = std::result::Result<T, E>;
 
@@ -592,6 +608,32 @@ pub fn friction_svg(
         })
         .collect();
     stacked_svg(&charts)
+}
+
+/// The picture of an estimation: friction along the travel of every stroke
+/// ([`friction_svg`]), titled with the axis's name and what the data support, and when the
+/// effort is a magnitude, that the sign comes from the direction of motion.
+///
+/// # Errors
+/// As [`friction_svg`].
+pub fn estimate_svg(estimated: &Estimated) -> Result<String> {
+    let report = &estimated.report;
+    let name = report.axis.name.as_deref().unwrap_or("axis");
+    let v = &report.verdict;
+    friction_svg(
+        &estimated.plot,
+        &format!(
+            "Friction along the travel ({name}); data support: {}{}",
+            v.support.as_str(),
+            if v.friction_sign == FrictionSign::FromDirection {
+                "; sign from direction"
+            } else {
+                ""
+            }
+        ),
+        vec![],
+        vec![],
+    )
 }
 
 #[cfg(test)]

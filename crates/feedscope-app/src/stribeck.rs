@@ -3,22 +3,28 @@
 //!
 //! [`FitStribeckRequest`] names the files; [`fit_table`] takes a table already parsed (the
 //! Python module's arrays). Both give a [`StribeckFits`]: the [`StribeckReport`], which is
-//! `stribeck.json`, and the fits themselves for exports.
+//! `stribeck.json`, and the fits themselves; the request also makes the controller files it
+//! asks for ([`crate::compensation`]). The report's plain-text view is its `Display` (the
+//! table of parameters) and [`StribeckReport::remarks`] (models, refusals, warnings).
+use std::fmt;
 use std::path::PathBuf;
 
 use feedscope::axis::AxisParams;
-use feedscope::diag::Diagnostic;
+use feedscope::compensation::{DriveConversion, FrictionCurve};
+use feedscope::diag::{Code, Diagnostic};
 use feedscope::estimate::Direction;
 use feedscope::stribeck::{
     detect_nonconventional, DeltaMode, NonConventional, NonConventionalParams, ParamEstimate,
     StribeckFit, StribeckFitParams, StribeckFitter, StribeckParams, Termination, M_S_PER_MM_MIN,
 };
 use feedscope::ErrorKind;
+use feedscope_io::controller_compensation::ExportSource;
 use feedscope_io::stribeck_table::{
     self, EffortColumn, SpeedPoints, SteadySpeedTable, TableOptions,
 };
 use serde::{Deserialize, Serialize};
 
+use crate::compensation::{export_files, ExportCurves, ExportFile, ExportOptions};
 use crate::{AppError, FrontEnd};
 
 /// Fit a steady-speed table file.
@@ -32,6 +38,10 @@ pub struct FitStribeckRequest {
     /// Settings of the fit.
     #[serde(flatten)]
     pub options: FitStribeckOptions,
+    /// Controller files to make from the fitted curves (they need `axis`: its lead and
+    /// torque constant, and for sinumerik its masses).
+    #[serde(flatten)]
+    pub export: ExportOptions,
 }
 
 /// Settings of the fit.
@@ -123,12 +133,28 @@ impl FitStribeckOptions {
 }
 
 impl FitStribeckRequest {
-    /// Read the axis (when given) and the table, and fit.
+    /// Read the axis (when given) and the table, fit, and make the controller files asked
+    /// for.
     ///
     /// # Errors
-    /// As [`FitStribeckOptions::validate`] and [`fit_table`]; the readers' errors naming the
-    /// file and line; a lead that disagrees with the axis file's.
+    /// As [`ExportOptions::validate`] (first, before anything is read),
+    /// [`FitStribeckOptions::validate`] and [`fit_table`]; an export without `axis`; the
+    /// readers' errors naming the file and line; a lead that disagrees with the axis file's;
+    /// a curve or an axis an export cannot use ([`export_files`]).
     pub fn run(&self, front: &dyn FrontEnd) -> Result<StribeckFits, AppError> {
+        let export = self.export.validate(front)?;
+        if export.is_some() && self.axis.is_none() {
+            return Err(AppError::invalid(
+                "axis",
+                format!(
+                    "{} needs {}: its lead_mm and torque_constant_nm_per_a turn friction into \
+                     motor torque and current (and table_mass_kg, inertia_kgm2 set the \
+                     SINUMERIK amplitude)",
+                    front.name("export"),
+                    front.spell("axis", "AXIS.toml")
+                ),
+            ));
+        }
         if self.table.as_os_str().is_empty() {
             return Err(AppError::invalid("table", "`table` names no file"));
         }
@@ -152,6 +178,37 @@ impl FitStribeckRequest {
             front,
         )?;
         fits.axis = axis;
+        if let (Some(plan), Some(axis)) = (&export, &fits.axis) {
+            let name = &fits.report.source;
+            let export = front.name("export");
+            let curves = fits
+                .fits
+                .iter()
+                .map(|(dir, fit)| FrictionCurve::from_stribeck(*dir, fit))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| AppError::within(format!("{name}: {export}"), e))?;
+            let drive = DriveConversion::from_axis(axis, self.options.efficiency).map_err(|e| {
+                AppError::within(
+                    format!("{export}: the axis file and {}", front.name("efficiency")),
+                    e,
+                )
+            })?;
+            let source = format!("feedscope fit-stribeck {name}");
+            fits.exports = export_files(
+                plan,
+                &ExportCurves {
+                    table: &curves,
+                    stribeck: &curves,
+                },
+                axis,
+                drive,
+                &ExportSource {
+                    source: &source,
+                    axis_name: axis.name.as_deref(),
+                },
+                front,
+            )?;
+        }
         Ok(fits)
     }
 }
@@ -165,6 +222,9 @@ pub struct StribeckFits {
     pub fits: Vec<(Direction, StribeckFit)>,
     /// The axis the request's file gave, if any.
     pub axis: Option<AxisParams>,
+    /// The controller files the request asked for, not yet written (empty from
+    /// [`fit_table`]).
+    pub exports: Vec<ExportFile>,
 }
 
 /// Fit each direction of a parsed table; `source` names it in messages and the report.
@@ -242,6 +302,7 @@ pub fn fit_table(
         report,
         fits,
         axis: None,
+        exports: Vec::new(),
     })
 }
 
@@ -468,5 +529,112 @@ impl DirectionFit {
             curve: *p,
             model_name: fit.model.to_string(),
         }
+    }
+}
+
+// ---------- the plain-text view ----------
+
+/// `value ± SE`; a standard error of 1e6 or more in scientific notation so that the table
+/// keeps its shape; `-` for a parameter the reported model does not have.
+fn pm(e: Option<&Estimate>, value: Option<f64>, prec: usize) -> String {
+    let Some(value) = value else {
+        return "-".to_string();
+    };
+    match e {
+        Some(e) if e.std_error.abs() >= 1e6 => format!("{value:.prec$} ± {:.1e}", e.std_error),
+        Some(e) => format!("{value:.prec$} ± {:.prec$}", e.std_error),
+        None => format!("{value:.prec$}"),
+    }
+}
+
+impl fmt::Display for StribeckReport {
+    /// The report's plain-text view shared by the front ends: per direction the points and
+    /// the parameters with their standard errors (Fc, Fs in N, vs in mm/min, σ in N·s/m, δ,
+    /// the residual RMS in N), then every non-conventional fall.
+    fn fmt(&self, o: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            o,
+            "{:<9} {:>6}  {:>18}  {:>18}  {:>18}  {:>22}  {:>13}  {:>8}",
+            "direction",
+            "points",
+            "Fc (N)",
+            "Fs (N)",
+            "vs (mm/min)",
+            "sigma (N·s/m)",
+            "delta",
+            "rms (N)"
+        )?;
+        for d in &self.directions {
+            let u = d.uncertainty.as_ref();
+            writeln!(
+                o,
+                "{:<9} {:>6}  {:>18}  {:>18}  {:>18}  {:>22}  {:>13}  {:>8.3}",
+                d.direction,
+                d.points,
+                pm(u.map(|u| &u.fc_n), Some(d.params.fc_n), 2),
+                pm(u.and_then(|u| u.fs_n.as_ref()), d.params.fs_n, 2),
+                pm(u.and_then(|u| u.vs_mm_min.as_ref()), d.params.vs_mm_min, 2),
+                pm(
+                    u.and_then(|u| u.sigma_n_s_per_m.as_ref()),
+                    d.params.sigma_n_s_per_m,
+                    1
+                ),
+                pm(u.and_then(|u| u.delta.as_ref()), d.params.delta, 3),
+                d.residual_rms_n
+            )?;
+        }
+        for d in &self.directions {
+            for r in &d.nonconventional.ranges {
+                writeln!(
+                    o,
+                    "{}: non-conventional: friction falls by {:.2} N from {:.1} to {:.1} mm/min \
+                     (fit predicts {:+.2} N)",
+                    d.direction, r.drop_n, r.from_mm_min, r.to_mm_min, r.fit_change_n
+                )?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl StribeckReport {
+    /// The remarks beside the text view (the CLI's stderr), one line each: per direction its
+    /// model, the richer models refused with their reasons and what to measure
+    /// ([`advice`]), and every warning (`warning: forward: ...`).
+    pub fn remarks(&self, front: &dyn FrontEnd) -> Vec<String> {
+        let free = (self.delta == "free").then(|| front.spell("delta", "free"));
+        let mut lines = Vec::new();
+        for d in &self.directions {
+            lines.push(format!("{}: model {}", d.direction, d.model_name));
+            for r in &d.reductions {
+                lines.push(format!("  {}", r.message));
+            }
+            if let Some(r) = d.reductions.last() {
+                lines.push(format!("  {}", advice(r.code, free.as_deref())));
+            }
+            for w in &d.warnings {
+                lines.push(format!("warning: {}: {}", d.direction, w.message));
+            }
+        }
+        lines
+    }
+}
+
+/// What to measure when a Stribeck curve was refused for `code` (the last reduction's);
+/// `delta_free` is how the user asked for a free δ (`--delta free`), when they did: that
+/// needs one distinct feed more.
+pub fn advice(code: Code, delta_free: Option<&str>) -> String {
+    match (code, delta_free) {
+        (Code::TooFewFeeds, Some(free)) => format!(
+            "for a Stribeck curve, measure at least 4 distinct feeds per direction (5 with \
+             {free}), several of them below the expected Stribeck velocity"
+        ),
+        (Code::TooFewFeeds, None) => "for a Stribeck curve, measure at least 4 distinct feeds \
+                                      per direction, several of them below the expected \
+                                      Stribeck velocity"
+            .to_string(),
+        _ => "for a Stribeck curve, add feeds below and around the expected Stribeck velocity so \
+              that the hump is measured"
+            .to_string(),
     }
 }

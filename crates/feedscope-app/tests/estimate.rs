@@ -4,11 +4,14 @@
 //! field.
 use std::path::Path;
 
-use feedscope::estimate::{MoveKind, PositionSmoothing};
+use feedscope::diag::{Code, Diagnostic};
+use feedscope::estimate::{MoveKind, PositionSmoothing, StrokeSummary};
 use feedscope::sim::{simulate, FrictionParams, MeanLevel, SamplingMode, SimConfig, SimOutput};
+use feedscope::verdict::{StrokeVerdict, Support};
 use feedscope::ErrorKind;
 use feedscope_app::estimate::{
-    estimate_recording, parse_cutoff, EstimateOptions, EstimateRequest, ReadMode,
+    estimate_recording, number_list, parse_cutoff, stroke_warnings, verdict_reasons,
+    EstimateOptions, EstimateRequest, ReadMode,
 };
 use feedscope_app::{FrontEnd, Quiet, Recording};
 use feedscope_io::trace::{write_csv, Layout};
@@ -285,4 +288,88 @@ fn a_stream_that_cannot_be_vouched_for_is_refused_naming_the_read() {
             .ends_with("no block moves axis X (use <program_axis>)"),
         "{e}"
     );
+}
+
+/// The text view's warning lines: a warning on a few strokes is one line per stroke, one
+/// repeated on more strokes is one line that lists them, and a profile warning on strokes
+/// whose profile is withheld anyway comes last, gathered; the verdict reasons are counted
+/// by code. The report's remarks carry them with their kind.
+#[test]
+fn stroke_warnings_are_gathered_for_people() {
+    let (cfg, out) = twin();
+    let held = Recording::in_memory(out.trace, "twin");
+    let mut report = estimate_recording(&held, &cfg.axis, &EstimateOptions::default(), &Quiet)
+        .unwrap()
+        .report;
+    let template = report.strokes[0].clone();
+    let stroke = |n: usize, support: Support, warnings: &[(Code, &str)]| StrokeSummary {
+        stroke: n,
+        verdict: Some(StrokeVerdict {
+            support,
+            reasons: if support == Support::MeanLevel {
+                vec![Diagnostic::new(Code::StrokeTooShort, format!("short {n}"))]
+            } else {
+                vec![]
+            },
+        }),
+        warnings: warnings
+            .iter()
+            .map(|&(c, m)| Diagnostic::new(c, m))
+            .collect(),
+        ..template.clone()
+    };
+    let repeated = (Code::FeedVariesAlongStroke, "feed varies");
+    let profile = (Code::NoiseFloorHigh, "noisy");
+    let strokes = vec![
+        stroke(0, Support::Causes, &[repeated, profile]),
+        stroke(1, Support::Causes, &[repeated]),
+        stroke(2, Support::MeanLevel, &[repeated, profile]),
+        stroke(3, Support::MeanLevel, &[repeated, profile]),
+        stroke(5, Support::Causes, &[repeated]),
+        stroke(6, Support::Causes, &[(Code::RapidsInferred, "one alone")]),
+    ];
+    let lines = stroke_warnings(&strokes);
+    assert_eq!(
+        lines,
+        [
+            // A profile warning where the profile is reported: said for its stroke.
+            "stroke 0: noisy".to_string(),
+            "stroke 6: one alone".to_string(),
+            // On 5 strokes, more than 3: one line.
+            "5 stroke(s) (0-3, 5): feed-varies-along-stroke; e.g. stroke 0: feed varies (each \
+             in the JSON summary)"
+                .to_string(),
+            // Moot where only the mean level is reported: gathered, last.
+            "2 stroke(s) (2-3), whose profile is withheld anyway (mean level only): \
+             noise-floor-high; e.g. stroke 2: noisy (each in the JSON summary)"
+                .to_string(),
+        ]
+    );
+    assert_eq!(number_list(&[0, 1, 2, 4, 6, 7]), "0-2, 4, 6-7");
+    let reasons = verdict_reasons(&strokes);
+    assert_eq!(
+        reasons.get(&Code::StrokeTooShort),
+        Some(&(2, "stroke 2: short 2".to_string()))
+    );
+    assert_eq!(reasons.len(), 1);
+
+    // The remarks: each line with its kind; the text view names every stroke.
+    report.strokes = strokes;
+    report.notes.clear();
+    report.verdict.reasons.clear();
+    report.skipped.clear();
+    report.ignored_rows = 0;
+    let remarks = report.remarks();
+    assert_eq!(
+        remarks[0],
+        "verdict: 2 stroke(s) limited by stroke-too-short; e.g. stroke 2: short 2"
+    );
+    assert_eq!(remarks.len(), 1 + lines.len());
+    assert!(remarks[1..]
+        .iter()
+        .zip(&lines)
+        .all(|(r, l)| *r == format!("warning: {l}")));
+    let text = report.to_string();
+    assert_eq!(text.lines().filter(|l| l.contains("mean-level")).count(), 2);
+    assert!(text.contains(&report.verdict.headline()), "{text}");
 }

@@ -141,6 +141,7 @@ fn index_and_memory_give_one_map_with_the_twins_stribeck_friction() {
             positions_mm: Some(vec![AT_MM]),
             ..MapOptions::default()
         },
+        ..MapRequest::default()
     };
     let listener = Listener::default();
     let from_files = request.run(&listener).unwrap();

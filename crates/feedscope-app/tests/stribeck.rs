@@ -107,3 +107,73 @@ fn settings_are_named_as_the_front_end_spells_them() {
     assert_eq!(r.options.delta, DeltaMode::Free);
     assert!(serde_json::from_str::<FitStribeckRequest>(r#"{"table": "t.csv", "eta": 1}"#).is_err());
 }
+
+/// The plain-text view: a row per direction under the header, and beside it the model, the
+/// models refused with what to measure (δ free needing one feed more, spelled as the front
+/// end spells it) and the warnings.
+#[test]
+fn the_text_view_and_its_remarks_say_the_model_and_what_to_measure() {
+    let d = tempfile::tempdir().unwrap();
+    let path = d.path().join("steady.csv");
+    std::fs::write(&path, table()).unwrap();
+    let known = FitStribeckRequest {
+        table: path.clone(),
+        ..FitStribeckRequest::default()
+    }
+    .run(&Quiet)
+    .unwrap()
+    .report;
+    let text = known.to_string();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 3, "{text}");
+    assert!(lines[0].starts_with("direction points") && lines[0].ends_with("rms (N)"));
+    assert!(lines[1].starts_with("forward"), "{text}");
+    assert!(lines[2].starts_with("backward"), "{text}");
+    let remarks = known.remarks(&Quiet);
+    assert!(remarks[0].starts_with("forward: model "), "{remarks:?}");
+    assert!(remarks.iter().all(|r| !r.contains("for a Stribeck curve")));
+
+    // Three feeds: too few for a Stribeck curve (4, or 5 with δ free).
+    std::fs::write(
+        &path,
+        "feed_mm_min,force_n\n50,300\n200,310\n800,330\n-50,-300\n-200,-310\n-800,-330\n",
+    )
+    .unwrap();
+    struct Spell;
+    impl FrontEnd for Spell {
+        fn spell(&self, field: &str, value: &str) -> String {
+            format!("<{field}={value}>")
+        }
+    }
+    for (delta, advice) in [
+        (
+            DeltaMode::Free,
+            "  for a Stribeck curve, measure at least 4 distinct feeds per direction (5 with \
+             <delta=free>), several of them below the expected Stribeck velocity",
+        ),
+        (
+            DeltaMode::Fixed(2.0),
+            "  for a Stribeck curve, measure at least 4 distinct feeds per direction, several \
+             of them below the expected Stribeck velocity",
+        ),
+    ] {
+        let report = FitStribeckRequest {
+            table: path.clone(),
+            options: FitStribeckOptions {
+                delta,
+                ..FitStribeckOptions::default()
+            },
+            ..FitStribeckRequest::default()
+        }
+        .run(&Spell)
+        .unwrap()
+        .report;
+        assert_eq!(report.directions[0].model, "coulomb-viscous");
+        let remarks = report.remarks(&Spell);
+        assert_eq!(
+            remarks[0],
+            "forward: model Coulomb + viscous (F = Fc + sigma*v)"
+        );
+        assert!(remarks.iter().any(|r| r == advice), "{remarks:#?}");
+    }
+}

@@ -1,22 +1,16 @@
 //! `feedscope estimate`: friction along the travel from a trace file.
-use crate::output::outln;
-use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::ValueEnum;
-use feedscope::diag::Code;
-use feedscope::estimate::{
-    EffortSign, Move, MoveKind, PositionSmoothing, StrokeSummary, TimeOfPosition,
-};
+use feedscope::estimate::{EffortSign, PositionSmoothing, TimeOfPosition};
 use feedscope::spline::EndCondition;
-use feedscope::verdict::FrictionSign;
 use feedscope_app::estimate::{
     parse_cutoff, EstimateOptions, EstimateReport, EstimateRequest, Estimated, ReadMode,
 };
-use feedscope_io::friction_csv;
 
 use crate::front::Cli;
+use crate::output::{out, outln};
 use feedscope_app::plot;
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -225,29 +219,11 @@ pub fn run(args: Args) -> Result<()> {
             .unwrap_or_else(|| args.output.with_extension("svg"))
     });
     let estimated = request(&args).run(&Cli::default())?;
-    let report = &estimated.report;
-    let json = serde_json::to_string_pretty(report)?;
+    let json = serde_json::to_string_pretty(&estimated.report)?;
     // Everything is rendered before anything is put in place, so an error leaves earlier
     // outputs untouched.
     let svg = match &plot_path {
-        Some(_) => {
-            let name = report.axis.name.as_deref().unwrap_or("axis");
-            let v = &report.verdict;
-            Some(plot::friction_svg(
-                &estimated.plot,
-                &format!(
-                    "Friction along the travel ({name}); data support: {}{}",
-                    v.support.as_str(),
-                    if v.friction_sign == FrictionSign::FromDirection {
-                        "; sign from direction"
-                    } else {
-                        ""
-                    }
-                ),
-                vec![],
-                vec![],
-            )?)
-        }
+        Some(_) => Some(plot::estimate_svg(&estimated)?),
         None => None,
     };
     let Estimated { report, csv, .. } = estimated;
@@ -257,10 +233,7 @@ pub fn run(args: Args) -> Result<()> {
         crate::output::write_atomic(p, svg.as_bytes())?;
     }
     match args.format {
-        Format::Json => {
-            let mut out = std::io::stdout().lock();
-            writeln!(out, "{json}")?;
-        }
+        Format::Json => outln!("{json}"),
         Format::Text => {
             print_table(&report)?;
             eprintln!(
@@ -277,256 +250,11 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// The stroke table for people.
-pub fn print_table(summary: &EstimateReport) -> Result<()> {
-    outln!(
-        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>8}  {:>9}  {:>8}  {:>8}  {:>7}  {}",
-        "stroke",
-        "dir",
-        "feed",
-        "from",
-        "to",
-        "mean F_f",
-        "±",
-        "floor",
-        "cut-off",
-        "samples",
-        "max",
-        "supports"
-    );
-    outln!(
-        "{:>6}  {:<8}  {:>10}  {:>9}  {:>9}  {:>12}  {:>8}  {:>9}  {:>8}  {:>8}  {:>7}",
-        "",
-        "",
-        "(mm/min)",
-        "(mm)",
-        "(mm)",
-        "(N)",
-        "(N, SE)",
-        "(N RMS)",
-        "(Hz)",
-        "per lead",
-        "order"
-    );
-    for s in &summary.strokes {
-        let kind = if s.kind == MoveKind::Measuring {
-            String::new()
-        } else {
-            format!("  ({})", s.kind.as_str())
-        };
-        outln!(
-            "{:>6}  {:<8}  {:>10.1}  {:>9.2}  {:>9.2}  {:>12.2}  {:>8}  {:>9.2}  {:>8}  {:>8.1}  {:>7.1}  {}{kind}",
-            s.stroke,
-            s.direction.as_str(),
-            s.feed_mm_min,
-            s.start_mm,
-            s.end_mm,
-            s.mean_friction_n,
-            s.mean_friction_se_n
-                .map_or_else(|| "-".to_string(), |e| format!("{e:.2}")),
-            s.noise_floor.total_n,
-            s.position_cutoff_hz
-                .map_or_else(|| "-".to_string(), |f| format!("{f:.1}")),
-            s.raw_samples_per_lead,
-            s.max_order,
-            s.verdict.as_ref().map_or("-", |v| v.support.as_str())
-        );
-    }
-    // A feed that varies along a stroke by more than ±10 % of its mean (a modulation, an
-    // override changed mid-block) is named with its range.
-    let varying: Vec<(&StrokeSummary, f64, f64)> = summary
-        .strokes
-        .iter()
-        .filter_map(|s| Some((s, s.feed_min_mm_min?, s.feed_max_mm_min?)))
-        .filter(|&(s, lo, hi)| lo < 0.9 * s.feed_mm_min || hi > 1.1 * s.feed_mm_min)
-        .collect();
-    if !varying.is_empty() {
-        outln!();
-        outln!("feed varies along strokes (5th-95th percentile of the chord speeds):");
-        for (s, lo, hi) in varying {
-            outln!(
-                "  stroke {:>4}  {:>10.1} mm/min, from {:.1} to {:.1} mm/min ({:+.0} % / {:+.0} %)",
-                s.stroke,
-                s.feed_mm_min,
-                lo,
-                hi,
-                100.0 * (lo / s.feed_mm_min - 1.0),
-                100.0 * (hi / s.feed_mm_min - 1.0)
-            );
-        }
-    }
-    outln!();
-    outln!("{}", summary.verdict.headline());
-    let left_out: Vec<&Move> = summary
-        .moves
-        .iter()
-        .filter(|m| m.strokes.is_empty())
-        .collect();
-    if !left_out.is_empty() {
-        outln!();
-        outln!("moves left out (no friction estimated):");
-        for m in left_out {
-            let feed = match (m.feed_mm_min, m.gap_s) {
-                (Some(f), None) => format!("{} mm/min", feed_text(f)),
-                (Some(f), Some(g)) => {
-                    format!("{} mm/min, spans a gap of {g:.1} s", feed_text(f))
-                }
-                (None, Some(g)) => format!("spans a gap of {g:.1} s: no feed"),
-                (None, None) => "feed unknown".to_string(),
-            };
-            outln!(
-                "  {:<11}  {:<8}  {:>17}  {:>9.2} → {:>9.2} mm  t = {:.3} s to {:.3} s{}",
-                m.kind.as_str(),
-                m.direction.as_str(),
-                feed,
-                m.start_mm,
-                m.end_mm,
-                m.start_time_s,
-                m.end_time_s,
-                m.program_line
-                    .map(|l| format!("  (program line {l})"))
-                    .unwrap_or_default()
-            );
-        }
-    }
-    for n in &summary.notes {
-        eprintln!("note: {n}");
-    }
-    for r in &summary.verdict.reasons {
-        eprintln!("verdict: {r}");
-    }
-    for (code, (count, first)) in verdict_reasons(&summary.strokes) {
-        eprintln!("verdict: {count} stroke(s) limited by {code}; e.g. {first}");
-    }
-    for line in stroke_warnings(&summary.strokes) {
-        eprintln!("warning: {line}");
-    }
-    for w in &summary.skipped {
-        eprintln!("warning: skipped {w}");
-    }
-    if summary.ignored_rows > 0 {
-        eprintln!(
-            "note: ignored {} rows of other channels ({})",
-            summary.ignored_rows,
-            summary.ignored_channels.join(", ")
-        );
+/// The report's text view on stdout and its remarks (notes, verdicts, warnings) on stderr.
+pub fn print_table(report: &EstimateReport) -> Result<()> {
+    out!("{report}");
+    for line in report.remarks() {
+        eprintln!("{line}");
     }
     Ok(())
-}
-
-/// A feed for people (mm/min): to 0.1 mm/min from 10 mm/min up, else to 3 significant
-/// digits, so that a slow move never reads "0.0".
-fn feed_text(f: f64) -> String {
-    let a = f.abs();
-    if a >= 10.0 || a == 0.0 || !a.is_finite() {
-        format!("{f:.1}")
-    } else if a >= 1e-6 {
-        let decimals = (2.0 - a.log10().floor()) as usize;
-        format!("{f:.decimals$}")
-    } else {
-        format!("{f:.2e}")
-    }
-}
-
-/// Warnings of a stroke about its friction profile (its spectrum, its noise against the
-/// variation along it): moot for a stroke whose data support only its mean level, where the
-/// profile is withheld anyway.
-const PROFILE_WARNINGS: [Code; 5] = [
-    Code::FewSamplesPerLead,
-    Code::PositionSmoothedBelowOrder,
-    Code::NoiseFloorHigh,
-    Code::FeedChangeUnresolved,
-    Code::PositionNotMonotone,
-];
-
-/// The strokes' warnings as lines for the terminal: one per stroke and warning, except that a
-/// warning about the profile on strokes whose profile is withheld (mean level only), and any
-/// warning repeated on more than [`WARNING_REPEATS_SHOWN`] strokes, is one line that counts
-/// the strokes, lists them and quotes the first. The JSON summary keeps every one.
-fn stroke_warnings(strokes: &[StrokeSummary]) -> Vec<String> {
-    let key =
-        |s: &StrokeSummary, code: Code| (mean_only(s) && PROFILE_WARNINGS.contains(&code), code);
-    let mut by_code: std::collections::BTreeMap<(bool, Code), Vec<&StrokeSummary>> =
-        std::collections::BTreeMap::new();
-    for s in strokes {
-        for w in &s.warnings {
-            by_code.entry(key(s, w.code)).or_default().push(s);
-        }
-    }
-    let mut lines = Vec::new();
-    let mut collapsed = Vec::new();
-    for s in strokes {
-        for w in &s.warnings {
-            let k = key(s, w.code);
-            let moot = k.0;
-            let group = &by_code[&k];
-            if !moot && group.len() <= WARNING_REPEATS_SHOWN {
-                lines.push(format!("stroke {}: {w}", s.stroke));
-            } else if std::ptr::eq(group[0], s) {
-                let numbers: Vec<usize> = group.iter().map(|g| g.stroke).collect();
-                let first = group[0]
-                    .warnings
-                    .iter()
-                    .find(|x| x.code == w.code)
-                    .map_or_else(String::new, |x| x.message.clone());
-                collapsed.push(format!(
-                    "{} stroke(s) ({}){}: {}; e.g. stroke {}: {first} (each in the JSON summary)",
-                    numbers.len(),
-                    number_list(&numbers),
-                    if moot {
-                        ", whose profile is withheld anyway (mean level only)"
-                    } else {
-                        ""
-                    },
-                    w.code,
-                    numbers[0],
-                ));
-            }
-        }
-    }
-    // The warnings that bear on what is reported come before the moot ones.
-    lines.extend(collapsed);
-    lines
-}
-
-/// Warnings repeated on more strokes than this are one line ([`stroke_warnings`]).
-const WARNING_REPEATS_SHOWN: usize = 3;
-
-/// Stroke numbers as ranges: `0-3, 5, 7-8`.
-fn number_list(n: &[usize]) -> String {
-    let mut parts: Vec<String> = Vec::new();
-    let mut k = 0;
-    while k < n.len() {
-        let mut j = k;
-        while j + 1 < n.len() && n[j + 1] == n[j] + 1 {
-            j += 1;
-        }
-        parts.push(if j > k {
-            format!("{}-{}", n[k], n[j])
-        } else {
-            n[k].to_string()
-        });
-        k = j + 1;
-    }
-    parts.join(", ")
-}
-
-/// True when a stroke's data verdict supports no more than its mean level.
-fn mean_only(s: &StrokeSummary) -> bool {
-    friction_csv::is_mean_level(s)
-}
-
-/// The binding reasons of the strokes' verdicts, by code: how many strokes and the first
-/// stroke's message.
-fn verdict_reasons(strokes: &[StrokeSummary]) -> std::collections::BTreeMap<Code, (usize, String)> {
-    let mut by_code = std::collections::BTreeMap::new();
-    for s in strokes {
-        for r in s.verdict.iter().flat_map(|v| &v.reasons) {
-            by_code
-                .entry(r.code)
-                .or_insert((0, format!("stroke {}: {}", s.stroke, r.message)))
-                .0 += 1;
-        }
-    }
-    by_code
 }

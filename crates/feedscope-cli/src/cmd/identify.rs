@@ -1,13 +1,13 @@
 //! `feedscope identify`: J, T_c, T_s, v_s and σ from one triangular-wave trace (paper 002).
-use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Result;
-use feedscope::ident::{IdentParams, Identification};
-use feedscope_app::identify::{IdentifyOptions, IdentifyReport, IdentifyRequest};
+use feedscope::ident::IdentParams;
+use feedscope_app::identify::{IdentifyOptions, IdentifyRequest};
 
 use super::estimate::{EffortArg, Format};
 use crate::front::Cli;
+use crate::output::{out, outln};
 use feedscope_app::plot;
 
 /// Identify friction and inertia from one test (paper 002): J, Tc, Ts, vs, σ.
@@ -94,135 +94,6 @@ fn params_from(a: &Args) -> IdentParams {
     }
 }
 
-/// Measured and computed torque over time, at most ~4000 points per series.
-fn svg(id: &Identification, title: &str) -> Result<String> {
-    let n = id.time_s.len();
-    let step = n.div_ceil(4000).max(1);
-    let pts = |f: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
-        (0..n)
-            .step_by(step)
-            .map(|k| (id.time_s[k], f(k)))
-            .filter(|p| p.1.is_finite())
-            .collect()
-    };
-    let used: Vec<(f64, f64)> = (0..n)
-        .step_by(step)
-        .filter(|&k| id.used[k])
-        .map(|k| (id.time_s[k], id.regressors.torque_nm[k]))
-        .collect();
-    Ok(plot::line_chart_svg(&plot::LineChart {
-        title,
-        x_label: "time (s)",
-        y_label: "torque (N·m)",
-        series: vec![
-            plot::Series {
-                name: "measured (kernel average)".to_string(),
-                points: pts(&|k| id.regressors.torque_nm[k]),
-                style: plot::Style::Line,
-            },
-            plot::Series {
-                name: "computed, J·θ'' + T_f(v)".to_string(),
-                points: pts(&|k| id.computed_torque_nm[k]),
-                style: plot::Style::Dashed,
-            },
-            plot::Series {
-                name: "used in the fit".to_string(),
-                points: used,
-                style: plot::Style::Points,
-            },
-        ],
-    })?)
-}
-
-fn print_text(out: &IdentifyReport) -> Result<()> {
-    let mut w = std::io::stdout().lock();
-    let m = &out.set.motor;
-    let s = &out.set.std_error;
-    let f = &out.set.force;
-    writeln!(w, "one-test identification (paper 002) of {}", out.source)?;
-    writeln!(
-        w,
-        "  samples {} used of {}, residual RMS {:.4} N·m, condition {:.1}, {} evaluations",
-        out.set.diagnostics.samples_used,
-        out.samples_total,
-        out.set.diagnostics.residual_rms_nm,
-        out.set.diagnostics.condition_number,
-        out.set.diagnostics.iterations
-    )?;
-    let rows: [(&str, f64, f64, &str); 6] = [
-        ("J total", m.j_total_kgm2, s.j_total_kgm2, "kg·m²"),
-        ("Tc", m.tc_nm, s.tc_nm, "N·m"),
-        ("Ts", m.ts_nm, s.ts_nm, "N·m"),
-        ("vs", m.vs_mm_min, s.vs_mm_min, "mm/min"),
-        ("sigma", m.sigma_nm_s_per_m, s.sigma_nm_s_per_m, "N·m·s/m"),
-        ("T0", m.offset_nm, s.offset_nm, "N·m"),
-    ];
-    let cmp = out.compare.as_ref();
-    match cmp {
-        Some(_) => writeln!(
-            w,
-            "  {:<8} {:>14} {:>12} {:>14} {:>12}  unit",
-            "", "one test", "± 1σ", "groups", "± 1σ"
-        )?,
-        None => writeln!(w, "  {:<8} {:>14} {:>12}  unit", "", "value", "± 1σ")?,
-    }
-    for (k, (name, v, e, unit)) in rows.iter().enumerate() {
-        match cmp {
-            Some(c) => {
-                let cm = &c.set.motor;
-                let cs = &c.set.std_error;
-                let (gv, ge) = [
-                    (cm.j_total_kgm2, cs.j_total_kgm2),
-                    (cm.tc_nm, cs.tc_nm),
-                    (cm.ts_nm, cs.ts_nm),
-                    (cm.vs_mm_min, cs.vs_mm_min),
-                    (cm.sigma_nm_s_per_m, cs.sigma_nm_s_per_m),
-                    (cm.offset_nm, cs.offset_nm),
-                ][k];
-                if k == 0 {
-                    writeln!(
-                        w,
-                        "  {name:<8} {v:>14.6} {e:>12.6} {:>14} {:>12}  {unit}",
-                        "-", "-"
-                    )?;
-                } else {
-                    writeln!(
-                        w,
-                        "  {name:<8} {v:>14.6} {e:>12.6} {gv:>14.6} {ge:>12.6}  {unit}"
-                    )?;
-                }
-            }
-            None => writeln!(w, "  {name:<8} {v:>14.6} {e:>12.6}  {unit}")?,
-        }
-    }
-    writeln!(
-        w,
-        "  force side (F = 2π·T/p): Fc {:.2} N, Fs {:.2} N, sigma {:.1} N·s/m, \
-         equivalent mass {:.1} kg",
-        f.fc_n, f.fs_n, f.sigma_n_s_per_m, f.equivalent_mass_kg
-    )?;
-    match out.axis_j_total_kgm2 {
-        Some(j) => writeln!(w, "  the axis file predicts J total {j:.6} kg·m²")?,
-        None => writeln!(w, "  the axis file gives no inertia: J is the test's alone")?,
-    }
-    if let Some(c) = cmp {
-        let d = &c.difference_percent;
-        writeln!(
-            w,
-            "  one test vs {} groups: Tc {:+.1} %, Ts {:+.1} %, vs {:+.1} %, sigma {:+.1} %",
-            c.groups.len(),
-            d.tc,
-            d.ts,
-            d.vs,
-            d.sigma
-        )?;
-    }
-    for warn in &out.warnings {
-        writeln!(w, "  warning: {warn}")?;
-    }
-    Ok(())
-}
-
 pub fn run(args: Args) -> Result<()> {
     let request = IdentifyRequest {
         trace: args.trace.clone(),
@@ -239,17 +110,14 @@ pub fn run(args: Args) -> Result<()> {
             .unwrap_or_else(|| args.output.with_extension("svg"))
     });
     let done = request.run(&Cli::default())?;
-    let out = &done.report;
-    let json = serde_json::to_string_pretty(out)?;
+    let report = &done.report;
+    let json = serde_json::to_string_pretty(report)?;
     // Render everything before writing anything.
     let svg = match &plot_path {
-        Some(_) => {
-            let name = done.axis.name.as_deref().unwrap_or("axis");
-            Some(svg(
-                &done.fit,
-                &format!("Measured and computed motor torque ({name})"),
-            )?)
-        }
+        Some(_) => Some(plot::identification_svg(
+            &done.fit,
+            done.axis.name.as_deref(),
+        )?),
         None => None,
     };
     crate::output::write_atomic(&args.output, json.as_bytes())?;
@@ -257,9 +125,9 @@ pub fn run(args: Args) -> Result<()> {
         crate::output::write_atomic(p, svg.as_bytes())?;
     }
     match args.format {
-        Format::Json => writeln!(std::io::stdout().lock(), "{json}")?,
+        Format::Json => outln!("{json}"),
         Format::Text => {
-            print_text(out)?;
+            out!("{report}");
             eprintln!(
                 "wrote {}{}",
                 args.output.display(),
