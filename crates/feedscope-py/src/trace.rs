@@ -263,11 +263,12 @@ impl Trace {
         &self.source
     }
 
-    /// What the reader warns about (glitches dropped, a cut last line), as the binary prints
-    /// them; empty for a clean trace.
+    /// What the reader warns about (glitches dropped, a cut last line): a list of dicts
+    /// `{"code", "message"}` (codes in docs/diagnostics.md), the serde form of the reader's
+    /// diagnostics, as a report's `warnings` hold them; empty for a clean trace.
     #[getter]
-    fn warnings(&self) -> Vec<String> {
-        self.report.warning().into_iter().collect()
+    fn warnings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.report.diagnostics())
     }
 
     /// Position samples dropped as logger glitches: dicts of `time_s`, `position_mm` and the
@@ -338,7 +339,7 @@ impl Trace {
         d.set_item("effort_time_s", self.effort_time_s(py)?)?;
         d.set_item(self.effort_kind(), self.effort(py)?)?;
         d.set_item("facts", self.facts(py)?)?;
-        d.set_item("warnings", self.warnings())?;
+        d.set_item("warnings", self.warnings(py)?)?;
         Ok(d)
     }
 

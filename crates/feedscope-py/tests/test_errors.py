@@ -187,7 +187,10 @@ def test_glitch_is_dropped_and_a_jump_refused():
     tr = feedscope.Trace(time_s=t, position_mm=g, current_a=np.ones(400))
     assert len(tr.position_mm) == 399
     assert tr.dropped_position[0]["time_s"] == pytest.approx(2.0)
-    assert tr.warnings and "dropped" in tr.warnings[0]
+    # The reader's diagnostic in its serde form, as the reports' warnings.
+    [w] = tr.warnings
+    assert w["code"] == "position-glitches-dropped" and "dropped" in w["message"], w
+    assert tr.to_dict()["warnings"] == tr.warnings
     j = z.copy()
     j[200:] += 1e5  # a jump that stays
     with pytest.raises(feedscope.BadInputError, match="does not come back"):

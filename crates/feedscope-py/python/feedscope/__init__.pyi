@@ -111,8 +111,9 @@ class Trace:
     def source(self) -> str:
         """The file read, "arrays" or "simulate()"."""
     @property
-    def warnings(self) -> List[str]:
-        """What the reader warns about (dropped glitches, a cut last line)."""
+    def warnings(self) -> List[Dict[str, str]]:
+        """What the reader warns about (dropped glitches, a cut last line): dicts of code and
+        message (codes in docs/diagnostics.md), as a report's warnings."""
     @property
     def dropped_position(self) -> List[Dict[str, Any]]:
         """Dropped glitch samples: time_s (s), position_mm (mm), line (CSV) or row (Parquet)."""
