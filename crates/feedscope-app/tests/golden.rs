@@ -225,6 +225,7 @@ fn fit_stribeck() {
             noise_n: Some(2.0),
             ..FitStribeckOptions::default()
         },
+        ..FitStribeckRequest::default()
     };
     check("fit_stribeck", &request.run(&Quiet).unwrap().report, None);
 }
