@@ -95,3 +95,12 @@ def test_triangle_too_fast_for_the_polling_warns_as_cli(tmp_path):
     assert len(p.warnings) == 1 and "cannot be identified" in p.warnings[0]
     assert p.warnings == summary["warnings"]
     assert p.to_dict() == summary
+
+
+def test_sampling_keywords_are_checked_and_named():
+    # The app's PlanRequest.validate(): an interval or a rate that is no positive number is
+    # refused naming the keyword (before, a zero interval gave infinite sample counts).
+    for kw in ({"sample_interval_ms": 0.0}, {"sample_interval_ms": float("nan")},
+               {"sample_rate_hz": -5.0}):
+        with pytest.raises(feedscope.BadInputError, match=f"{next(iter(kw))} .*must be > 0"):
+            feedscope.plan_strokes(10, 60, [3000], **kw)
