@@ -2,14 +2,14 @@
 //! and torque-ripple resonance risks, as `feedscope dynamics --config FILE`.
 use std::path::PathBuf;
 
-use feedscope::dynamics::{analyse, DriveConfig, DriveModel, DynamicsReport};
+use feedscope::dynamics::{analyse, DynamicsReport};
+use feedscope_app::dynamics::{drive_from_toml, read_drive};
 use numpy::PyArray2;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::convert::{array, to_json, to_py};
 use crate::errors::py_err;
-use feedscope_app::AppError;
 
 /// The modal analysis of a drive: `to_dict()` is the binary's `dynamics.json`; the sweeps as
 /// arrays: `feed_mm_min` (mm/min) with `frequency_vs_feed_hz` (Hz, one row per feed, one
@@ -107,29 +107,17 @@ impl DynamicsResult {
 /// its keys. The GIL is released during the modal analysis.
 #[pyfunction]
 pub fn dynamics(py: Python<'_>, config: &Bound<'_, PyAny>) -> PyResult<DynamicsResult> {
-    // The CLI's `load`, with its messages: the file named, or `drive config` for a dict.
-    let (text, name) = if config.is_instance_of::<PyDict>() {
+    // The app's reading of a drive, with the CLI's messages: the file named (and its size
+    // bounded), or `drive config` for a dict.
+    let model = if config.is_instance_of::<PyDict>() {
         let json = to_json(config)?;
         let value: toml::Value = serde_json::from_str(&json).map_err(py_err)?;
-        (
-            toml::to_string(&value).map_err(py_err)?,
-            "drive config".to_string(),
-        )
+        let text = toml::to_string(&value).map_err(py_err)?;
+        drive_from_toml(&text, "drive config", "drive config").map_err(py_err)?
     } else {
         let path: PathBuf = config.extract()?;
-        let text = std::fs::read_to_string(&path).map_err(|e| {
-            py_err(AppError::bad_input(format!(
-                "cannot read drive file {}: {e}",
-                path.display()
-            )))
-        })?;
-        (text, format!("drive file {}", path.display()))
+        read_drive(&path).map_err(py_err)?
     };
-    let source = name.trim_start_matches("drive file ").to_string();
-    let cfg = DriveConfig::from_toml_str(&text, &source)
-        .map_err(|e| py_err(AppError::bad_input(format!("invalid {name}: {e}"))))?;
-    let model = DriveModel::from_config(&cfg)
-        .map_err(|e| py_err(AppError::bad_input(format!("invalid {name}: {e}"))))?;
     let report = py
         .detach(|| analyse(&model))
         .map_err(|e| py_err(anyhow::Error::new(e).context("modal analysis failed")))?;
