@@ -4,8 +4,15 @@
 //!
 //! [`AddOptions`] are what a user says about the test (kind, time, machine, axis name, program,
 //! compensation, reference); [`prepare_test`] reads a trace file and analyses it,
-//! [`analyse_for_store`] analyses a trace already read (a live gateway's); the front end stores
-//! the [`NewTest`] and reports an [`AddReport`] (`history add --format json`).
+//! [`analyse_for_store`] analyses a trace already read (a live gateway's). `history add` whole
+//! is [`AddRequest::analyse`] then [`PendingAdd::store`]: the store opened before the analysis
+//! when it exists (a new SQLite file only once there is a test to put in it), the [`NewTest`]
+//! stored, what that did to its series said ([`SeriesNote`]) and an [`AddReport`] made
+//! (`history add --format json`).
+//!
+//! The stored tests as the other `history` commands see them: [`ListRequest`] (`history
+//! list`, and the selection of `history export`), [`show`] and [`remove`] (after the front
+//! end's confirmation).
 use std::path::{Path, PathBuf};
 
 use feedscope::axis::AxisParams;
@@ -13,10 +20,11 @@ use feedscope::study::{analyze_test, StrokeStudyParams, TestAnalysis, TestKind, 
 use feedscope::trace::{GlitchParams, Trace};
 use feedscope_io::trace::{read_trace_file_with, ReadOptions};
 use feedscope_store::time::{format_rfc3339, parse_rfc3339};
-use feedscope_store::{AddOutcome, IndicatorRow, NewTest};
+use feedscope_store::{AddOutcome, Filter, IndicatorRow, NewTest, Store, TestDetail, TestRow};
 use serde::{Deserialize, Serialize};
 
 use crate::output::io_error;
+use crate::store::{add_error, store_error, Opener, StoreSpec};
 use crate::{AppError, FrontEnd};
 
 /// What a user says about a test to store.
@@ -311,4 +319,218 @@ impl AddRequest {
         let label = self.options.axis_label(&axis, Some(&self.axis));
         prepare_test(&self.trace, axis, label, &self.options, front)
     }
+
+    /// The first half of `history add`: check the request, read the axis file, open the
+    /// store `spec` (so that a foreign or damaged one is refused before the costly analysis;
+    /// a missing SQLite file is only created by [`PendingAdd::store`], so that a refused add
+    /// leaves no database behind), then read and analyse the trace.
+    ///
+    /// # Errors
+    /// As [`AddRequest::validate`], [`load_axis`], [`Opener::open`] and [`prepare_test`].
+    pub fn analyse(
+        &self,
+        spec: &StoreSpec,
+        opener: &Opener,
+        front: &dyn FrontEnd,
+    ) -> Result<PendingAdd, AppError> {
+        self.validate(front)?;
+        let axis = load_axis(self.options.kind, &self.axis)?;
+        let store = match spec.sqlite_path() {
+            Some(db) if !db.exists() => None,
+            _ => Some(opener.open(spec)?),
+        };
+        let label = self.options.axis_label(&axis, Some(&self.axis));
+        let analysed = prepare_test(&self.trace, axis, label, &self.options, front)?;
+        Ok(PendingAdd {
+            analysed,
+            spec: spec.clone(),
+            store,
+            time_from: self.options.time.is_none().then(|| self.trace.clone()),
+        })
+    }
+}
+
+/// A test analysed by [`AddRequest::analyse`], not stored yet: a front end shows its
+/// [`verdict`](Analysed::verdict) now, then [`stores`](PendingAdd::store) it.
+pub struct PendingAdd {
+    /// The test and what its data support.
+    pub analysed: Analysed,
+    spec: StoreSpec,
+    /// The store, when it existed before the analysis.
+    store: Option<Box<dyn Store>>,
+    /// The trace file whose modification time is the test time (none was given).
+    time_from: Option<PathBuf>,
+}
+
+impl PendingAdd {
+    /// Store the test (one transaction; the same trace content already stored for the axis
+    /// and kind is not stored again), opening the store with `opener` if it was not open,
+    /// then count its series.
+    ///
+    /// # Errors
+    /// As [`Opener::open`]; a failed add as [`add_error`] says it. Counting the series after
+    /// the commit is not an error of the add: it is [`Added::series`].
+    pub fn store(self, opener: &Opener) -> Result<Added, AppError> {
+        let mut store = match self.store {
+            Some(s) => s,
+            None => opener.open(&self.spec)?,
+        };
+        let test = self.analysed.test;
+        let outcome = store.add(&test).map_err(|e| add_error(e, &self.spec))?;
+        // Committed: counting the series (another query) failing now, e.g. on a connection
+        // lost just after the commit, must not make a stored test look like a failed add.
+        let series = series_note(&*store, &test, outcome, self.time_from);
+        Ok(Added {
+            test,
+            outcome,
+            series,
+        })
+    }
+}
+
+/// A test stored by [`PendingAdd::store`].
+#[derive(Debug)]
+pub struct Added {
+    /// The stored row with its results.
+    pub test: NewTest,
+    /// Added under a new id, or already stored.
+    pub outcome: AddOutcome,
+    /// What the add did to the machine/axis series (`None` for a duplicate); an error when
+    /// the series could not be counted after the commit (the test is stored all the same).
+    pub series: Result<Option<SeriesNote>, AppError>,
+}
+
+impl Added {
+    /// `history add --format json`.
+    pub fn report(&self) -> AddReport {
+        AddReport::new(&self.test, self.outcome)
+    }
+}
+
+/// What storing a test did to its series: started it or added to it, for the user who may
+/// not have typed the machine and axis names (they can be defaults).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SeriesNote {
+    /// Machine name.
+    pub machine: String,
+    /// Axis name.
+    pub axis: String,
+    /// Tests of the series now, this one included.
+    pub tests: usize,
+    /// The test time, RFC 3339 UTC.
+    pub time_utc: String,
+    /// The trace file whose modification time the test time is, when no time was given.
+    pub time_from: Option<PathBuf>,
+}
+
+impl SeriesNote {
+    /// The note in lines for the log: the series, then where the test time came from when it
+    /// is a file's modification time (naming the `time` field as the front end spells it).
+    pub fn lines(&self, front: &dyn FrontEnd) -> Vec<String> {
+        let mut out = vec![if self.tests <= 1 {
+            format!(
+                "started the series of machine {:?}, axis {:?} (its first test)",
+                self.machine, self.axis
+            )
+        } else {
+            format!(
+                "added to the series of machine {:?}, axis {:?} ({} tests now)",
+                self.machine, self.axis, self.tests
+            )
+        }];
+        if let Some(p) = &self.time_from {
+            out.push(format!(
+                "note: test time {} is the modification time of {} (give {} to set it)",
+                self.time_utc,
+                p.display(),
+                front.name("time")
+            ));
+        }
+        out
+    }
+}
+
+/// The series `t` was stored into with `outcome`, counted; `None` for a duplicate.
+///
+/// # Errors
+/// The store's, as it says them.
+pub fn series_note(
+    store: &dyn Store,
+    t: &NewTest,
+    outcome: AddOutcome,
+    time_from: Option<PathBuf>,
+) -> Result<Option<SeriesNote>, AppError> {
+    if matches!(outcome, AddOutcome::Duplicate(_)) {
+        return Ok(None);
+    }
+    let tests = store
+        .list(&Filter {
+            machine: Some(t.machine.clone()),
+            axis: Some(t.axis.clone()),
+        })
+        .map_err(AppError::from_error)?
+        .len();
+    Ok(Some(SeriesNote {
+        machine: t.machine.clone(),
+        axis: t.axis.clone(),
+        tests,
+        time_utc: t.time_utc.clone(),
+        time_from,
+    }))
+}
+
+/// Which stored tests: `history list` (and `history export`'s selection).
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ListRequest {
+    /// Only this machine.
+    pub machine: Option<String>,
+    /// Only this axis.
+    pub axis_name: Option<String>,
+}
+
+impl ListRequest {
+    /// The store's filter of the request.
+    pub fn filter(&self) -> Filter {
+        Filter {
+            machine: self.machine.clone(),
+            axis: self.axis_name.clone(),
+        }
+    }
+
+    /// The tests selected, ordered by machine, axis, time and id: `history list --format
+    /// json`.
+    ///
+    /// # Errors
+    /// The store's, naming it ([`store_error`]).
+    pub fn run(&self, store: &dyn Store, spec: &StoreSpec) -> Result<Vec<TestRow>, AppError> {
+        store.list(&self.filter()).map_err(|e| store_error(e, spec))
+    }
+}
+
+/// One stored test with its results: `history show --format json`.
+///
+/// # Errors
+/// No such test (bad input), and the store's other errors, naming it ([`store_error`]).
+pub fn show(store: &dyn Store, spec: &StoreSpec, id: i64) -> Result<TestDetail, AppError> {
+    store.get(id).map_err(|e| store_error(e, spec))
+}
+
+/// Remove test `id` and its results once `confirm` agrees, shown the test; `false` when it
+/// did not (nothing removed).
+///
+/// # Errors
+/// As [`show`]; `confirm`'s own; the store's, naming it.
+pub fn remove<E: From<AppError>>(
+    store: &mut dyn Store,
+    spec: &StoreSpec,
+    id: i64,
+    confirm: impl FnOnce(&TestRow) -> Result<bool, E>,
+) -> Result<bool, E> {
+    let d = show(store, spec, id)?;
+    if !confirm(&d.test)? {
+        return Ok(false);
+    }
+    store.remove(id).map_err(|e| store_error(e, spec))?;
+    Ok(true)
 }

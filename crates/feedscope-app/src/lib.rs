@@ -27,6 +27,8 @@
 //! 000 Eq. 9 and paper 001 Eq. 15), [`history`] (a test analysed for the condition history)
 //! and [`trend`] (an axis's indicators over its stored tests,
 //! the position-resolved comparison and the diagnosis).
+//! [`watch`] is the gateway that stores the tests a live control runs (its event loop).
+//! [`demo`] is the demo's simulated axis and its weekly history.
 //!
 //! The pictures people look at are drawn here too: [`plot`] (SVG line charts and heat maps
 //! with unit-labelled axes) and [`report`] (the condition report of an axis: its page model and
@@ -60,6 +62,7 @@
 //! ```
 
 pub mod analyze;
+pub mod demo;
 pub mod error;
 pub mod estimate;
 pub mod front;
@@ -76,6 +79,7 @@ pub mod store;
 pub mod stribeck;
 pub mod transfer;
 pub mod trend;
+pub mod watch;
 
 pub use error::AppError;
 pub use front::{FrontEnd, Quiet};

@@ -1,12 +1,13 @@
 //! A history taken out of its store: the indicator values of its tests as one flat table
 //! ([`export`], for a spreadsheet or another tool), and every test copied into another store
-//! ([`migrate`], e.g. a gateway's SQLite file into the fleet's PostgreSQL database).
+//! ([`migrate`], e.g. a gateway's SQLite file into the fleet's PostgreSQL database;
+//! [`MigrateRequest`] is `history migrate` whole, the two stores opened).
 use std::collections::BTreeMap;
 
 use feedscope_store::{AddOutcome, Filter, NewTest, Store, Stored};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-use crate::store::{store_error, StoreSpec};
+use crate::store::{store_error, Opener, StoreSpec};
 use crate::{AppError, FrontEnd};
 
 /// One indicator value of one stored test: a line of `history export` (the JSON layout, and
@@ -189,4 +190,60 @@ pub fn migrate(
     }
     front.progress("copying tests", rows.len(), rows.len());
     Ok(n)
+}
+
+/// `history migrate`: copy every test of one store into another.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MigrateRequest {
+    /// The store to read: a `postgres://` URL or an SQLite file ([`StoreSpec::parse`]).
+    pub from: String,
+    /// The store to write, created when empty: a `postgres://` URL or an SQLite file.
+    pub to: String,
+}
+
+impl MigrateRequest {
+    /// The store read.
+    pub fn from_spec(&self) -> StoreSpec {
+        StoreSpec::parse(&self.from)
+    }
+
+    /// The store written.
+    pub fn to_spec(&self) -> StoreSpec {
+        StoreSpec::parse(&self.to)
+    }
+
+    /// Open both stores with `opener` and [`migrate`]. A source SQLite file must exist
+    /// (opening it would create an empty database there); the same store as both is refused
+    /// by [`migrate`] before anything is copied.
+    ///
+    /// # Errors
+    /// Bad input naming the `from` field when its SQLite file does not exist; an opening's
+    /// error under which store it was (`from` or `to`); as [`migrate`].
+    pub fn run(&self, opener: &Opener, front: &dyn FrontEnd) -> Result<MigrateReport, AppError> {
+        let (from, to) = (self.from_spec(), self.to_spec());
+        if from != to {
+            if let Some(p) = from.sqlite_path() {
+                if !p.exists() {
+                    return Err(AppError::invalid(
+                        "from",
+                        format!(
+                            "{} {}: no such database file",
+                            front.name("from"),
+                            p.display()
+                        ),
+                    ));
+                }
+            }
+        }
+        let opening = |spec: &StoreSpec, which: &str, field: &str| {
+            opener.open(spec).map_err(|e| {
+                let context = format!("opening the {which} ({})", front.name(field));
+                AppError::caused(e.kind(), context, e)
+            })
+        };
+        let source = opening(&from, "source", "from")?;
+        let mut target = opening(&to, "target", "to")?;
+        migrate(&*source, &from, &mut *target, &to, front)
+    }
 }

@@ -6,14 +6,19 @@
 //! [`axis_trend`] finds the axis (given, or the only one of the machine), takes the thresholds
 //! in force (the stored axis file's, each overridden by a thresholds file's) and gives the
 //! [`AxisTrends`] report, the JSON layout of `history trend` and the model of the report page.
+//! [`TrendRequest`] is `history trend` whole: the settings checked and the thresholds file read
+//! before the store is opened, the machine found ([`resolve_machine`]), the trend made.
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use feedscope::history::{IndicatorTrend, LocalParams, ProfileChanges, ProfileTest, Threshold};
+use feedscope::history::{
+    DirectionChanges, IndicatorTrend, LocalParams, ProfileChanges, ProfileTest, Threshold,
+};
 use feedscope::study::TrendStudyParams;
 use feedscope_store::{AxisSeries, Filter, Store, Stored, TestKind, TestRow};
 use serde::{Deserialize, Serialize};
 
+use crate::store::{Opener, StoreSpec};
 use crate::{AppError, FrontEnd};
 
 /// The baseline and the change detectors' settings (docs/history.md).
@@ -123,6 +128,62 @@ impl TrendOptions {
             Some(p) => feedscope_io::thresholds::read(p)
                 .map_err(|e| AppError::from_error(e).for_field("thresholds")),
         }
+    }
+}
+
+/// The trend of one axis from a store: `history trend` (and the report page's model).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrendRequest {
+    /// Machine name; default: the only machine in the store ([`resolve_machine`]).
+    pub machine: Option<String>,
+    /// Axis name; default: the only axis of the machine.
+    pub axis_name: Option<String>,
+    /// The baseline and the detectors' settings.
+    #[serde(flatten)]
+    pub options: TrendOptions,
+}
+
+impl TrendRequest {
+    /// Check the settings and read the thresholds file, then open the store `spec` with
+    /// `opener` and make the trend ([`TrendRequest::trend`]): a bad setting or thresholds
+    /// file is refused before any store is opened (or created).
+    ///
+    /// # Errors
+    /// As [`TrendOptions::validate`], [`TrendOptions::file_thresholds`], [`Opener::open`] and
+    /// [`TrendRequest::trend`].
+    pub fn run(
+        &self,
+        spec: &StoreSpec,
+        opener: &Opener,
+        front: &dyn FrontEnd,
+    ) -> Result<AxisTrends, AppError> {
+        self.options.validate(front)?;
+        let from_file = self.options.file_thresholds()?;
+        let store = opener.open(spec)?;
+        self.trend(&*store, from_file, front)
+    }
+
+    /// The trend of the request's axis in an open store, with `from_file` the thresholds
+    /// file's thresholds ([`TrendOptions::file_thresholds`]).
+    ///
+    /// # Errors
+    /// As [`resolve_machine`] and [`axis_trend`].
+    pub fn trend(
+        &self,
+        store: &dyn Store,
+        from_file: BTreeMap<String, Threshold>,
+        front: &dyn FrontEnd,
+    ) -> Result<AxisTrends, AppError> {
+        let machine = resolve_machine(store, self.machine.as_deref(), front)?;
+        axis_trend(
+            store,
+            &machine,
+            self.axis_name.as_deref(),
+            &self.options,
+            from_file,
+            front,
+        )
     }
 }
 
@@ -323,6 +384,75 @@ pub(crate) fn unread_curves(id: i64, reason: &str) -> AppError {
         "the stored report curves of test {id} do not read as this version of feedscope's \
          ({reason}); written by another version? Use that version, or remove the test"
     ))
+}
+
+/// The machine a request without one means: what `history add` stores without a machine
+/// name ([`crate::history::AddOptions`]'s default).
+const DEFAULT_MACHINE: &str = "machine";
+
+/// The machine `history trend` and the report look at: `given`, or without one the only
+/// machine in the store (or, among several, the one named `machine`, what `history add`
+/// stores when no machine is named).
+///
+/// # Errors
+/// Bad input when the store holds no test (saying how to add one, [`FrontEnd::how_to_add`])
+/// or several machines and none is `machine` (listing them, naming the `machine` field); store
+/// errors.
+pub fn resolve_machine(
+    store_: &dyn Store,
+    given: Option<&str>,
+    front: &dyn FrontEnd,
+) -> Result<String, AppError> {
+    if let Some(m) = given {
+        return Ok(m.to_string());
+    }
+    let mut machines: Vec<String> = store_
+        .axes()
+        .map_err(store)?
+        .into_iter()
+        .map(|a| a.machine)
+        .collect();
+    machines.sort_unstable();
+    machines.dedup();
+    match machines.as_slice() {
+        [] => Err(AppError::bad_input(format!(
+            "the database holds no tests yet; store one with {}",
+            front.how_to_add()
+        ))),
+        [one] => Ok(one.clone()),
+        many if many.iter().any(|m| m == DEFAULT_MACHINE) => Ok(DEFAULT_MACHINE.to_string()),
+        many => Err(AppError::invalid(
+            "machine",
+            format!(
+                "the database holds several machines ({}): choose one with {}",
+                many.iter()
+                    .map(|m| format!("{m:?}"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                front.name("machine")
+            ),
+        )),
+    }
+}
+
+/// The flag limit of a direction's position-resolved comparison in one number: the median
+/// over the compared travel of K·σ(x)·√(1 + 1/n_m) (N); NaN when no position was compared.
+pub fn median_limit_n(d: &DirectionChanges) -> f64 {
+    let mut lim = d.limit_n.clone();
+    lim.sort_by(f64::total_cmp);
+    lim.get(lim.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// The whole-travel limit of a direction, K_level·σ_a·√(1 + 1/n_m) in percent of the mean
+/// baseline level m̄, with n_m = 1 against a reference test and the number of baseline tests
+/// otherwise (docs/history.md); `level_k` is [`LocalParams::level_k`].
+pub fn whole_travel_limit_percent(d: &DirectionChanges, level_k: f64) -> f64 {
+    let n_m = if d.reference_id.is_some() {
+        1.0
+    } else {
+        d.baseline_ids.len() as f64
+    };
+    100.0 * level_k * d.level_sigma * (1.0 + 1.0 / n_m).sqrt()
 }
 
 /// The axis name: given, or the only axis of the machine.
