@@ -534,3 +534,139 @@ pub fn remove<E: From<AppError>>(
     store.remove(id).map_err(|e| store_error(e, spec))?;
     Ok(true)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Quiet;
+    use feedscope::sim::{simulate, SamplingMode, SimConfig, StrokeConfig};
+    use feedscope::ErrorKind;
+    use feedscope_io::trace::{write_csv, Layout};
+
+    /// A 60 mm stroke test of the twin at 1 kHz (`t.csv`, and the same samples in the wide
+    /// layout, other bytes, as `wide.csv`) with its axis file `slide.toml`.
+    fn files(dir: &Path) {
+        let mut cfg = SimConfig::default();
+        cfg.axis.name = Some("slide".into());
+        cfg.axis.travel_min_mm = Some(-2.0);
+        cfg.axis.travel_max_mm = Some(62.0);
+        cfg.sampling.mode = SamplingMode::Synchronous;
+        cfg.sampling.synchronous_rate_hz = 1000.0;
+        cfg.motion.start_mm = 0.0;
+        cfg.motion.strokes = [60.0, 0.0]
+            .into_iter()
+            .map(|to_mm| StrokeConfig {
+                to_mm,
+                feed_mm_min: 400.0,
+                dwell_s: 0.5,
+            })
+            .collect();
+        let out = simulate(&cfg, &mut |_| {}).unwrap();
+        for (name, layout) in [("t.csv", Layout::Long), ("wide.csv", Layout::Wide)] {
+            let f = std::fs::File::create(dir.join(name)).unwrap();
+            write_csv(&out.trace, f, layout).unwrap();
+        }
+        let axis = toml::to_string_pretty(&cfg.axis).unwrap();
+        std::fs::write(dir.join("slide.toml"), axis).unwrap();
+    }
+
+    fn request(dir: &Path, trace: &str, time: Option<&str>) -> AddRequest {
+        AddRequest {
+            trace: dir.join(trace),
+            axis: dir.join("slide.toml"),
+            options: AddOptions {
+                machine: "mill 3".into(),
+                time: time.map(str::to_string),
+                ..AddOptions::default()
+            },
+        }
+    }
+
+    /// `history add` whole: a refused add leaves no database, the first test starts the
+    /// series, the same trace is a duplicate, another one adds to the series and says where
+    /// its time came from; then the tests are listed, shown and removed.
+    #[test]
+    fn add_then_list_show_and_remove() {
+        let d = tempfile::tempdir().unwrap();
+        files(d.path());
+        let spec = StoreSpec::Sqlite(d.path().join("h.db"));
+        let opener = Opener::quiet();
+        let e = request(d.path(), "missing.csv", None)
+            .analyse(&spec, &opener, &Quiet)
+            .err()
+            .unwrap();
+        assert_eq!(e.kind(), ErrorKind::BadInput);
+        assert!(
+            !d.path().join("h.db").exists(),
+            "a refused add made a database"
+        );
+
+        let pending = request(d.path(), "t.csv", Some("2026-11-21T14:30:00Z"))
+            .analyse(&spec, &opener, &Quiet)
+            .unwrap();
+        assert!(!pending.analysed.verdict.is_empty());
+        let added = pending.store(&opener).unwrap();
+        assert_eq!(added.outcome, AddOutcome::Added(1));
+        assert_eq!(
+            (added.test.axis.as_str(), added.test.machine.as_str()),
+            ("slide", "mill 3")
+        );
+        let note = added.series.unwrap().unwrap();
+        assert_eq!(
+            note.lines(&Quiet),
+            ["started the series of machine \"mill 3\", axis \"slide\" (its first test)"]
+        );
+
+        let again = request(d.path(), "t.csv", None)
+            .analyse(&spec, &opener, &Quiet)
+            .unwrap()
+            .store(&opener)
+            .unwrap();
+        assert_eq!(again.outcome, AddOutcome::Duplicate(1));
+        assert!(again.report().duplicate);
+        assert_eq!(again.series.unwrap(), None);
+
+        let wide = request(d.path(), "wide.csv", None)
+            .analyse(&spec, &opener, &Quiet)
+            .unwrap()
+            .store(&opener)
+            .unwrap();
+        assert_eq!(wide.outcome, AddOutcome::Added(2));
+        let lines = wide.series.unwrap().unwrap().lines(&Quiet);
+        assert_eq!(
+            lines[0],
+            "added to the series of machine \"mill 3\", axis \"slide\" (2 tests now)"
+        );
+        assert!(
+            lines[1].starts_with("note: test time ")
+                && lines[1].ends_with("wide.csv (give `time` to set it)"),
+            "{lines:?}"
+        );
+
+        let mut store = opener.open(&spec).unwrap();
+        let all = ListRequest::default().run(&*store, &spec).unwrap();
+        assert_eq!(all.iter().map(|r| r.id).collect::<Vec<_>>(), [1, 2]);
+        let none = ListRequest {
+            machine: Some("lathe".into()),
+            axis_name: None,
+        };
+        assert!(none.run(&*store, &spec).unwrap().is_empty());
+        assert_eq!(
+            show(&*store, &spec, 2).unwrap().test.source,
+            wide.test.source
+        );
+        let e = show(&*store, &spec, 9).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::BadInput);
+
+        let asked = |answer: bool| {
+            move |t: &TestRow| -> Result<bool, AppError> {
+                assert_eq!(t.id, 1);
+                Ok(answer)
+            }
+        };
+        assert!(!remove(&mut *store, &spec, 1, asked(false)).unwrap());
+        assert_eq!(ListRequest::default().run(&*store, &spec).unwrap().len(), 2);
+        assert!(remove(&mut *store, &spec, 1, asked(true)).unwrap());
+        assert_eq!(ListRequest::default().run(&*store, &spec).unwrap().len(), 1);
+    }
+}

@@ -314,4 +314,32 @@ mod tests {
         let e = store_error(StoreError::Io(std::io::ErrorKind::Other.into()), &pg);
         assert_eq!(e.to_string(), "PostgreSQL store postgres://u:***@h/x");
     }
+
+    /// A failed add says what became of the test: a commit of unknown outcome how to find
+    /// out, a PostgreSQL add that nothing was stored; an SQLite one as any store error.
+    #[test]
+    fn a_failed_add_says_what_became_of_the_test() {
+        use feedscope_store::{BackendError, BackendErrorKind};
+        let pg = StoreSpec::Postgres("postgres://u:pw@h/x".into());
+        let unknown = StoreError::CommitUnknown {
+            path: "postgres://u:***@h/x".into(),
+            error: BackendError::new(BackendErrorKind::Other, "connection closed"),
+        };
+        let e = add_error(unknown, &pg);
+        assert_eq!(e.kind(), ErrorKind::Io);
+        assert!(
+            e.to_string().ends_with(
+                "check with `feedscope history list --store postgres://u:***@h/x`; adding it \
+                 again is safe (the same trace is not stored twice)"
+            ),
+            "{e}"
+        );
+        let io = || StoreError::Io(std::io::ErrorKind::Other.into());
+        let e = add_error(io(), &pg);
+        assert_eq!(e.to_string(), "the test was not stored");
+        let below = std::error::Error::source(&e).unwrap().to_string();
+        assert_eq!(below, "PostgreSQL store postgres://u:***@h/x");
+        let sqlite = StoreSpec::Sqlite("h.db".into());
+        assert_eq!(add_error(io(), &sqlite).to_string(), "database h.db");
+    }
 }

@@ -247,3 +247,42 @@ impl MigrateRequest {
         migrate(&*source, &from, &mut *target, &to, front)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Quiet;
+    use feedscope::ErrorKind;
+
+    /// A source file that is not there is refused naming `from`, and none is made; an
+    /// empty source copies nothing into a new target.
+    #[test]
+    fn a_migration_needs_its_source() {
+        let d = tempfile::tempdir().unwrap();
+        let path = |f: &str| d.path().join(f).display().to_string();
+        let request = MigrateRequest {
+            from: path("gone.db"),
+            to: path("new.db"),
+        };
+        let e = request.run(&Opener::quiet(), &Quiet).unwrap_err();
+        assert_eq!((e.kind(), e.field()), (ErrorKind::BadInput, Some("from")));
+        assert!(e.to_string().starts_with("`from` "), "{e}");
+        assert!(
+            e.to_string().ends_with("gone.db: no such database file"),
+            "{e}"
+        );
+        assert!(!d.path().join("gone.db").exists() && !d.path().join("new.db").exists());
+
+        feedscope_store::SqliteStore::open(&d.path().join("empty.db")).unwrap();
+        let request = MigrateRequest {
+            from: path("empty.db"),
+            to: path("new.db"),
+        };
+        let n = request.run(&Opener::quiet(), &Quiet).unwrap();
+        assert_eq!(n, MigrateReport::default());
+        assert_eq!(
+            request.to_spec(),
+            StoreSpec::Sqlite(d.path().join("new.db"))
+        );
+    }
+}

@@ -583,3 +583,105 @@ pub fn check_known(
         _ => Ok(()),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Quiet;
+    use feedscope::ErrorKind;
+    use feedscope_store::{IndicatorRow, NewTest, SqliteStore};
+
+    /// A triangle test of `machine` `axis` on day `day` with a Coulomb friction.
+    fn test(machine: &str, axis: &str, day: usize) -> NewTest {
+        let time_s = 1.8e9 + day as f64 * 86_400.0;
+        NewTest {
+            machine: machine.into(),
+            axis: axis.into(),
+            axis_params: Stored::from_json("{}"),
+            time_utc: feedscope_store::time::format_rfc3339(time_s),
+            time_s,
+            kind: TestKind::Triangle,
+            source: format!("day{day}.csv"),
+            content_sha256: format!("{machine}-{axis}-{day}"),
+            program: None,
+            reference: false,
+            compensation_ref: None,
+            identified: None,
+            intervals: Vec::new(),
+            components: Vec::new(),
+            indicators: vec![IndicatorRow {
+                name: "fc_n".into(),
+                value: 100.0 + day as f64 % 3.0,
+                std_error: Some(0.5),
+                unit: "N".into(),
+            }],
+            curves: None,
+        }
+    }
+
+    /// Without a machine: the only one, else the default name among several, else refused
+    /// listing them; an empty store says how to add a test.
+    #[test]
+    fn the_machine_a_request_without_one_means() {
+        let d = tempfile::tempdir().unwrap();
+        let mut s = SqliteStore::open(&d.path().join("h.db")).unwrap();
+        let e = resolve_machine(&s, None, &Quiet).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "the database holds no tests yet; store one with a `history add` request"
+        );
+        s.add(&test("lathe", "Z", 0)).unwrap();
+        assert_eq!(resolve_machine(&s, None, &Quiet).unwrap(), "lathe");
+        assert_eq!(resolve_machine(&s, Some("mill"), &Quiet).unwrap(), "mill");
+        s.add(&test("mill", "X", 0)).unwrap();
+        let e = resolve_machine(&s, None, &Quiet).unwrap_err();
+        assert_eq!(
+            (e.kind(), e.field()),
+            (ErrorKind::BadInput, Some("machine"))
+        );
+        assert_eq!(
+            e.to_string(),
+            "the database holds several machines (\"lathe\", \"mill\"): choose one with \
+             `machine`"
+        );
+        s.add(&test(DEFAULT_MACHINE, "X", 0)).unwrap();
+        assert_eq!(resolve_machine(&s, None, &Quiet).unwrap(), DEFAULT_MACHINE);
+    }
+
+    /// `history trend` whole: a bad setting or thresholds file is refused before the store
+    /// is opened (no database made); otherwise the trend of the machine's only axis.
+    #[test]
+    fn a_trend_request_checks_before_it_opens() {
+        let d = tempfile::tempdir().unwrap();
+        let db = d.path().join("h.db");
+        let spec = StoreSpec::Sqlite(db.clone());
+        let mut bad = TrendRequest::default();
+        bad.options.profile_limit_sigma = -1.0;
+        let e = bad.run(&spec, &Opener::quiet(), &Quiet).unwrap_err();
+        assert_eq!(e.field(), Some("profile_limit_sigma"));
+        bad.options = TrendOptions {
+            thresholds: Some(d.path().join("missing.toml")),
+            ..TrendOptions::default()
+        };
+        let e = bad.run(&spec, &Opener::quiet(), &Quiet).unwrap_err();
+        assert_eq!(
+            (e.kind(), e.field()),
+            (ErrorKind::BadInput, Some("thresholds"))
+        );
+        assert!(!db.exists(), "a refused request made a database");
+
+        let mut s = SqliteStore::open(&db).unwrap();
+        for day in 0..8 {
+            s.add(&test("lathe", "Z", day)).unwrap();
+        }
+        drop(s);
+        let t = TrendRequest::default()
+            .run(&spec, &Opener::quiet(), &Quiet)
+            .unwrap();
+        assert_eq!(
+            (t.machine.as_str(), t.axis.as_str(), t.tests.len()),
+            ("lathe", "Z", 8)
+        );
+        assert_eq!(t.trends.len(), 1, "{:?}", t.skipped);
+    }
+}
