@@ -136,8 +136,11 @@ pub fn open_options(say: Option<Say>) -> Result<OpenOptions, AppError> {
 /// something to store) takes one.
 #[derive(Clone, Default)]
 pub struct Opener {
-    say: Option<Arc<dyn Fn(&str) + Send + Sync>>,
+    say: Option<Arc<SayFn>>,
 }
+
+/// What an [`Opener`] tells of a wait, shared by every opening ([`Say`] is one opening's).
+type SayFn = dyn Fn(&str) + Send + Sync;
 
 impl std::fmt::Debug for Opener {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
