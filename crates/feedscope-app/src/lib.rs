@@ -19,18 +19,19 @@
 //! a finding the user asked to be alerted to is an [`Outcome`], not an error. Every warning
 //! carries a code of the catalogue in [`feedscope::diag`].
 //!
-//! Use cases here so far: [`estimate`] (friction along the travel, paper 000 Eq. 5, streamed
-//! while the file is read), [`map`] (the friction map F(z, v) of a test set, paper 000
-//! Section 4.2), [`analyze`] (the friction profile along the travel and its
-//! fluctuation in screw orders, paper 000 Section 4.1), [`identify`] (paper 002, with the comparison against
-//! constant-speed groups) and [`stribeck`] (Stribeck curves from a steady-speed table, paper
-//! 000 Eq. 9 and paper 001 Eq. 15), [`history`] (a test analysed for the condition history)
-//! and [`trend`] (an axis's indicators over its stored tests,
-//! the position-resolved comparison and the diagnosis).
-//! [`dynamics`]: a feed drive's natural frequencies and resonance risks (paper 001).
-//! [`plan`]: the NC programs of the friction tests, with run time and sample counts.
-//! [`simulate`]: the twin's trace of a drive whose friction is known, with the truth.
-//! [`compensation`] makes the controllers' friction-compensation files from a map or a fit.
+//! The use cases: [`estimate`] (friction along the travel, paper 000 Eq. 5, streamed while the
+//! file is read), [`analyze`] (the friction profile along the travel and its fluctuation in
+//! screw orders, paper 000 Section 4.1), [`map`] (the friction map F(z, v) of a test set, paper
+//! 000 Section 4.2), [`stribeck`] (Stribeck curves from a steady-speed table, paper 000 Eq. 9
+//! and paper 001 Eq. 15), [`identify`] (paper 002, with the comparison against constant-speed
+//! groups), [`compensation`] (the controllers' friction-compensation files from a map or a
+//! fit), [`dynamics`] (a feed drive's natural frequencies and resonance risks, paper 001),
+//! [`plan`] (the NC programs of the tests, with run time and sample counts), [`simulate`] (the
+//! twin's trace of a drive whose friction is known), [`import`] (a controller's export as a
+//! trace), [`history`] (a test analysed and stored; list, show, remove), [`trend`] (an axis's
+//! indicators over its stored tests, the position-resolved comparison and the diagnosis),
+//! [`transfer`] (a history exported or migrated), [`watch`] (the gateway that stores the tests
+//! a live control runs) and [`demo`] (the demo's simulated axis and its weekly history).
 //!
 //! The pictures people look at are drawn here too: [`plot`] (SVG line charts and heat maps
 //! with unit-labelled axes) and [`report`] (the condition report of an axis: its page model and
@@ -65,6 +66,7 @@
 
 pub mod analyze;
 pub mod compensation;
+pub mod demo;
 pub mod dynamics;
 pub mod error;
 pub mod estimate;
@@ -84,6 +86,7 @@ pub mod store;
 pub mod stribeck;
 pub mod transfer;
 pub mod trend;
+pub mod watch;
 
 pub use error::AppError;
 pub use front::{FrontEnd, Quiet};

@@ -1,8 +1,10 @@
 //! Where the condition history is kept and how a front end opens it: a PostgreSQL URL or an
 //! SQLite file ([`StoreSpec`]), the busy timeout every opening of an SQLite file honours
-//! ([`BUSY_TIMEOUT_VAR`]), and store errors with the store named once ([`store_error`]). A
-//! password in a URL never appears in a message: [`StoreSpec::describe`] shows it as `***`.
+//! ([`BUSY_TIMEOUT_VAR`]), how a front end opens the stores a use case names ([`Opener`]), and
+//! store errors with the store named once ([`store_error`], [`add_error`]). A password in a URL
+//! never appears in a message: [`StoreSpec::describe`] shows it as `***`.
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Duration;
 
 use feedscope::ErrorKind;
@@ -127,6 +129,93 @@ pub fn open_options(say: Option<Say>) -> Result<OpenOptions, AppError> {
     Ok(options)
 }
 
+/// How a front end opens the stores its use cases name: with [`open_options`] each time (the
+/// busy timeout read when the store is opened), a wait for another process's lock said where
+/// the front end says things (the command line: on stderr). A use case that decides when a
+/// store is opened (after its request is checked, a new SQLite file only once there is
+/// something to store) takes one.
+#[derive(Clone, Default)]
+pub struct Opener {
+    say: Option<Arc<SayFn>>,
+}
+
+/// What an [`Opener`] tells of a wait, shared by every opening ([`Say`] is one opening's).
+type SayFn = dyn Fn(&str) + Send + Sync;
+
+impl std::fmt::Debug for Opener {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Opener")
+            .field("say", &self.say.as_ref().map(|_| "Fn"))
+            .finish()
+    }
+}
+
+impl Opener {
+    /// An opener that says nothing of a wait (only its end, as the error, if the lock never
+    /// comes).
+    pub fn quiet() -> Self {
+        Self::default()
+    }
+
+    /// An opener that tells `say` [`waiting_message`] when a wait for a lock lasts.
+    pub fn saying(say: impl Fn(&str) + Send + Sync + 'static) -> Self {
+        Self {
+            say: Some(Arc::new(say)),
+        }
+    }
+
+    /// The options of an SQLite opening ([`open_options`] with this opener's `say`).
+    ///
+    /// # Errors
+    /// As [`open_options`].
+    pub fn options(&self) -> Result<OpenOptions, AppError> {
+        open_options(
+            self.say
+                .clone()
+                .map(|say| Box::new(move |m: &str| say(m)) as Say),
+        )
+    }
+
+    /// Open the store `spec` (creating or migrating its schema), with its schema version.
+    ///
+    /// # Errors
+    /// As [`Opener::options`] and [`StoreSpec::open_versioned`].
+    pub fn open_versioned(&self, spec: &StoreSpec) -> Result<(Box<dyn Store>, i64), AppError> {
+        spec.open_versioned(&self.options()?)
+    }
+
+    /// Open the store `spec` (creating or migrating its schema).
+    ///
+    /// # Errors
+    /// As [`Opener::open_versioned`].
+    pub fn open(&self, spec: &StoreSpec) -> Result<Box<dyn Store>, AppError> {
+        Ok(self.open_versioned(spec)?.0)
+    }
+}
+
+/// A failed [`Store::add`] (`history add`, a gateway's stored test) as the user needs it: a
+/// commit whose outcome is unknown says so, how to find out and that adding again is safe (the
+/// same trace is recognised and not stored twice); any other failure of a PostgreSQL add says
+/// that nothing was stored (its transaction was rolled back). Otherwise as [`store_error`].
+pub fn add_error(e: StoreError, spec: &StoreSpec) -> AppError {
+    match (&e, spec) {
+        (StoreError::CommitUnknown { .. }, _) => {
+            let context = format!(
+                "the connection to the database closed while the test was being committed: \
+                 whether it was stored is unknown; check with `feedscope history list --store \
+                 {}`; adding it again is safe (the same trace is not stored twice)",
+                spec.describe()
+            );
+            AppError::caused(e.kind(), context, e)
+        }
+        (_, StoreSpec::Postgres(_)) => {
+            let e = store_error(e, spec);
+            AppError::caused(e.kind(), "the test was not stored", e)
+        }
+        _ => store_error(e, spec),
+    }
+}
+
 /// A store error with the store named once: the variants whose message names it stand
 /// alone, the others get the store as context. The kind is the store's.
 pub fn store_error(e: StoreError, spec: &StoreSpec) -> AppError {
@@ -227,5 +316,33 @@ mod tests {
         let pg = StoreSpec::Postgres("postgres://u:pw@h/x".into());
         let e = store_error(StoreError::Io(std::io::ErrorKind::Other.into()), &pg);
         assert_eq!(e.to_string(), "PostgreSQL store postgres://u:***@h/x");
+    }
+
+    /// A failed add says what became of the test: a commit of unknown outcome how to find
+    /// out, a PostgreSQL add that nothing was stored; an SQLite one as any store error.
+    #[test]
+    fn a_failed_add_says_what_became_of_the_test() {
+        use feedscope_store::{BackendError, BackendErrorKind};
+        let pg = StoreSpec::Postgres("postgres://u:pw@h/x".into());
+        let unknown = StoreError::CommitUnknown {
+            path: "postgres://u:***@h/x".into(),
+            error: BackendError::new(BackendErrorKind::Other, "connection closed"),
+        };
+        let e = add_error(unknown, &pg);
+        assert_eq!(e.kind(), ErrorKind::Io);
+        assert!(
+            e.to_string().ends_with(
+                "check with `feedscope history list --store postgres://u:***@h/x`; adding it \
+                 again is safe (the same trace is not stored twice)"
+            ),
+            "{e}"
+        );
+        let io = || StoreError::Io(std::io::ErrorKind::Other.into());
+        let e = add_error(io(), &pg);
+        assert_eq!(e.to_string(), "the test was not stored");
+        let below = std::error::Error::source(&e).unwrap().to_string();
+        assert_eq!(below, "PostgreSQL store postgres://u:***@h/x");
+        let sqlite = StoreSpec::Sqlite("h.db".into());
+        assert_eq!(add_error(io(), &sqlite).to_string(), "database h.db");
     }
 }

@@ -1,12 +1,13 @@
 //! A history taken out of its store: the indicator values of its tests as one flat table
 //! ([`export`], for a spreadsheet or another tool), and every test copied into another store
-//! ([`migrate`], e.g. a gateway's SQLite file into the fleet's PostgreSQL database).
+//! ([`migrate`], e.g. a gateway's SQLite file into the fleet's PostgreSQL database;
+//! [`MigrateRequest`] is `history migrate` whole, the two stores opened).
 use std::collections::BTreeMap;
 
 use feedscope_store::{AddOutcome, Filter, NewTest, Store, Stored};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-use crate::store::{store_error, StoreSpec};
+use crate::store::{store_error, Opener, StoreSpec};
 use crate::{AppError, FrontEnd};
 
 /// One indicator value of one stored test: a line of `history export` (the JSON layout, and
@@ -189,4 +190,99 @@ pub fn migrate(
     }
     front.progress("copying tests", rows.len(), rows.len());
     Ok(n)
+}
+
+/// `history migrate`: copy every test of one store into another.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MigrateRequest {
+    /// The store to read: a `postgres://` URL or an SQLite file ([`StoreSpec::parse`]).
+    pub from: String,
+    /// The store to write, created when empty: a `postgres://` URL or an SQLite file.
+    pub to: String,
+}
+
+impl MigrateRequest {
+    /// The store read.
+    pub fn from_spec(&self) -> StoreSpec {
+        StoreSpec::parse(&self.from)
+    }
+
+    /// The store written.
+    pub fn to_spec(&self) -> StoreSpec {
+        StoreSpec::parse(&self.to)
+    }
+
+    /// Open both stores with `opener` and [`migrate`]. A source SQLite file must exist
+    /// (opening it would create an empty database there); the same store as both is refused
+    /// by [`migrate`] before anything is copied.
+    ///
+    /// # Errors
+    /// Bad input naming the `from` field when its SQLite file does not exist; an opening's
+    /// error under which store it was (`from` or `to`); as [`migrate`].
+    pub fn run(&self, opener: &Opener, front: &dyn FrontEnd) -> Result<MigrateReport, AppError> {
+        let (from, to) = (self.from_spec(), self.to_spec());
+        if from != to {
+            if let Some(p) = from.sqlite_path() {
+                if !p.exists() {
+                    return Err(AppError::invalid(
+                        "from",
+                        format!(
+                            "{} {}: no such database file",
+                            front.name("from"),
+                            p.display()
+                        ),
+                    ));
+                }
+            }
+        }
+        let opening = |spec: &StoreSpec, which: &str, field: &str| {
+            opener.open(spec).map_err(|e| {
+                let context = format!("opening the {which} ({})", front.name(field));
+                AppError::caused(e.kind(), context, e)
+            })
+        };
+        let source = opening(&from, "source", "from")?;
+        let mut target = opening(&to, "target", "to")?;
+        migrate(&*source, &from, &mut *target, &to, front)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Quiet;
+    use feedscope::ErrorKind;
+
+    /// A source file that is not there is refused naming `from`, and none is made; an
+    /// empty source copies nothing into a new target.
+    #[test]
+    fn a_migration_needs_its_source() {
+        let d = tempfile::tempdir().unwrap();
+        let path = |f: &str| d.path().join(f).display().to_string();
+        let request = MigrateRequest {
+            from: path("gone.db"),
+            to: path("new.db"),
+        };
+        let e = request.run(&Opener::quiet(), &Quiet).unwrap_err();
+        assert_eq!((e.kind(), e.field()), (ErrorKind::BadInput, Some("from")));
+        assert!(e.to_string().starts_with("`from` "), "{e}");
+        assert!(
+            e.to_string().ends_with("gone.db: no such database file"),
+            "{e}"
+        );
+        assert!(!d.path().join("gone.db").exists() && !d.path().join("new.db").exists());
+
+        feedscope_store::SqliteStore::open(&d.path().join("empty.db")).unwrap();
+        let request = MigrateRequest {
+            from: path("empty.db"),
+            to: path("new.db"),
+        };
+        let n = request.run(&Opener::quiet(), &Quiet).unwrap();
+        assert_eq!(n, MigrateReport::default());
+        assert_eq!(
+            request.to_spec(),
+            StoreSpec::Sqlite(d.path().join("new.db"))
+        );
+    }
 }

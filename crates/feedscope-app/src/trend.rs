@@ -6,14 +6,19 @@
 //! [`axis_trend`] finds the axis (given, or the only one of the machine), takes the thresholds
 //! in force (the stored axis file's, each overridden by a thresholds file's) and gives the
 //! [`AxisTrends`] report, the JSON layout of `history trend` and the model of the report page.
+//! [`TrendRequest`] is `history trend` whole: the settings checked and the thresholds file read
+//! before the store is opened, the machine found ([`resolve_machine`]), the trend made.
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use feedscope::history::{IndicatorTrend, LocalParams, ProfileChanges, ProfileTest, Threshold};
+use feedscope::history::{
+    DirectionChanges, IndicatorTrend, LocalParams, ProfileChanges, ProfileTest, Threshold,
+};
 use feedscope::study::TrendStudyParams;
 use feedscope_store::{AxisSeries, Filter, Store, Stored, TestKind, TestRow};
 use serde::{Deserialize, Serialize};
 
+use crate::store::{Opener, StoreSpec};
 use crate::{AppError, FrontEnd};
 
 /// The baseline and the change detectors' settings (docs/history.md).
@@ -123,6 +128,62 @@ impl TrendOptions {
             Some(p) => feedscope_io::thresholds::read(p)
                 .map_err(|e| AppError::from_error(e).for_field("thresholds")),
         }
+    }
+}
+
+/// The trend of one axis from a store: `history trend` (and the report page's model).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrendRequest {
+    /// Machine name; default: the only machine in the store ([`resolve_machine`]).
+    pub machine: Option<String>,
+    /// Axis name; default: the only axis of the machine.
+    pub axis_name: Option<String>,
+    /// The baseline and the detectors' settings.
+    #[serde(flatten)]
+    pub options: TrendOptions,
+}
+
+impl TrendRequest {
+    /// Check the settings and read the thresholds file, then open the store `spec` with
+    /// `opener` and make the trend ([`TrendRequest::trend`]): a bad setting or thresholds
+    /// file is refused before any store is opened (or created).
+    ///
+    /// # Errors
+    /// As [`TrendOptions::validate`], [`TrendOptions::file_thresholds`], [`Opener::open`] and
+    /// [`TrendRequest::trend`].
+    pub fn run(
+        &self,
+        spec: &StoreSpec,
+        opener: &Opener,
+        front: &dyn FrontEnd,
+    ) -> Result<AxisTrends, AppError> {
+        self.options.validate(front)?;
+        let from_file = self.options.file_thresholds()?;
+        let store = opener.open(spec)?;
+        self.trend(&*store, from_file, front)
+    }
+
+    /// The trend of the request's axis in an open store, with `from_file` the thresholds
+    /// file's thresholds ([`TrendOptions::file_thresholds`]).
+    ///
+    /// # Errors
+    /// As [`resolve_machine`] and [`axis_trend`].
+    pub fn trend(
+        &self,
+        store: &dyn Store,
+        from_file: BTreeMap<String, Threshold>,
+        front: &dyn FrontEnd,
+    ) -> Result<AxisTrends, AppError> {
+        let machine = resolve_machine(store, self.machine.as_deref(), front)?;
+        axis_trend(
+            store,
+            &machine,
+            self.axis_name.as_deref(),
+            &self.options,
+            from_file,
+            front,
+        )
     }
 }
 
@@ -325,6 +386,75 @@ pub(crate) fn unread_curves(id: i64, reason: &str) -> AppError {
     ))
 }
 
+/// The machine a request without one means: what `history add` stores without a machine
+/// name ([`crate::history::AddOptions`]'s default).
+const DEFAULT_MACHINE: &str = "machine";
+
+/// The machine `history trend` and the report look at: `given`, or without one the only
+/// machine in the store (or, among several, the one named `machine`, what `history add`
+/// stores when no machine is named).
+///
+/// # Errors
+/// Bad input when the store holds no test (saying how to add one, [`FrontEnd::how_to_add`])
+/// or several machines and none is `machine` (listing them, naming the `machine` field); store
+/// errors.
+pub fn resolve_machine(
+    store_: &dyn Store,
+    given: Option<&str>,
+    front: &dyn FrontEnd,
+) -> Result<String, AppError> {
+    if let Some(m) = given {
+        return Ok(m.to_string());
+    }
+    let mut machines: Vec<String> = store_
+        .axes()
+        .map_err(store)?
+        .into_iter()
+        .map(|a| a.machine)
+        .collect();
+    machines.sort_unstable();
+    machines.dedup();
+    match machines.as_slice() {
+        [] => Err(AppError::bad_input(format!(
+            "the database holds no tests yet; store one with {}",
+            front.how_to_add()
+        ))),
+        [one] => Ok(one.clone()),
+        many if many.iter().any(|m| m == DEFAULT_MACHINE) => Ok(DEFAULT_MACHINE.to_string()),
+        many => Err(AppError::invalid(
+            "machine",
+            format!(
+                "the database holds several machines ({}): choose one with {}",
+                many.iter()
+                    .map(|m| format!("{m:?}"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                front.name("machine")
+            ),
+        )),
+    }
+}
+
+/// The flag limit of a direction's position-resolved comparison in one number: the median
+/// over the compared travel of K·σ(x)·√(1 + 1/n_m) (N); NaN when no position was compared.
+pub fn median_limit_n(d: &DirectionChanges) -> f64 {
+    let mut lim = d.limit_n.clone();
+    lim.sort_by(f64::total_cmp);
+    lim.get(lim.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// The whole-travel limit of a direction, K_level·σ_a·√(1 + 1/n_m) in percent of the mean
+/// baseline level m̄, with n_m = 1 against a reference test and the number of baseline tests
+/// otherwise (docs/history.md); `level_k` is [`LocalParams::level_k`].
+pub fn whole_travel_limit_percent(d: &DirectionChanges, level_k: f64) -> f64 {
+    let n_m = if d.reference_id.is_some() {
+        1.0
+    } else {
+        d.baseline_ids.len() as f64
+    };
+    100.0 * level_k * d.level_sigma * (1.0 + 1.0 / n_m).sqrt()
+}
+
 /// The axis name: given, or the only axis of the machine.
 ///
 /// # Errors
@@ -451,5 +581,107 @@ pub fn check_known(
             ))
         }
         _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Quiet;
+    use feedscope::ErrorKind;
+    use feedscope_store::{IndicatorRow, NewTest, SqliteStore};
+
+    /// A triangle test of `machine` `axis` on day `day` with a Coulomb friction.
+    fn test(machine: &str, axis: &str, day: usize) -> NewTest {
+        let time_s = 1.8e9 + day as f64 * 86_400.0;
+        NewTest {
+            machine: machine.into(),
+            axis: axis.into(),
+            axis_params: Stored::from_json("{}"),
+            time_utc: feedscope_store::time::format_rfc3339(time_s),
+            time_s,
+            kind: TestKind::Triangle,
+            source: format!("day{day}.csv"),
+            content_sha256: format!("{machine}-{axis}-{day}"),
+            program: None,
+            reference: false,
+            compensation_ref: None,
+            identified: None,
+            intervals: Vec::new(),
+            components: Vec::new(),
+            indicators: vec![IndicatorRow {
+                name: "fc_n".into(),
+                value: 100.0 + day as f64 % 3.0,
+                std_error: Some(0.5),
+                unit: "N".into(),
+            }],
+            curves: None,
+        }
+    }
+
+    /// Without a machine: the only one, else the default name among several, else refused
+    /// listing them; an empty store says how to add a test.
+    #[test]
+    fn the_machine_a_request_without_one_means() {
+        let d = tempfile::tempdir().unwrap();
+        let mut s = SqliteStore::open(&d.path().join("h.db")).unwrap();
+        let e = resolve_machine(&s, None, &Quiet).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "the database holds no tests yet; store one with a `history add` request"
+        );
+        s.add(&test("lathe", "Z", 0)).unwrap();
+        assert_eq!(resolve_machine(&s, None, &Quiet).unwrap(), "lathe");
+        assert_eq!(resolve_machine(&s, Some("mill"), &Quiet).unwrap(), "mill");
+        s.add(&test("mill", "X", 0)).unwrap();
+        let e = resolve_machine(&s, None, &Quiet).unwrap_err();
+        assert_eq!(
+            (e.kind(), e.field()),
+            (ErrorKind::BadInput, Some("machine"))
+        );
+        assert_eq!(
+            e.to_string(),
+            "the database holds several machines (\"lathe\", \"mill\"): choose one with \
+             `machine`"
+        );
+        s.add(&test(DEFAULT_MACHINE, "X", 0)).unwrap();
+        assert_eq!(resolve_machine(&s, None, &Quiet).unwrap(), DEFAULT_MACHINE);
+    }
+
+    /// `history trend` whole: a bad setting or thresholds file is refused before the store
+    /// is opened (no database made); otherwise the trend of the machine's only axis.
+    #[test]
+    fn a_trend_request_checks_before_it_opens() {
+        let d = tempfile::tempdir().unwrap();
+        let db = d.path().join("h.db");
+        let spec = StoreSpec::Sqlite(db.clone());
+        let mut bad = TrendRequest::default();
+        bad.options.profile_limit_sigma = -1.0;
+        let e = bad.run(&spec, &Opener::quiet(), &Quiet).unwrap_err();
+        assert_eq!(e.field(), Some("profile_limit_sigma"));
+        bad.options = TrendOptions {
+            thresholds: Some(d.path().join("missing.toml")),
+            ..TrendOptions::default()
+        };
+        let e = bad.run(&spec, &Opener::quiet(), &Quiet).unwrap_err();
+        assert_eq!(
+            (e.kind(), e.field()),
+            (ErrorKind::BadInput, Some("thresholds"))
+        );
+        assert!(!db.exists(), "a refused request made a database");
+
+        let mut s = SqliteStore::open(&db).unwrap();
+        for day in 0..8 {
+            s.add(&test("lathe", "Z", day)).unwrap();
+        }
+        drop(s);
+        let t = TrendRequest::default()
+            .run(&spec, &Opener::quiet(), &Quiet)
+            .unwrap();
+        assert_eq!(
+            (t.machine.as_str(), t.axis.as_str(), t.tests.len()),
+            ("lathe", "Z", 8)
+        );
+        assert_eq!(t.trends.len(), 1, "{:?}", t.skipped);
     }
 }

@@ -8,8 +8,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
+#[cfg(doc)]
+use feedscope_app::store::open_options;
 pub use feedscope_app::store::StoreSpec;
-use feedscope_app::store::{open_options, store_error};
+use feedscope_app::store::{store_error, Opener};
 use feedscope_store::{Store, StoreError};
 
 use feedscope_app::AppError;
@@ -47,12 +49,18 @@ pub fn resolve(db: Option<&Path>, store: Option<&str>) -> Result<StoreSpec> {
     })
 }
 
-/// How the command line opens a store: [`open_options`] with the wait said on stderr.
+/// How the command line opens a store: [`open_options`] each time, with a wait for
+/// another process's lock said on stderr.
+pub fn opener() -> Opener {
+    Opener::saying(|m| eprintln!("{m}"))
+}
+
+/// [`opener`] as a method of the store to open.
 pub trait Open {
     /// Open the store (creating or migrating its schema).
     ///
     /// # Errors
-    /// As [`StoreSpec::open_versioned`]; a bad busy timeout.
+    /// As [`Opener::open_versioned`].
     fn open(&self) -> Result<Box<dyn Store>> {
         Ok(self.open_with_version()?.0)
     }
@@ -63,19 +71,14 @@ pub trait Open {
 
 impl Open for StoreSpec {
     fn open_with_version(&self) -> Result<(Box<dyn Store>, i64)> {
-        Ok(StoreSpec::open_versioned(self, &cli_open_options()?)?)
+        Ok(opener().open_versioned(self)?)
     }
-}
-
-/// [`open_options`] with the wait said on stderr.
-pub fn cli_open_options() -> Result<feedscope_store::OpenOptions> {
-    Ok(open_options(Some(Box::new(|m: &str| eprintln!("{m}"))))?)
 }
 
 /// Open the history store that `--db` and `--store` (or the environment) name.
 ///
 /// # Errors
-/// As [`StoreSpec::resolve`] and [`StoreSpec::open`].
+/// As [`resolve`] and [`Open::open`].
 pub fn open_store(db: Option<&Path>, store: Option<&str>) -> Result<Box<dyn Store>> {
     resolve(db, store)?.open()
 }
@@ -92,26 +95,6 @@ pub fn describe(db: Option<&Path>, store: Option<&str>) -> String {
 /// A store error with the store named once ([`feedscope_app::store::store_error`]).
 pub fn store_err(e: StoreError, spec: &StoreSpec) -> anyhow::Error {
     store_error(e, spec).into()
-}
-
-/// A failed [`Store::add`] of `history add` (and `watch`) as the user needs it: a commit whose
-/// outcome is unknown says so, how to find out and that adding again is safe (the same trace
-/// is recognised and not stored twice); any other failure of a PostgreSQL add says that
-/// nothing was stored (its transaction was rolled back). Otherwise as [`store_err`].
-pub fn add_err(e: StoreError, spec: &StoreSpec) -> anyhow::Error {
-    match (&e, spec) {
-        (StoreError::CommitUnknown { .. }, _) => {
-            let context = format!(
-                "the connection to the database closed while the test was being committed: \
-                 whether it was stored is unknown; check with `feedscope history list --store \
-                 {}`; adding it again is safe (the same trace is not stored twice)",
-                spec.describe()
-            );
-            anyhow::Error::new(e).context(context)
-        }
-        (_, StoreSpec::Postgres(_)) => store_err(e, spec).context("the test was not stored"),
-        _ => store_err(e, spec),
-    }
 }
 
 #[cfg(test)]

@@ -1,24 +1,26 @@
-//! `feedscope history`: store every test of an axis and follow its indicators over time.
+//! `feedscope history`: store every test of an axis and follow its indicators over time. The
+//! use cases are `feedscope_app::history`, `::trend` and `::transfer`; this maps the flags to
+//! their requests and renders what they return as tables.
 use crate::output::outln;
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::builder::{EnumValueParser, TypedValueParser};
 use clap::{Subcommand, ValueEnum};
-use feedscope::axis::AxisParams;
 use feedscope::history::LocalParams;
 use feedscope::study::{StrokeStudyParams, TrendStudyParams};
-use feedscope_app::history::{
-    analyse_for_store, load_axis, prepare_test, AddOptions, AddReport, AddRequest, TestMeta,
+use feedscope_app::history::{AddOptions, AddRequest, ListRequest};
+use feedscope_app::transfer::MigrateRequest;
+use feedscope_app::trend::{
+    median_limit_n, whole_travel_limit_percent, TrendOptions, TrendRequest,
 };
-use feedscope_app::trend::{axis_trend, TrendOptions};
 use feedscope_app::Outcome;
-use feedscope_store::{AddOutcome, Filter, NewTest, SqliteStore, Store, StoreError, TestKind};
+use feedscope_store::{StoreError, TestKind};
 
 use crate::front::Cli;
 use crate::store::Open as _;
-use crate::store::{add_err, store_err, StoreSpec};
+use crate::store::{store_err, StoreSpec};
 
 use feedscope_app::AppError;
 
@@ -288,13 +290,6 @@ pub enum ExportFormat {
     Json,
 }
 
-/// Open an SQLite store with the busy timeout of every command; a foreign or damaged file is
-/// bad input (exit 2).
-pub fn open_sqlite(path: &Path) -> Result<SqliteStore> {
-    SqliteStore::open_with(path, &crate::store::cli_open_options()?)
-        .map_err(|e| store_err(e, &StoreSpec::Sqlite(path.to_path_buf())))
-}
-
 /// `history check` found the database damaged: a check that failed (exit 1), as
 /// docs/history.md promises, although the same damage found on opening is bad input (exit 2).
 #[derive(Debug, thiserror::Error)]
@@ -320,36 +315,47 @@ impl AddArgs {
     }
 }
 
+impl TrendArgs {
+    fn request(&self) -> TrendRequest {
+        TrendRequest {
+            machine: self.machine.clone(),
+            axis_name: self.axis_name.clone(),
+            options: self
+                .detectors
+                .options(self.baseline_tests, self.thresholds.as_deref()),
+        }
+    }
+}
+
+/// The selection of `history list` and `history export`.
+fn selection(machine: &Option<String>, axis_name: &Option<String>) -> ListRequest {
+    ListRequest {
+        machine: machine.clone(),
+        axis_name: axis_name.clone(),
+    }
+}
+
 fn add(spec: &StoreSpec, a: &AddArgs) -> Result<()> {
-    let request = a.request();
     let front = Cli::default();
-    // Validate cheap things before the expensive analysis.
-    request.validate(&front)?;
-    let axis = load_axis(a.kind, &a.axis)?;
-    // An existing store is opened (and so checked) before the analysis; a new SQLite file is
-    // only made once the test has been analysed, so that a refused add leaves no database.
-    let early = match spec.sqlite_path() {
-        Some(db) if !db.exists() => None,
-        _ => Some(spec.open()?),
-    };
-    let label = request.options.axis_label(&axis, Some(&a.axis));
-    let analysed = prepare_test(&a.trace, axis, label, &request.options, &front)?;
-    for line in &analysed.verdict {
+    let opener = crate::store::opener();
+    let pending = a.request().analyse(spec, &opener, &front)?;
+    for line in &pending.analysed.verdict {
         eprintln!("{line}");
     }
-    let t = analysed.test;
-    let mut store = match early {
-        Some(s) => s,
-        None => spec.open()?,
-    };
-    let outcome = store.add(&t).map_err(|e| add_err(e, spec))?;
-    // Committed: counting the series (another query) failing now, e.g. on a connection lost
-    // just after the commit, must not make a stored test look like a failed add.
-    let time_from = a.time.is_none().then_some(&*a.trace);
-    if let Err(e) = super::series::announce_add(&*store, &t, outcome, time_from) {
-        eprintln!("warning: stored, but its series could not be counted: {e:#}");
+    let added = pending.store(&opener)?;
+    let report = added.report();
+    match added.series {
+        Ok(note) => {
+            for line in note.iter().flat_map(|n| n.lines(&front)) {
+                eprintln!("{line}");
+            }
+        }
+        Err(e) => eprintln!(
+            "warning: stored, but its series could not be counted: {:#}",
+            anyhow::Error::new(e)
+        ),
     }
-    let report = AddReport::new(&t, outcome);
+    let t = &added.test;
     match a.format {
         Format::Json => outln!("{}", serde_json::to_string(&report)?),
         Format::Text => {
@@ -374,36 +380,9 @@ fn add(spec: &StoreSpec, a: &AddArgs) -> Result<()> {
     Ok(())
 }
 
-/// The analyse-and-store step of `history add`, shared with `feedscope watch`: analyse the
-/// trace as its kind asks, print the verdict on stderr, store the test with its results (one
-/// transaction; `bytes` are the trace's content, whose hash finds duplicates).
-#[allow(clippy::too_many_arguments)]
-pub fn analyse_and_store(
-    store: &mut dyn Store,
-    spec: &StoreSpec,
-    trace: &feedscope::trace::Trace,
-    axis: &mut AxisParams,
-    kind: TestKind,
-    interval_mm: f64,
-    bytes: &[u8],
-    meta: TestMeta,
-) -> Result<(AddOutcome, NewTest)> {
-    let analysed = analyse_for_store(trace, axis, kind, interval_mm, bytes, meta)?;
-    for line in &analysed.verdict {
-        eprintln!("{line}");
-    }
-    let outcome = store.add(&analysed.test).map_err(|e| add_err(e, spec))?;
-    Ok((outcome, analysed.test))
-}
-
 fn list(spec: &StoreSpec, a: &ListArgs) -> Result<()> {
     let store = spec.open()?;
-    let rows = store
-        .list(&Filter {
-            machine: a.machine.clone(),
-            axis: a.axis_name.clone(),
-        })
-        .map_err(|e| store_err(e, spec))?;
+    let rows = selection(&a.machine, &a.axis_name).run(&*store, spec)?;
     let mut w = std::io::stdout().lock();
     match a.format {
         Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&rows)?)?,
@@ -433,7 +412,7 @@ fn list(spec: &StoreSpec, a: &ListArgs) -> Result<()> {
 
 fn show(spec: &StoreSpec, a: &ShowArgs) -> Result<()> {
     let store = spec.open()?;
-    let d = store.get(a.id).map_err(|e| store_err(e, spec))?;
+    let d = feedscope_app::history::show(&*store, spec, a.id)?;
     let mut w = std::io::stdout().lock();
     match a.format {
         Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&d)?)?,
@@ -486,10 +465,7 @@ fn num(x: f64) -> String {
 
 fn export(spec: &StoreSpec, a: &ExportArgs) -> Result<()> {
     let store = spec.open()?;
-    let filter = Filter {
-        machine: a.machine.clone(),
-        axis: a.axis_name.clone(),
-    };
+    let filter = selection(&a.machine, &a.axis_name).filter();
     let rows = feedscope_app::transfer::export(&*store, spec, &filter)?;
     let text = match a.format {
         ExportFormat::Json => serde_json::to_string_pretty(&rows)? + "\n",
@@ -504,42 +480,30 @@ fn export(spec: &StoreSpec, a: &ExportArgs) -> Result<()> {
 
 fn remove(spec: &StoreSpec, a: &RemoveArgs) -> Result<()> {
     let mut store = spec.open()?;
-    let d = store.get(a.id).map_err(|e| store_err(e, spec))?;
-    if !a.yes {
+    let removed = feedscope_app::history::remove(&mut *store, spec, a.id, |t| -> Result<bool> {
+        if a.yes {
+            return Ok(true);
+        }
         eprint!(
             "remove test {} ({} {} {} at {}, {}) and its results? [y/N] ",
-            d.test.id, d.test.machine, d.test.axis, d.test.kind, d.test.time_utc, d.test.source
+            t.id, t.machine, t.axis, t.kind, t.time_utc, t.source
         );
         let mut line = String::new();
         std::io::stdin().lock().read_line(&mut line)?;
-        if !matches!(line.trim(), "y" | "Y" | "yes") {
-            eprintln!("not removed");
-            return Ok(());
-        }
+        Ok(matches!(line.trim(), "y" | "Y" | "yes"))
+    })?;
+    if removed {
+        outln!("removed test {}", a.id);
+    } else {
+        eprintln!("not removed");
     }
-    store.remove(a.id).map_err(|e| store_err(e, spec))?;
-    outln!("removed test {}", a.id);
     Ok(())
 }
 
 fn trend(spec: &StoreSpec, a: &TrendArgs) -> Result<Outcome> {
-    let options = a
-        .detectors
-        .options(a.baseline_tests, a.thresholds.as_deref());
-    let front = Cli::default();
-    // Checked, and the thresholds file read, before the store is opened.
-    options.validate(&front)?;
-    let from_file = options.file_thresholds()?;
-    let store = spec.open()?;
-    let machine = super::series::resolve_machine(&*store, a.machine.as_deref())?;
-    let t = axis_trend(
-        &*store,
-        &machine,
-        a.axis_name.as_deref(),
-        &options,
-        from_file,
-        &front,
-    )?;
+    let t = a
+        .request()
+        .run(spec, &crate::store::opener(), &Cli::default())?;
     let mut w = std::io::stdout().lock();
     match a.format {
         Format::Json => writeln!(w, "{}", serde_json::to_string_pretty(&t)?)?,
@@ -587,8 +551,6 @@ fn trend(spec: &StoreSpec, a: &TrendArgs) -> Result<Outcome> {
 fn write_profile_changes(w: &mut impl Write, p: &feedscope::history::ProfileChanges) -> Result<()> {
     writeln!(w, "\nfriction along the travel (position by position):")?;
     for d in &p.directions {
-        let mut lim: Vec<f64> = d.limit_n.clone();
-        lim.sort_by(f64::total_cmp);
         writeln!(
             w,
             "  {}: baseline tests {:?}{}, {:.0}-{:.0} mm compared, limit ±{} N (median over \
@@ -599,18 +561,8 @@ fn write_profile_changes(w: &mut impl Write, p: &feedscope::history::ProfileChan
                 .map_or(String::new(), |r| format!(", reference test {r}")),
             d.position_mm.first().copied().unwrap_or(f64::NAN),
             d.position_mm.last().copied().unwrap_or(f64::NAN),
-            num(lim[lim.len() / 2]),
-            100.0
-                * p.params.level_k
-                * d.level_sigma
-                * (1.0
-                    + 1.0
-                        / if d.reference_id.is_some() {
-                            1.0
-                        } else {
-                            d.baseline_ids.len() as f64
-                        })
-                .sqrt()
+            num(median_limit_n(d)),
+            whole_travel_limit_percent(d, p.params.level_k)
         )?;
         for t in d.tests.iter().filter(|t| !t.in_baseline) {
             let ranges: Vec<String> = t
@@ -711,35 +663,21 @@ pub fn run(args: Args) -> Result<Outcome> {
     done.map(|()| Outcome::Done)
 }
 
-/// `history migrate`: the stores opened, [`feedscope_app::transfer::migrate`] run, what it
-/// did said.
+/// `history migrate`: [`MigrateRequest`] run, what it did said.
 fn migrate(a: &MigrateArgs) -> Result<()> {
-    let from = StoreSpec::parse(&a.from);
-    let to = StoreSpec::parse(&a.to);
-    let front = Cli::default();
-    if from != to {
-        if let Some(p) = from.sqlite_path() {
-            // Opening would create an empty database there.
-            if !p.exists() {
-                return Err(AppError::bad_input(format!(
-                    "--from {}: no such database file",
-                    p.display()
-                ))
-                .into());
-            }
-        }
-    }
-    let source = from.open().context("opening the source (--from)")?;
-    let mut target = to.open().context("opening the target (--to)")?;
-    let n = feedscope_app::transfer::migrate(&*source, &from, &mut *target, &to, &front)?;
+    let request = MigrateRequest {
+        from: a.from.clone(),
+        to: a.to.clone(),
+    };
+    let n = request.run(&crate::store::opener(), &Cli::default())?;
     match a.format {
         Format::Json => outln!("{}", serde_json::to_string_pretty(&n)?),
         Format::Text => outln!(
             "{} tests in {}: {} added to {}, {} already there",
             n.tests,
-            from.describe(),
+            request.from_spec().describe(),
             n.added,
-            to.describe(),
+            request.to_spec().describe(),
             n.already_there
         ),
     }

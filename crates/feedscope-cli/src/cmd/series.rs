@@ -1,11 +1,9 @@
-//! The machine/axis series of the history store in words: which ones exist when a name is not
-//! among them, and which one `history add` started or added to.
+//! The machine/axis series of the history store in the command line's words: how to store a
+//! test, and which machine a command without `--machine` means.
 use std::path::Path;
 
 use anyhow::Result;
-use feedscope_store::{AddOutcome, Filter, NewTest, Store};
-
-use feedscope_app::AppError;
+use feedscope_store::Store;
 
 /// How to store a test, for messages about an empty or missing database; `db` is the
 /// database when it was given with `--db` (the environment variable and the default name
@@ -18,79 +16,15 @@ pub fn how_to_add(db: Option<&Path>) -> String {
     )
 }
 
-/// The default of `--machine` in `history add` (and of `history trend` and `report` among
-/// several machines, one of them named so).
-const DEFAULT_MACHINE: &str = "machine";
-
 /// The machine `history trend` and `report` look at: `given`, or without `--machine` the only
-/// machine in the store (or, among several, the one named [`DEFAULT_MACHINE`], what `history
-/// add` stores without `--machine`). Otherwise bad input listing the machines.
+/// machine in the store, or among several the one named `machine`
+/// ([`feedscope_app::trend::resolve_machine`]).
 pub fn resolve_machine(store: &dyn Store, given: Option<&str>) -> Result<String> {
-    if let Some(m) = given {
-        return Ok(m.to_string());
-    }
-    let mut machines: Vec<String> = store.axes()?.into_iter().map(|a| a.machine).collect();
-    machines.sort_unstable();
-    machines.dedup();
-    match machines.as_slice() {
-        [] => Err(AppError::bad_input(format!(
-            "the database holds no tests yet; store one with `{}`",
-            how_to_add(None)
-        ))
-        .into()),
-        [one] => Ok(one.clone()),
-        many if many.iter().any(|m| m == DEFAULT_MACHINE) => Ok(DEFAULT_MACHINE.to_string()),
-        many => Err(AppError::bad_input(format!(
-            "the database holds several machines ({}): choose one with --machine",
-            many.iter()
-                .map(|m| format!("{m:?}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ))
-        .into()),
-    }
-}
-
-/// Say on stderr what `history add` did to the series: started it or added to it (with the
-/// machine and axis names, which may be defaults the user never typed), and where the test
-/// time came from when it is the trace file's modification time (`time_from`).
-///
-/// # Errors
-/// Store errors.
-pub fn announce_add(
-    store: &dyn Store,
-    t: &NewTest,
-    outcome: AddOutcome,
-    time_from: Option<&Path>,
-) -> Result<()> {
-    if matches!(outcome, AddOutcome::Duplicate(_)) {
-        return Ok(());
-    }
-    let n = store
-        .list(&Filter {
-            machine: Some(t.machine.clone()),
-            axis: Some(t.axis.clone()),
-        })?
-        .len();
-    if n <= 1 {
-        eprintln!(
-            "started the series of machine {:?}, axis {:?} (its first test)",
-            t.machine, t.axis
-        );
-    } else {
-        eprintln!(
-            "added to the series of machine {:?}, axis {:?} ({n} tests now)",
-            t.machine, t.axis
-        );
-    }
-    if let Some(p) = time_from {
-        eprintln!(
-            "note: test time {} is the modification time of {} (give --time to set it)",
-            t.time_utc,
-            p.display()
-        );
-    }
-    Ok(())
+    Ok(feedscope_app::trend::resolve_machine(
+        store,
+        given,
+        &crate::front::Cli::default(),
+    )?)
 }
 
 #[cfg(test)]
