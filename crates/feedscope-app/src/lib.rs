@@ -5,8 +5,8 @@
 //! ```text
 //!   feedscope (maths: estimation, fits, identification, the twin)
 //!       ↑
-//!   feedscope-io (file formats)      feedscope-store (the condition history)
-//!       ↑                                  ↑
+//!   feedscope-io (file formats)   feedscope-store (the history)   feedscope-live (controls)
+//!       ↑                               ↑                              ↑
 //!   feedscope-app (use cases: Request → run → Report)        ← this crate
 //!       ↑
 //!   feedscope-cli (`feedscope`), feedscope-py (`import feedscope`), a server
