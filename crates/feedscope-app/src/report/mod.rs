@@ -1,15 +1,18 @@
 //! The condition report of an axis: the page model ([`page`]: every chart drawn, every number
 //! formatted) and one self-contained HTML file of it ([`render_html`]: plots inline as SVG, no
 //! script, no network, from `report.html` with minijinja). The CLI's `feedscope report` writes
-//! the file; a server shows the same page.
+//! the file through a [`ReportRequest`]; a server shows the same page.
 use feedscope::history::{Extent, Indicator, IndicatorTrend, ProfileChanges, Status, TrendParams};
 use feedscope::units::MM_MIN_PER_M_S;
 use feedscope_store::{Identified, Store, Stored, TestDetail};
 use serde::Serialize;
 
 use crate::error::AppError;
+use crate::output::write_atomic;
 use crate::plot::{self, Heatmap, LineChart, Series, Style};
-use crate::trend::AxisTrends;
+use crate::store::{Opener, StoreSpec};
+use crate::trend::{AxisTrends, TrendRequest};
+use crate::FrontEnd;
 use feedscope::study::Curves;
 
 type Result<T, E = AppError> = std::result::Result<T, E>;
@@ -963,4 +966,49 @@ pub fn render_html(page: &Page) -> Result<String> {
 /// As [`page`] and [`render_html`].
 pub fn render(store: &dyn Store, t: &AxisTrends, baseline_tests: usize) -> Result<String> {
     render_html(&page(store, t, baseline_tests)?)
+}
+
+/// Write the condition report of one axis of a history store (`feedscope report`).
+#[derive(Debug, Clone, Default, PartialEq, serde::Deserialize, Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReportRequest {
+    /// The axis and the trend's settings (baseline, detectors, thresholds file), as
+    /// `history trend` takes them; a key of its own (`"trend": {...}`), since serde cannot
+    /// refuse unknown keys through a flattened struct.
+    pub trend: TrendRequest,
+    /// The HTML file to write (whole or not at all).
+    pub output: std::path::PathBuf,
+}
+
+impl ReportRequest {
+    /// Check the settings and read the thresholds file, open the store `spec` (an SQLite file
+    /// must exist: a report never makes an empty database), make the axis's trend, render the
+    /// page and write it to `output`.
+    ///
+    /// # Errors
+    /// As [`TrendRequest::run`]; bad input when `output` is empty or the SQLite file is
+    /// missing; the page's drawing errors; I/O errors writing `output` (nothing is left there).
+    pub fn run(&self, spec: &StoreSpec, opener: &Opener, front: &dyn FrontEnd) -> Result<()> {
+        if self.output.as_os_str().is_empty() {
+            return Err(AppError::invalid(
+                "output",
+                format!("{} must name the HTML file to write", front.name("output")),
+            ));
+        }
+        let options = &self.trend.options;
+        options.validate(front)?;
+        let from_file = options.file_thresholds()?;
+        if let Some(db) = spec.sqlite_path() {
+            if !db.exists() {
+                return Err(AppError::bad_input(format!(
+                    "no database at {}",
+                    db.display()
+                )));
+            }
+        }
+        let store = opener.open(spec)?;
+        let t = self.trend.trend(&*store, from_file, front)?;
+        let html = render(&*store, &t, options.baseline_tests)?;
+        write_atomic(&self.output, html.as_bytes())
+    }
 }

@@ -6,10 +6,9 @@ use anyhow::Result;
 
 use super::history::DetectorArgs;
 use crate::front::Cli;
-use crate::output::write_atomic;
-use crate::store::Open as _;
 use crate::store::StoreSpec;
-use feedscope_app::trend::axis_trend;
+use feedscope_app::report::ReportRequest;
+use feedscope_app::trend::TrendRequest;
 
 /// Write the condition report of an axis: one self-contained HTML file.
 ///
@@ -65,20 +64,15 @@ pub fn write_report(
     thresholds: Option<&Path>,
     out: &Path,
 ) -> Result<()> {
-    let options = detectors.options(baseline_tests, thresholds);
-    let front = Cli::default();
-    options.validate(&front)?;
-    let from_file = options.file_thresholds()?;
-    if let Some(db) = spec.sqlite_path() {
-        if !db.exists() {
-            return Err(AppError::bad_input(format!("no database at {}", db.display())).into());
-        }
-    }
-    let store = spec.open()?;
-    let machine = &super::series::resolve_machine(&*store, machine)?;
-    let t = axis_trend(&*store, machine, axis, &options, from_file, &front)?;
-    let html = feedscope_app::report::render(&*store, &t, baseline_tests)?;
-    Ok(write_atomic(out, html.as_bytes())?)
+    let request = ReportRequest {
+        trend: TrendRequest {
+            machine: machine.map(str::to_string),
+            axis_name: axis.map(str::to_string),
+            options: detectors.options(baseline_tests, thresholds),
+        },
+        output: out.to_path_buf(),
+    };
+    Ok(request.run(spec, &crate::store::opener(), &Cli::default())?)
 }
 
 /// Where the database was looked for, in words, when the file is not there: the flag, the

@@ -1,9 +1,6 @@
-//! The machine/axis series of the history store in the command line's words: how to store a
-//! test, and which machine a command without `--machine` means.
+//! The history store in the command line's words: how to store a test. (Which machine a
+//! command without `--machine` means is the app's `trend::resolve_machine`.)
 use std::path::Path;
-
-use anyhow::Result;
-use feedscope_store::Store;
 
 /// How to store a test, for messages about an empty or missing database; `db` is the
 /// database when it was given with `--db` (the environment variable and the default name
@@ -14,17 +11,6 @@ pub fn how_to_add(db: Option<&Path>) -> String {
         "feedscope history{db} add TRACE --axis AXIS.toml --kind strokes|triangle \
          [--machine NAME]"
     )
-}
-
-/// The machine `history trend` and `report` look at: `given`, or without `--machine` the only
-/// machine in the store, or among several the one named `machine`
-/// ([`feedscope_app::trend::resolve_machine`]).
-pub fn resolve_machine(store: &dyn Store, given: Option<&str>) -> Result<String> {
-    Ok(feedscope_app::trend::resolve_machine(
-        store,
-        given,
-        &crate::front::Cli::default(),
-    )?)
 }
 
 #[cfg(test)]
